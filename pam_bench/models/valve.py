@@ -1,0 +1,115 @@
+"""Proportional pressure servo valve feeding one muscle (Hoerbiger Tecno Plus, 004 section 2.1).
+
+Steady state (004 section 2.1): p_ss = k_v * clamp(u, 0, 10 V), k_v = 0.1 MPa/V = 1e5 Pa/V.
+
+Pressure-regulation dynamics, by ``order``:
+  0: p = p_ss (static)
+  1: tau p' + p = p_ss
+  2: p'' + 2 zeta w p' + w^2 p = w^2 p_ss   (004 section 2.3 finds the force step response at
+     fixed x 2nd order and oscillating; F is affine in p at fixed x, so p carries that order)
+
+The regulator fills the chamber volume V_t = V_line + V_muscle(x). Pneumatic capacitance grows
+with volume, so the loop's natural frequency falls as w = w_ref * sqrt(V_ref / V_t) (with
+``volume_scaling``); this makes the identified b(x), c(x) of 004 Eq. 2 depend on x.
+
+Within a step u and V are held, so the dynamics are linear time-invariant and are integrated
+exactly with the ZOH matrix exponential (``pam_bench.models.lti``). The reported gauge pressure
+is clamped to [0, p_max] (the valve cannot go below atmosphere nor above its 1 MPa range).
+Units: u in V, p in Pa gauge, t in s, V in m^3.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from pam_bench.models.errors import ModelError
+from pam_bench.models.lti import ZohCache
+from pam_bench.models.params import field
+
+__all__ = ['ValveParams', 'ValveModel']
+
+
+@dataclasses.dataclass
+class ValveParams:
+    """Parameters of ``ValveModel``."""
+
+    gain_pa_per_v: float = field(1.0e5, 'Pa/V', 'steady-state gain k_v (004: 0.1 MPa/V)',
+                                 0.0, 1.0e6)
+    voltage_max_v: float = field(10.0, 'V', 'upper end of the control range', 0.0, 100.0)
+    pressure_max_pa: float = field(1.0e6, 'Pa', 'largest gauge output pressure', 0.0, 1.0e7)
+    order: int = field(2, '-', 'pressure dynamics order: 0 static, 1 first, 2 second', 0, 2)
+    natural_frequency_rad_s: float = field(
+        31.4, 'rad/s', 'natural frequency w_ref of the pressure loop at reference volume',
+        0.1, 1.0e5)
+    damping_ratio: float = field(0.30, '-', 'damping ratio zeta of the pressure loop',
+                                 0.0, 100.0)
+    time_constant_s: float = field(0.03, 's', 'time constant tau for order 1', 1.0e-6, 100.0)
+    volume_scaling: bool = field(True, '-', 'scale w with sqrt(V_ref / V_total)')
+    line_volume_m3: float = field(2.0e-5, 'm^3', 'volume of the line and fittings', 0.0, 1.0)
+    reference_volume_m3: float = field(1.3e-4, 'm^3', 'total volume V_ref at which w = w_ref',
+                                       1.0e-9, 1.0)
+
+
+class ValveModel:
+    """Valve pressure dynamics; ``step`` advances the state exactly over one held step."""
+
+    def __init__(self, params: ValveParams | None = None) -> None:
+        self.p = params or ValveParams()
+        self.state = np.zeros(2)  # (p, p') in Pa, Pa/s
+        self._cache = ZohCache()
+
+    def reset(self, pressure_pa: float = 0.0) -> None:
+        """Set the valve at rest at ``pressure_pa`` gauge."""
+        self.state[:] = (pressure_pa, 0.0)
+
+    def steady_pressure(self, voltage_v: float) -> float:
+        """p_ss(u) in Pa for a (clamped) control voltage in V."""
+        u = min(max(voltage_v, 0.0), self.p.voltage_max_v)
+        return self.p.gain_pa_per_v * u
+
+    def natural_frequency(self, chamber_volume_m3: float | None) -> float:
+        """w in rad/s for the given muscle chamber volume (None: reference volume)."""
+        w = self.p.natural_frequency_rad_s
+        if self.p.volume_scaling and chamber_volume_m3 is not None:
+            total = self.p.line_volume_m3 + max(chamber_volume_m3, 0.0)
+            w *= math.sqrt(self.p.reference_volume_m3 / max(total, 1.0e-12))
+        return w
+
+    def matrices(self, chamber_volume_m3: float | None) -> tuple[np.ndarray, np.ndarray]:
+        """Continuous (A, B) with state (p, p') and input p_ss; shapes (2, 2), (2, 1)."""
+        if self.p.order == 1:
+            return (np.array([[-1.0 / self.p.time_constant_s, 0.0], [0.0, 0.0]]),
+                    np.array([[1.0 / self.p.time_constant_s], [0.0]]))
+        w = self.natural_frequency(chamber_volume_m3)
+        return (np.array([[0.0, 1.0], [-w * w, -2.0 * self.p.damping_ratio * w]]),
+                np.array([[0.0], [w * w]]))
+
+    def step(self, voltage_v: float, dt_s: float, chamber_volume_m3: float | None = None
+             ) -> float:
+        """Advance by ``dt_s`` with ``voltage_v`` held; return the gauge output pressure, Pa.
+
+        Raises:
+            ModelError: the voltage or the step is not a finite number, or the step is < 0.
+        """
+        if not math.isfinite(voltage_v):
+            raise ModelError(f'valve voltage {voltage_v!r} is not finite')
+        if not math.isfinite(dt_s) or dt_s < 0.0:
+            raise ModelError(f'valve step {dt_s!r} s is not a finite non-negative number')
+        target = self.steady_pressure(voltage_v)
+        if self.p.order == 0 or dt_s == 0.0:
+            if self.p.order == 0:
+                self.state[:] = (target, 0.0)
+            return self.pressure
+        key = (self.p.order, round(self.natural_frequency(chamber_volume_m3), 9))
+        a, b = self.matrices(chamber_volume_m3)
+        ad, bd = self._cache.get(key, a, b, dt_s)
+        self.state = ad @ self.state + bd[:, 0] * target
+        return self.pressure
+
+    @property
+    def pressure(self) -> float:
+        """Gauge output pressure, Pa, clamped to [0, p_max]."""
+        return min(max(float(self.state[0]), 0.0), self.p.pressure_max_pa)
