@@ -51,7 +51,7 @@ class MuscleParams:
                                  0.0, 1.0)
     gain_zero_contraction_m: float = field(0.150, 'm', 'contraction x_z where g(x) reaches 0',
                                            0.001, 10.0)
-    gain_exponent: float = field(2.70, '-', 'exponent n of the gain curve', 0.1, 20.0)
+    gain_exponent: float = field(2.65, '-', 'exponent n of the gain curve', 0.1, 20.0)
     threshold_pressure_pa: float = field(2.0e4, 'Pa', 'pressure p_th before any pull',
                                          0.0, 1.0e6)
     bladder_stiffness_n_per_m: float = field(100.0, 'N/m', 'bladder elasticity k_bl',

@@ -1,0 +1,5 @@
+"""Offline reading of bench bags and extraction of characteristics: no rclpy."""
+
+from __future__ import annotations
+
+__all__ = ['types']

@@ -1,0 +1,91 @@
+"""pam-bench: command-line verbs over the bench (run a scene, calibration, rates)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import pathlib
+import shutil
+import sys
+
+from pam_bench.models.errors import ModelError
+
+__all__ = ['main']
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from pam_bench.sim.runner import run_scene
+    from pam_bench.sim.scene import load_scene
+    scene = load_scene(args.scene)
+    out = pathlib.Path(args.out or f'bags/{scene.name}')
+    if out.exists():
+        if not args.overwrite and args.out:
+            print(f'error: {out} exists (use --overwrite)', file=sys.stderr)
+            return 2
+        shutil.rmtree(out)
+    print(f'scene {scene.name}: {scene.description}\n  exchange step {scene.exchange_step_s} s, '
+          f'nodes {", ".join(scene.nodes)}, bag {out}', flush=True)
+    res = run_scene(scene, str(out), seed=args.seed, realtime=args.realtime,
+                    one_process=args.one_process)
+    if res.code != 0:
+        print(f'error: scene {scene.name} failed (exit code {res.code})', file=sys.stderr)
+        return res.code
+    print(f'done: {res.steps} exchange steps, {res.sim_s:.2f} s sim in {res.wall_s:.2f} s wall '
+          f'({res.rate:.0f} steps/s, x{res.sim_s / res.wall_s if res.wall_s else 0:.1f} real '
+          f'time); bag in {out}')
+    return 0
+
+
+def _cmd_calibration(args: argparse.Namespace) -> int:
+    from pam_bench.sim.calibration import calibration_figures
+    fig = calibration_figures(h_s=args.step)
+    if args.json:
+        print(json.dumps(fig, indent=2))
+    else:
+        for k, v in fig.items():
+            print(f'{k:36s} {v:10.3f}')
+    return 0
+
+
+def _cmd_pingpong(args: argparse.Namespace) -> int:
+    from pam_bench.sim.pingpong import pingpong_rate
+    rate = pingpong_rate(args.count)
+    print(json.dumps({'pingpong_round_trips_per_s': rate}) if args.json
+          else f'rclpy ping-pong between two processes: {rate:.0f} round trips/s')
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``pam-bench``."""
+    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    ap = argparse.ArgumentParser(prog='pam-bench', description=__doc__)
+    sub = ap.add_subparsers(dest='cmd', required=True)
+    p = sub.add_parser('run', help='run a scene and record a bag')
+    p.add_argument('scene', help='scene name in config/scenes or a path to a scene file')
+    p.add_argument('--out', help='bag directory (default bags/SCENE, replaced)')
+    p.add_argument('--overwrite', action='store_true', help='replace --out if it exists')
+    p.add_argument('--seed', type=int, default=0, help='seed of the sensor noise')
+    p.add_argument('--realtime', action='store_true', help='pace sim time to the wall clock')
+    p.add_argument('--one-process', action='store_true', help='compose all nodes in one process')
+    p.set_defaults(func=_cmd_run)
+    p = sub.add_parser('calibration', help='figures the simulated bench implies')
+    p.add_argument('--json', action='store_true')
+    p.add_argument('--step', type=float, default=0.01, help='exchange step, s')
+    p.set_defaults(func=_cmd_calibration)
+    p = sub.add_parser('pingpong', help='rclpy round-trip rate between two processes')
+    p.add_argument('--count', type=int, default=2000)
+    p.add_argument('--json', action='store_true')
+    p.set_defaults(func=_cmd_pingpong)
+    args = ap.parse_args(argv)
+    try:
+        return args.func(args)
+    except (ModelError, FileNotFoundError, FileExistsError) as exc:
+        print(f'error: {exc}', file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == '__main__':
+    sys.exit(main())

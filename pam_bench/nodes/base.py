@@ -1,0 +1,230 @@
+"""Shared machinery of the bench nodes: typed parameters, diagnostics and the lock-step step.
+
+Lock-step (see ../shared/DESIGN.md, Time): ``sim_clock`` publishes /clock at t_k = k h. A
+participant steps to t_k once it holds, for each of its synchronous inputs, the message
+stamped exactly t_(k-1) (every participant publishes every output at every step). It then
+publishes its outputs stamped t_k and a StepAck. Inputs are buffered by stamp, so a fast
+producer's t_k output never replaces the t_(k-1) one a slower consumer still needs: the run is
+deterministic whatever order DDS delivers messages in. At t_0 a participant only says it is
+ready (its inputs have publishers); step 1 uses the initial values.
+"""
+
+from __future__ import annotations
+
+import importlib
+import math
+import struct
+from collections.abc import Callable
+from typing import Any
+
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+import rclpy
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy, HistoryPolicy, DurabilityPolicy
+from rosgraph_msgs.msg import Clock
+
+from pam_bench.models.params import ParamInfo, describe, from_mapping, param_infos
+from pam_bench_interfaces.msg import StepAck
+
+__all__ = ['BenchNode', 'RELIABLE', 'ns_of', 'stamp_of_cdr', 'time_of', 'run_node',
+           'message_class']
+
+RELIABLE = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
+                      history=HistoryPolicy.KEEP_LAST, durability=DurabilityPolicy.VOLATILE)
+
+
+def ns_of(stamp: Time) -> int:
+    """A ROS time stamp as integer nanoseconds."""
+    return stamp.sec * 1_000_000_000 + stamp.nanosec
+
+
+def stamp_of_cdr(data: bytes) -> int:
+    """Stamp (ns) of a CDR-serialised message that starts with a Header or a Time."""
+    order = '<' if data[1] == 1 else '>'
+    sec, nsec = struct.unpack_from(order + 'iI', data, 4)
+    return sec * 1_000_000_000 + nsec
+
+
+def message_class(msgtype: str) -> type:
+    """The rclpy message class of 'package/msg/Type'."""
+    pkg, kind, name = msgtype.split('/')
+    return getattr(importlib.import_module(f'{pkg}.{kind}'), name)
+
+
+def time_of(ns: int) -> Time:
+    """Integer nanoseconds as a ROS time stamp."""
+    return Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+
+
+class BenchNode(Node):
+    """Base of every bench node: parameters from dataclasses, diagnostics, lock-step."""
+
+    def __init__(self, name: str, **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
+        self.lockstep = self.declare_typed('lockstep', True,
+                                           'step on /clock ticks in lock-step with sim_clock')
+        self._sync: dict[str, dict[int, Any]] = {}
+        self._last_ns: int | None = None
+        self._pending_ns: int | None = None
+        self._step_index = 0
+        self.rejected_count = 0
+        self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', RELIABLE)
+        self._ack_pub = None
+
+    # --- parameters --------------------------------------------------------------------
+    def declare_typed(self, name: str, default: Any, text: str, unit: str = '',
+                      low: float | None = None, high: float | None = None) -> Any:
+        """Declare one parameter with a typed default and a descriptor; return its value."""
+        info = ParamInfo(name, default, unit, low, high, text)
+        desc = ParameterDescriptor(description=describe(info))
+        if isinstance(default, float) and (low is not None or high is not None):
+            desc.floating_point_range = [FloatingPointRange(
+                from_value=float(low if low is not None else -1e300),
+                to_value=float(high if high is not None else 1e300))]
+        elif isinstance(default, int) and not isinstance(default, bool) and (
+                low is not None or high is not None):
+            desc.integer_range = [IntegerRange(from_value=int(low if low is not None else -2**62),
+                                               to_value=int(high if high is not None else 2**62),
+                                               step=0)]
+        return self.declare_parameter(name, default, desc).value
+
+    def declare_model(self, prefix: str, cls: type) -> Any:
+        """Declare every field of a parameter dataclass under ``prefix.``; return the object.
+
+        Raises:
+            ParameterError: a value has the wrong type or is out of range (names the key).
+        """
+        values = {}
+        for info in param_infos(cls):
+            desc = ParameterDescriptor(description=describe(info))
+            value = self.declare_parameter(f'{prefix}.{info.name}', info.default, desc).value
+            values[info.name] = list(value) if isinstance(info.default, list) else value
+        return from_mapping(cls, values, prefix=f'{self.get_name()}.{prefix}.')
+
+    # --- diagnostics -------------------------------------------------------------------
+    def diagnose(self, level: bytes, message: str, **values: Any) -> None:
+        """Publish one DiagnosticStatus for this node and log it."""
+        st = DiagnosticStatus(level=level, name=self.get_fully_qualified_name(),
+                              message=message, hardware_id='pam_bench_sim')
+        st.values = [KeyValue(key=k, value=str(v)) for k, v in values.items()]
+        arr = DiagnosticArray()
+        arr.header.stamp = time_of(self._last_ns or 0)
+        arr.status = [st]
+        self._diag_pub.publish(arr)
+        if level == DiagnosticStatus.OK:
+            self.get_logger().info(message)
+        elif level == DiagnosticStatus.WARN:
+            self.get_logger().warning(message)
+        else:
+            self.get_logger().error(message)
+
+    def reject(self, what: str, value: Any) -> None:
+        """Log, count and diagnose a rejected input."""
+        self.rejected_count += 1
+        self.diagnose(DiagnosticStatus.ERROR, f'rejected {what}: {value!r}',
+                      rejected_count=self.rejected_count)
+
+    @staticmethod
+    def finite(*values: float) -> bool:
+        """True when every value is a finite float."""
+        return all(isinstance(v, (int, float)) and math.isfinite(v) for v in values)
+
+    # --- lock-step ---------------------------------------------------------------------
+    def sync_input(self, msg_type: type, topic: str, callback: Callable[[Any], None] | None
+                   = None, raw: bool = False) -> None:
+        """Subscribe to a synchronous input: buffered by stamp, required at every step.
+
+        With ``raw`` the message stays CDR bytes and its stamp is read from the header, which
+        every stamped message (and Clock) starts with.
+        """
+        buf: dict[int, Any] = {}
+        self._sync[topic] = buf
+
+        def on_msg(msg: Any) -> None:
+            buf[stamp_of_cdr(msg) if raw else ns_of(msg.header.stamp)] = msg
+            if callback is not None:
+                callback(msg)
+            self._try_step()
+
+        self.create_subscription(msg_type, topic, on_msg, RELIABLE, raw=raw)
+
+    def start_lockstep(self) -> None:
+        """Subscribe to /clock and create the ack publisher (call after all sync_input)."""
+        self._ack_pub = self.create_publisher(StepAck, '/sim/ack',
+                                              RELIABLE)
+        self.create_subscription(Clock, '/clock', self._on_clock, RELIABLE)
+
+    def _on_clock(self, msg: Clock) -> None:
+        t = ns_of(msg.clock)
+        if self._last_ns is not None and t <= self._last_ns:
+            if t == self._last_ns:
+                self._ack(t)              # the clock repeats t_0 until all are ready
+            return
+        if self._last_ns is None:
+            if all(self.count_publishers(tp) > 0 for tp in self._sync):
+                self._last_ns = t
+                self.on_start(t)
+                self._ack(t)
+            return
+        self._pending_ns = t
+        self._try_step()
+
+    def _try_step(self) -> None:
+        t = self._pending_ns
+        if t is None or self._last_ns is None:
+            return
+        prev = self._last_ns
+        inputs: dict[str, Any] = {}
+        if self._step_index >= 1:
+            for topic, buf in self._sync.items():
+                msg = buf.get(prev)
+                if msg is None:
+                    return
+                inputs[topic] = msg
+        for buf in self._sync.values():
+            for k in [k for k in buf if k < prev]:
+                del buf[k]
+        self._pending_ns = None
+        self._last_ns = t
+        self._step_index += 1
+        try:
+            self.on_step(t, (t - prev) * 1e-9, inputs)
+        except Exception as exc:  # noqa: BLE001 - a callback must never let an exception out
+            self.diagnose(DiagnosticStatus.ERROR, f'step failed: {exc}')
+            self.on_fault(str(exc))
+        self._ack(t)
+
+    def _ack(self, t: int) -> None:
+        ack = StepAck(node=self.get_fully_qualified_name())
+        ack.header.stamp = time_of(t)
+        self._ack_pub.publish(ack)
+
+    # --- to override -------------------------------------------------------------------
+    def on_start(self, t_ns: int) -> None:
+        """Called once at t_0, when the inputs have publishers."""
+
+    def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
+        """Advance the model to ``t_ns`` over ``dt_s``; ``inputs`` maps topic -> msg at t_(k-1)
+        (empty at the first step). Publish every output stamped ``t_ns``."""
+        raise NotImplementedError
+
+    def on_fault(self, reason: str) -> None:
+        """Put the device in its safe state after a failed step."""
+
+
+def run_node(cls: type[Node], args: list[str] | None = None) -> None:
+    """The Jazzy ``main()``: init, spin, stop on Ctrl-C or external shutdown, clean up."""
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = cls()
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()

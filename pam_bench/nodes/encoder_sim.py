@@ -1,0 +1,48 @@
+"""encoder_sim: the 16-bit absolute encoder on the pulley shaft (``EncoderModel``).
+
+Input ``sim/pulley/state`` (joint ``pulley``, rad); output ``encoder/joint_state`` (JointState,
+joint ``pulley``: quantised angle in rad and its finite-difference rate in rad/s).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from sensor_msgs.msg import JointState
+
+from pam_bench.models.sensors import EncoderModel, EncoderParams
+from pam_bench.nodes.base import RELIABLE, BenchNode, run_node, time_of
+
+__all__ = ['EncoderSim', 'main']
+
+
+class EncoderSim(BenchNode):
+    """Thin node over ``EncoderModel``."""
+
+    def __init__(self, name: str = 'encoder', **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
+        self.model = EncoderModel(self.declare_model('encoder', EncoderParams))
+        self.topic = 'sim/pulley/state'
+        self.angle_rad = 0.0
+        self.pub = self.create_publisher(JointState, 'encoder/joint_state', RELIABLE)
+        self.sync_input(JointState, self.topic)
+        self.start_lockstep()
+
+    def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
+        """Read the last pulley angle."""
+        if inputs:
+            js = inputs[self.topic]
+            self.angle_rad = js.position[list(js.name).index('pulley')]
+        angle, rate = self.model.measure(self.angle_rad, dt_s)
+        msg = JointState(name=['pulley'], position=[angle], velocity=[rate])
+        msg.header.stamp = time_of(t_ns)
+        self.pub.publish(msg)
+
+
+def main(args: list[str] | None = None) -> None:
+    """Run the node."""
+    run_node(EncoderSim, args)
+
+
+if __name__ == '__main__':
+    main()

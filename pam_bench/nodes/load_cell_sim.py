@@ -1,0 +1,62 @@
+"""load_cell_sim: the strain-gauge load cell of one muscle (``LoadCellModel``).
+
+Input ``sim/muscle_N/state`` (true tension); output ``load_cell_N/force`` (WrenchStamped,
+force.x in N, 16-bit quantised, seeded noise, saturating at +-2 kN with a diagnostic).
+"""
+
+from __future__ import annotations
+
+import zlib
+from typing import Any
+
+from diagnostic_msgs.msg import DiagnosticStatus
+from geometry_msgs.msg import WrenchStamped
+
+from pam_bench.models.sensors import LoadCellModel, LoadCellParams
+from pam_bench.nodes.base import RELIABLE, BenchNode, run_node, time_of
+from pam_bench_interfaces.msg import MuscleState
+
+__all__ = ['LoadCellSim', 'main']
+
+
+class LoadCellSim(BenchNode):
+    """Thin node over ``LoadCellModel``."""
+
+    def __init__(self, name: str = 'load_cell_1', **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
+        self.channel = self.declare_typed('channel', 1, 'muscle channel N', '-', 1, 2)
+        seed = self.declare_typed('seed', 0, 'seed of the noise generator', '-', 0, 2**31 - 1)
+        params = self.declare_model('load_cell', LoadCellParams)
+        self.model = LoadCellModel(params, seed=seed + zlib.crc32(name.encode()))
+        self.topic = f'sim/muscle_{self.channel}/state'
+        self.force_n = 0.0
+        self._was_saturated = False
+        self.pub = self.create_publisher(WrenchStamped, f'load_cell_{self.channel}/force',
+                                         RELIABLE)
+        self.sync_input(MuscleState, self.topic)
+        self.start_lockstep()
+
+    def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
+        """Measure the last true tension."""
+        if inputs:
+            self.force_n = inputs[self.topic].force
+        f = self.model.measure(self.force_n)
+        if self.model.saturated != self._was_saturated:
+            self._was_saturated = self.model.saturated
+            level = DiagnosticStatus.WARN if self.model.saturated else DiagnosticStatus.OK
+            self.diagnose(level, f'load cell {"saturated" if self.model.saturated else "in range"}',
+                          force_n=self.force_n)
+        msg = WrenchStamped()
+        msg.header.stamp = time_of(t_ns)
+        msg.header.frame_id = f'load_cell_{self.channel}'
+        msg.wrench.force.x = f
+        self.pub.publish(msg)
+
+
+def main(args: list[str] | None = None) -> None:
+    """Run the node."""
+    run_node(LoadCellSim, args)
+
+
+if __name__ == '__main__':
+    main()

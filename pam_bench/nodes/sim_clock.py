@@ -1,0 +1,173 @@
+"""sim_clock: advances /clock in lock-step with every participant (see ``nodes.base``).
+
+It repeats t_0 until every participant has acknowledged it (all are up and their inputs are
+matched), waits ``grace_s`` of wall time for the remaining matches, then publishes t_k+1 only
+when every participant has acknowledged t_k. It stops at ``duration_s`` or when the sequencer
+reports DONE, ABORTED or CANCELLED, prints one summary line (``LOCKSTEP steps=... rate=...``)
+and exits. With ``realtime`` the ticks are paced to the wall clock.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from typing import Any
+
+import rclpy
+from rclpy.node import Node
+from rosgraph_msgs.msg import Clock
+
+from pam_bench.nodes.base import RELIABLE, BenchNode, ns_of, run_node, time_of
+from pam_bench_interfaces.msg import ProtocolStatus, StepAck
+
+__all__ = ['SimClock', 'main']
+
+STOP_STATES = (ProtocolStatus.STATE_DONE, ProtocolStatus.STATE_ABORTED,
+               ProtocolStatus.STATE_CANCELLED)
+
+
+class SimClock(Node):
+    """Lock-step master clock."""
+
+    def __init__(self, name: str = 'sim_clock', **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
+        decl = BenchNode.declare_typed.__get__(self)
+        self.step_s = decl('exchange_step_s', 0.01, 'exchange step h', 's', 1e-6, 10.0)
+        self.participants = set(decl('participants', ['/valve_1'],
+                                     'fully qualified names that step in lock-step'))
+        self.duration_s = decl('duration_s', 0.0, 'stop at this sim time (0: on protocol end)',
+                               's', 0.0, 1e9)
+        self.realtime = decl('realtime', False, 'pace the ticks to the wall clock')
+        self.grace_s = decl('grace_s', 0.3, 'wall time between ready and the first step',
+                            's', 0.0, 60.0)
+        self.progress_s = decl('progress_period_s', 2.0, 'wall time between progress lines',
+                               's', 0.0, 3600.0)
+        self.timeout_s = decl('stall_timeout_s', 30.0, 'abort when a step is not acknowledged '
+                              'within this wall time', 's', 0.1, 3600.0)
+        self.h_ns = round(self.step_s * 1e9)
+        self.k = 0
+        self.acks: set[str] = set()
+        self.ready = False
+        self.done = False
+        self.stop_reason = ''
+        self.expected_total_s = self.duration_s
+        self.pub = self.create_publisher(Clock, '/clock', RELIABLE)
+        self.create_subscription(StepAck, '/sim/ack', self._on_ack, RELIABLE)
+        self.create_subscription(ProtocolStatus, 'protocol/status', self._on_status, RELIABLE)
+        self.t_wall0 = time.monotonic()
+        self.t_run0 = 0.0
+        self.last_progress = time.monotonic()
+        self.last_tick_wall = time.monotonic()
+        self.timer = self.create_timer(0.05, self._on_timer)
+        self.exit_code = 0
+
+    def _publish(self) -> None:
+        self.last_tick_wall = time.monotonic()
+        self.pub.publish(Clock(clock=time_of(self.k * self.h_ns)))
+
+    def _on_timer(self) -> None:
+        now = time.monotonic()
+        if not self.ready:
+            if self.acks >= self.participants:
+                self.ready = True
+                self.timer.cancel()
+                self.timer = self.create_timer(self.grace_s if self.grace_s > 0 else 1e-3,
+                                               self._start)
+            else:
+                self._publish()     # repeat t_0 until all are up
+                if now - self.t_wall0 > self.timeout_s:
+                    self._finish(f'participants never ready: '
+                                 f'{sorted(self.participants - self.acks)}', 2)
+            return
+        if not self.done and now - self.last_tick_wall > self.timeout_s:
+            self._finish(f'step {self.k} not acknowledged by '
+                         f'{sorted(self.participants - self.acks)}', 3)
+
+    def _start(self) -> None:
+        self.timer.cancel()
+        self.timer = self.create_timer(1.0, self._on_timer)
+        self.t_run0 = time.monotonic()
+        self._advance()
+
+    def _advance(self) -> None:
+        if self.done:
+            return
+        t_s = self.k * self.step_s
+        if self.duration_s > 0.0 and t_s >= self.duration_s - 1e-12:
+            self._finish('duration reached', 0)
+            return
+        if self.realtime:
+            lag = (self.k + 1) * self.step_s - (time.monotonic() - self.t_run0)
+            if lag > 0:
+                time.sleep(lag)
+        self.k += 1
+        self.acks = set()
+        self._publish()
+        self._progress()
+
+    def _on_ack(self, msg: StepAck) -> None:
+        if ns_of(msg.header.stamp) != self.k * self.h_ns:
+            return
+        self.acks.add(msg.node)
+        if self.ready and self.k > 0 and self.acks >= self.participants:
+            self._advance()
+
+    def _on_status(self, msg: ProtocolStatus) -> None:
+        if msg.remaining > 0.0:
+            self.expected_total_s = msg.elapsed + msg.remaining
+        if msg.state in STOP_STATES and not self.done:
+            self._finish(f'protocol {msg.protocol}: state {msg.state} {msg.reason}'.strip(),
+                         0 if msg.state == ProtocolStatus.STATE_DONE else 4)
+
+    def _progress(self) -> None:
+        now = time.monotonic()
+        if self.progress_s <= 0 or now - self.last_progress < self.progress_s:
+            return
+        self.last_progress = now
+        t = self.k * self.step_s
+        wall = now - self.t_run0
+        rtf = t / wall if wall > 0 else 0.0
+        total = self.expected_total_s
+        if total > 0:
+            eta = (total - t) / rtf if rtf > 0 else float('inf')
+            print(f'[sim {t:9.2f} / {total:9.2f} s  {100 * t / total:5.1f} %]  wall {wall:7.1f} '
+                  f's  x{rtf:6.1f} real time  ETA {eta:6.1f} s wall', flush=True)
+        else:
+            print(f'[sim {t:9.2f} s]  wall {wall:7.1f} s  x{rtf:6.1f} real time', flush=True)
+
+    def _finish(self, reason: str, code: int) -> None:
+        self.done = True
+        self.exit_code = code
+        wall = max(time.monotonic() - self.t_run0, 1e-9) if self.t_run0 else 0.0
+        rate = self.k / wall if wall else 0.0
+        print(f'LOCKSTEP steps={self.k} sim_s={self.k * self.step_s:.6f} wall_s={wall:.3f} '
+              f'rate={rate:.1f} rtf={self.k * self.step_s / wall if wall else 0:.2f} '
+              f'reason="{reason}"', flush=True)
+        raise SystemExit(code)
+
+
+def main(args: list[str] | None = None) -> None:
+    """Run the clock until the scene ends; exit code 0 when it ended normally."""
+    rclpy.init(args=args)
+    node = None
+    code = 0
+    try:
+        node = SimClock()
+        rclpy.spin(node)
+    except SystemExit as exc:
+        code = int(exc.code or 0)
+    except KeyboardInterrupt:
+        code = 130
+    except rclpy.executors.ExternalShutdownException:
+        code = 0
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    sys.exit(code)
+
+
+if __name__ == '__main__':
+    main()
+
+_ = run_node

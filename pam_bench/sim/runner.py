@@ -1,0 +1,190 @@
+"""Bring a scene up, run it, shut everything down: separate processes or one process.
+
+Every run sets ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and its own ``ROS_DOMAIN_ID`` (the
+caller's when set, else one derived from the process id), so DDS stays on loopback and two
+runs never see each other. Separate processes are stopped with SIGINT (then SIGTERM, SIGKILL
+after a timeout), devices first and the recorder last, so the bag is always closed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import re
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from typing import Any
+
+import yaml
+
+from pam_bench.sim.scene import NODE_TYPES, Scene
+
+__all__ = ['RunResult', 'ros_env', 'run_scene']
+
+LOCKSTEP_RE = re.compile(r'LOCKSTEP steps=(\d+) sim_s=([\d.]+) wall_s=([\d.]+) rate=([\d.]+)')
+
+
+@dataclasses.dataclass
+class RunResult:
+    """Outcome of a run: exit code, steps, sim and wall seconds, lock-step rate (steps/s)."""
+
+    code: int
+    steps: int = 0
+    sim_s: float = 0.0
+    wall_s: float = 0.0
+    rate: float = 0.0
+    summary: str = ''
+
+
+def ros_env(domain_id: int | None = None) -> dict[str, str]:
+    """Environment for ROS processes of one run: loopback discovery, a private domain."""
+    env = dict(os.environ)
+    env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    if domain_id is None:
+        domain_id = int(env.get('ROS_DOMAIN_ID', '') or 1 + os.getpid() % 100)
+    env['ROS_DOMAIN_ID'] = str(domain_id)
+    env.setdefault('RCUTILS_COLORIZED_OUTPUT', '0')
+    return env
+
+
+def _parse(summary: str, code: int) -> RunResult:
+    m = LOCKSTEP_RE.search(summary)
+    if not m:
+        return RunResult(code, summary=summary)
+    return RunResult(code, int(m.group(1)), float(m.group(2)), float(m.group(3)),
+                     float(m.group(4)), m.group(0))
+
+
+def run_scene(scene: Scene, out_dir: str, seed: int = 0, realtime: bool = False,
+              one_process: bool = False, domain_id: int | None = None,
+              quiet: bool = False) -> RunResult:
+    """Run ``scene``, recording into ``out_dir``; return the clock's summary."""
+    params = scene.node_parameters(out_dir, seed, realtime)
+    if one_process:
+        return _run_in_process(scene, params, domain_id, quiet)
+    return _run_processes(scene, params, domain_id, quiet)
+
+
+def _run_processes(scene: Scene, params: dict[str, Any], domain_id: int | None,
+                   quiet: bool) -> RunResult:
+    env = ros_env(domain_id)
+    procs: dict[str, subprocess.Popen] = {}
+    with tempfile.TemporaryDirectory(prefix='pam_bench_') as tmp:
+        pfile = os.path.join(tmp, 'params.yaml')
+        with open(pfile, 'w', encoding='utf-8') as fh:
+            yaml.safe_dump(params, fh)
+        log = open(os.path.join(tmp, 'nodes.log'), 'w+', encoding='utf-8')
+        try:
+            order = [n for n in scene.nodes if n != 'recorder']
+            if 'recorder' in scene.nodes:
+                order.insert(0, 'recorder')
+            for name in order:
+                procs[name] = subprocess.Popen(
+                    [sys.executable, '-m', NODE_TYPES[name].module, '--ros-args',
+                     '-r', f'__node:={name}', '--params-file', pfile],
+                    env=env, stdout=log, stderr=subprocess.STDOUT)
+            clock = subprocess.Popen(
+                [sys.executable, '-m', NODE_TYPES['sim_clock'].module, '--ros-args',
+                 '-r', '__node:=sim_clock', '--params-file', pfile],
+                env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+            lines = []
+            for line in clock.stdout:
+                lines.append(line)
+                if not quiet and (line.startswith('[sim') or line.startswith('LOCKSTEP')):
+                    print(line, end='', flush=True)
+                for name, p in procs.items():
+                    if p.poll() not in (None, 0):
+                        print(f'node {name} died with exit code {p.returncode}', flush=True)
+            code = clock.wait()
+            dead = [n for n, p in procs.items() if p.poll() is not None]
+        finally:
+            _stop(procs)
+            log.flush()
+            log.seek(0)
+            node_log = log.read()
+            log.close()
+        result = _parse(''.join(lines), code)
+        if code != 0 or dead:
+            result.code = code or 5
+            sys.stderr.write(''.join(lines)[-3000:] + node_log[-4000:])
+    return result
+
+
+def _stop(procs: dict[str, subprocess.Popen]) -> None:
+    """SIGINT the devices, then the recorder; escalate after timeouts."""
+    names = [n for n in procs if n != 'recorder'] + (['recorder'] if 'recorder' in procs else [])
+    for group in (names[:-1], names[-1:]) if names and names[-1] == 'recorder' else (names,):
+        for n in group:
+            if procs[n].poll() is None:
+                procs[n].send_signal(signal.SIGINT)
+        for n in group:
+            for sig, wait in ((None, 10.0), (signal.SIGTERM, 5.0), (signal.SIGKILL, 5.0)):
+                if sig is not None and procs[n].poll() is None:
+                    procs[n].send_signal(sig)
+                try:
+                    procs[n].wait(timeout=wait)
+                    break
+                except subprocess.TimeoutExpired:
+                    continue
+
+
+def _run_in_process(scene: Scene, params: dict[str, Any], domain_id: int | None,
+                    quiet: bool) -> RunResult:
+    import importlib
+    import io
+    import contextlib
+
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.parameter import Parameter
+
+    env = ros_env(domain_id)
+    os.environ['ROS_DOMAIN_ID'] = env['ROS_DOMAIN_ID']
+    os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    executor = SingleThreadedExecutor(context=context)
+    nodes = []
+    code = 0
+    buf = io.StringIO()
+    t0 = time.monotonic()
+    try:
+        for name in ['recorder'] * ('recorder' in scene.nodes) + [
+                n for n in scene.nodes if n != 'recorder'] + ['sim_clock']:
+            t = NODE_TYPES[name]
+            cls = getattr(importlib.import_module(t.module), t.cls)
+            overrides = [Parameter(k, value=v) for k, v in
+                         _flatten(params[name]['ros__parameters']).items()]
+            node = cls(name, context=context, parameter_overrides=overrides)
+            nodes.append(node)
+            executor.add_node(node)
+        with contextlib.redirect_stdout(buf if quiet else sys.stdout):
+            try:
+                executor.spin()
+            except SystemExit as exc:
+                code = int(exc.code or 0)
+    finally:
+        for node in nodes:
+            executor.remove_node(node)
+            node.destroy_node()
+        executor.shutdown()
+        rclpy.try_shutdown(context=context)
+    res = _parse(buf.getvalue() if quiet else '', code)
+    if not res.summary:
+        clock = next(n for n in nodes if n.get_name() == 'sim_clock')
+        wall = time.monotonic() - t0
+        res = RunResult(code, clock.k, clock.k * clock.step_s, wall, clock.k / wall)
+    return res
+
+
+def _flatten(d: dict[str, Any], prefix: str = '') -> dict[str, Any]:
+    out = {}
+    for k, v in d.items():
+        if isinstance(v, dict):
+            out.update(_flatten(v, f'{prefix}{k}.'))
+        else:
+            out[f'{prefix}{k}'] = v
+    return out

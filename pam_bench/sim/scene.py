@@ -1,0 +1,160 @@
+"""Scenes: which nodes a run brings up, their parameters, the exchange step and the protocol.
+
+A scene file (config/scenes/NAME.yaml) holds ``description``, ``exchange_step_s``,
+``protocol``, ``nodes`` (names from ``NODE_TYPES``), optional ``duration_s`` and optional
+``parameters`` (per node, merged over config/bench.yaml). ``node_parameters`` returns the
+parameters of every node of the run in the ROS 2 params-file layout.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import pathlib
+from typing import Any
+
+import yaml
+
+from pam_bench.models.errors import ParameterError
+
+__all__ = ['NodeType', 'NODE_TYPES', 'Scene', 'config_dir', 'load_scene', 'scene_names',
+           'STEP_TOPICS', 'EVENT_TOPICS']
+
+
+@dataclasses.dataclass(frozen=True)
+class NodeType:
+    """Where a node's class lives and what it contributes to the lock-step."""
+
+    module: str
+    cls: str
+    lockstep: bool = True
+
+
+NODE_TYPES = {
+    'valve_1': NodeType('pam_bench.nodes.valve_sim', 'ValveSim'),
+    'muscle_1': NodeType('pam_bench.nodes.muscle_sim', 'MuscleSim'),
+    'load_cell_1': NodeType('pam_bench.nodes.load_cell_sim', 'LoadCellSim'),
+    'encoder': NodeType('pam_bench.nodes.encoder_sim', 'EncoderSim'),
+    'loading_servo': NodeType('pam_bench.nodes.loading_servo_sim', 'LoadingServoSim'),
+    'sequencer': NodeType('pam_bench.nodes.sequencer', 'SequencerNode'),
+    'recorder': NodeType('pam_bench.nodes.recorder', 'Recorder'),
+    'sim_clock': NodeType('pam_bench.nodes.sim_clock', 'SimClock', lockstep=False),
+}
+
+STEP_TOPICS = [
+    '/valve_1/command:pam_bench_interfaces/msg/ValveCommand',
+    '/valve_1/pressure:sensor_msgs/msg/FluidPressure',
+    '/sim/muscle_1/state:pam_bench_interfaces/msg/MuscleState',
+    '/load_cell_1/force:geometry_msgs/msg/WrenchStamped',
+    '/encoder/joint_state:sensor_msgs/msg/JointState',
+    '/loading_servo/command:pam_bench_interfaces/msg/LoadCommand',
+    '/loading_servo/state:sensor_msgs/msg/JointState',
+    '/sim/pulley/state:sensor_msgs/msg/JointState',
+    '/clock:rosgraph_msgs/msg/Clock',
+]
+EVENT_TOPICS = [
+    '/protocol/point:pam_bench_interfaces/msg/CharacteristicPoint',
+    '/protocol/status:pam_bench_interfaces/msg/ProtocolStatus',
+    '/diagnostics:diagnostic_msgs/msg/DiagnosticArray',
+]
+
+
+def config_dir() -> pathlib.Path:
+    """The config/ folder of the source tree, else of the installed package."""
+    src = pathlib.Path(__file__).resolve().parents[2] / 'config'
+    if src.is_dir():
+        return src
+    from ament_index_python.packages import get_package_share_directory
+    return pathlib.Path(get_package_share_directory('pam_bench')) / 'config'
+
+
+def scene_names() -> list[str]:
+    """Names of the scenes in config/scenes/."""
+    return sorted(p.stem for p in (config_dir() / 'scenes').glob('*.yaml'))
+
+
+@dataclasses.dataclass
+class Scene:
+    """A loaded scene."""
+
+    name: str
+    description: str
+    exchange_step_s: float
+    protocol: str
+    nodes: list[str]
+    duration_s: float
+    parameters: dict[str, dict[str, Any]]
+
+    def node_parameters(self, out_dir: str, seed: int, realtime: bool) -> dict[str, Any]:
+        """Parameters of every node: config/bench.yaml, then the scene, then this run."""
+        base = _read_yaml(config_dir() / 'bench.yaml')
+        common = dict(base.get('/**', {}).get('ros__parameters', {}))
+        out: dict[str, Any] = {}
+        for name in self.nodes + ['sim_clock']:
+            params = dict(common)
+            params.update(base.get(name, {}).get('ros__parameters', {}))
+            _merge(params, self.parameters.get(name, {}))
+            out[name] = {'ros__parameters': params}
+        participants = [f'/{n}' for n in self.nodes if NODE_TYPES[n].lockstep]
+        out['sim_clock']['ros__parameters'].update(
+            exchange_step_s=self.exchange_step_s, participants=participants,
+            duration_s=self.duration_s, realtime=realtime, use_sim_time=False)
+        if 'sequencer' in out:
+            out['sequencer']['ros__parameters']['protocol'] = self.protocol
+        if 'recorder' in out:
+            out['recorder']['ros__parameters'].update(out_dir=out_dir, step_topics=STEP_TOPICS,
+                                                      event_topics=EVENT_TOPICS)
+        if 'load_cell_1' in out:
+            out['load_cell_1']['ros__parameters']['seed'] = seed
+        return out
+
+
+def _merge(dst: dict[str, Any], src: dict[str, Any]) -> None:
+    for k, v in src.items():
+        if isinstance(v, dict) and isinstance(dst.get(k), dict):
+            _merge(dst[k], v)
+        else:
+            dst[k] = v
+
+
+def _read_yaml(path: pathlib.Path) -> dict[str, Any]:
+    try:
+        with open(path, encoding='utf-8') as fh:
+            data = yaml.safe_load(fh) or {}
+    except yaml.YAMLError as exc:
+        raise ParameterError(f'{path}: not valid YAML: {exc}') from None
+    if not isinstance(data, dict):
+        raise ParameterError(f'{path}: expected a mapping at the top level')
+    return data
+
+
+def load_scene(name: str) -> Scene:
+    """Load config/scenes/NAME.yaml (or a path to a scene file).
+
+    Raises:
+        ParameterError: unknown scene, or a missing or malformed key (named).
+    """
+    path = pathlib.Path(name)
+    if not path.suffix:
+        path = config_dir() / 'scenes' / f'{name}.yaml'
+    if not path.exists():
+        raise ParameterError(f'no scene {name!r}; known: {", ".join(scene_names())}')
+    data = _read_yaml(path)
+
+    def need(key: str, kind: type) -> Any:
+        if key not in data:
+            raise ParameterError(f'scene {path.name}: missing key {key!r}')
+        if not isinstance(data[key], kind):
+            raise ParameterError(f'scene {path.name}: key {key!r} must be {kind.__name__}')
+        return data[key]
+
+    nodes = need('nodes', list)
+    unknown = [n for n in nodes if n not in NODE_TYPES]
+    if unknown:
+        raise ParameterError(f'scene {path.name}: unknown node {unknown[0]!r}; known: '
+                             f'{", ".join(NODE_TYPES)}')
+    step = need('exchange_step_s', (int, float))
+    if not 0 < step <= 10:
+        raise ParameterError(f'scene {path.name}: exchange_step_s {step} out of (0, 10] s')
+    return Scene(path.stem, str(data.get('description', '')), float(step),
+                 str(data.get('protocol', '')), list(nodes), float(data.get('duration_s', 0.0)),
+                 dict(data.get('parameters', {}) or {}))
