@@ -63,6 +63,9 @@ class BenchNode(Node):
     """Base of every bench node: parameters from dataclasses, diagnostics, lock-step."""
 
     def __init__(self, name: str, **kwargs: Any) -> None:
+        # Parameters are read once at start-up; without the six parameter services every
+        # executor wake-up waits on far fewer entities (about 2x faster lock-step).
+        kwargs.setdefault('start_parameter_services', False)
         super().__init__(name, **kwargs)
         self.lockstep = self.declare_typed('lockstep', True,
                                            'step on /clock ticks in lock-step with sim_clock')

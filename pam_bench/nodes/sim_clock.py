@@ -30,6 +30,7 @@ class SimClock(Node):
     """Lock-step master clock."""
 
     def __init__(self, name: str = 'sim_clock', **kwargs: Any) -> None:
+        kwargs.setdefault('start_parameter_services', False)
         super().__init__(name, **kwargs)
         decl = BenchNode.declare_typed.__get__(self)
         self.step_s = decl('exchange_step_s', 0.01, 'exchange step h', 's', 1e-6, 10.0)
