@@ -27,15 +27,18 @@ the encoder reads:
            tau = r [F* + K_p e + K_i I + K_d K x'],  I' = F* - (F + e_F)
   position (PID on the pulley), gear angle phi tracks x* / r, the integral removes play and
            belt stretch as the encoder sees them:
-           tau = r [F + K_px (r phi - x*) + K_dx r phi' + K_ix I],  I' = r (phi + beta + e_th) - x*
+           tau = r [F + K_px (r phi - x*) + K_dx r phi' + K_ix I],
+           I' = r (phi + beta + e_th) - x*
+  off:     tau = 0
 where e_F = F_m - F_prev and e_th = theta_m - theta_prev are the errors of the last readings
 (noise, quantisation) against the true values at the instant each was taken.
-The drive limits the output speed to w_max (motor 3000 rpm / i) and the integral to
-|gain * I| <= 25 % of F_max (anti-windup). The belt travel ends at hard stops x_min, x_max (inelastic: the pulley stops there).
-  off:     tau = 0
+
 With F and tau inside their limits the step is affine in s = (phi, phi', I, 1) and is integrated
 exactly, s(t + h) = expm(M h) s(t) (``scheme: zoh``, default). Where a limit is reached the step
 is redone with classical RK4 (or explicit Euler) on internal steps short enough for stability.
+The drive limits the output speed to w_max (motor 3000 rpm / i) and the integral to
+|gain * I| <= 25 % of F_max (anti-windup). The belt travel ends at hard stops x_min, x_max
+(inelastic: the pulley stops there).
 """
 
 from __future__ import annotations

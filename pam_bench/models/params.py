@@ -115,7 +115,7 @@ def from_mapping(cls: type[T], values: Mapping[str, Any] | None, prefix: str = '
     infos = {i.name: i for i in param_infos(cls)}
     unknown = sorted(set(values) - set(infos))
     if unknown:
-        raise ParameterError(f'unknown parameter {prefix}{unknown[0]!r}; known: '
+        raise ParameterError(f'unknown parameter {prefix}{unknown[0]}; known: '
                              f'{", ".join(sorted(infos))}')
     kwargs = {k: _check_value(prefix, infos[k], v) for k, v in values.items()}
     return cls(**kwargs)

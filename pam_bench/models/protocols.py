@@ -125,7 +125,7 @@ def schedule_from_config(name: str, cfg: Mapping[str, Any]) -> tuple[list[Readin
         every = float(get('reading_every_s'))
         rate = float(get('ramp_rate_v_per_s'))
         step = 0
-        for a, b in zip(pts[:-1], pts[1:]):
+        for a, b in zip(pts[:-1], pts[1:], strict=True):
             n = max(1, int(round(abs(b - a) / rate / every)))
             d = Direction.UP if b >= a else Direction.DOWN
             for i in range(1, n + 1):

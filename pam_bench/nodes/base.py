@@ -17,17 +17,17 @@ import struct
 from collections.abc import Callable
 from typing import Any
 
+import rclpy
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from pam_bench_interfaces.msg import StepAck
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
-import rclpy
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
-from rclpy.qos import QoSProfile, ReliabilityPolicy, HistoryPolicy, DurabilityPolicy
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 
 from pam_bench.models.params import ParamInfo, describe, from_mapping, param_infos
-from pam_bench_interfaces.msg import StepAck
 
 __all__ = ['BenchNode', 'RELIABLE', 'ns_of', 'stamp_of_cdr', 'time_of', 'run_node',
            'message_class']

@@ -11,10 +11,10 @@ from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import WrenchStamped
+from pam_bench_interfaces.msg import MuscleState
 
 from pam_bench.models.sensors import LoadCellModel, LoadCellParams
 from pam_bench.nodes.base import RELIABLE, BenchNode, run_node, time_of
-from pam_bench_interfaces.msg import MuscleState
 
 __all__ = ['LoadCellSim', 'main']
 
@@ -44,8 +44,8 @@ class LoadCellSim(BenchNode):
         if self.model.saturated != self._was_saturated:
             self._was_saturated = self.model.saturated
             level = DiagnosticStatus.WARN if self.model.saturated else DiagnosticStatus.OK
-            self.diagnose(level, f'load cell {"saturated" if self.model.saturated else "in range"}',
-                          force_n=self.force_n)
+            state = 'saturated' if self.model.saturated else 'in range'
+            self.diagnose(level, f'load cell {state}', force_n=self.force_n)
         msg = WrenchStamped()
         msg.header.stamp = time_of(t_ns)
         msg.header.frame_id = f'load_cell_{self.channel}'

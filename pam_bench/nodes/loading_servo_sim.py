@@ -14,11 +14,11 @@ from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import WrenchStamped
+from pam_bench_interfaces.msg import LoadCommand, MuscleState
 from sensor_msgs.msg import JointState
 
 from pam_bench.models.loading_servo import LoadingServoModel, LoadingServoParams, LoadMode
 from pam_bench.nodes.base import RELIABLE, BenchNode, run_node, time_of
-from pam_bench_interfaces.msg import LoadCommand, MuscleState
 
 __all__ = ['LoadingServoSim', 'main']
 

@@ -9,12 +9,12 @@ from __future__ import annotations
 
 from typing import Any
 
+from pam_bench_interfaces.msg import MuscleState
 from sensor_msgs.msg import FluidPressure, JointState
 
 from pam_bench.models.muscle import MuscleModel, MuscleParams
 from pam_bench.nodes.base import RELIABLE, BenchNode, run_node, time_of
 from pam_bench.nodes.valve_sim import ATMOSPHERE_PA
-from pam_bench_interfaces.msg import MuscleState
 
 __all__ = ['MuscleSim', 'main']
 

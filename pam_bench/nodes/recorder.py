@@ -12,12 +12,11 @@ from __future__ import annotations
 import pathlib
 from typing import Any
 
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.serialization import serialize_message
 from rosbags.rosbag2 import StoragePlugin, Writer
 
 from pam_bench.analysis.types import bench_typestore
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-from rclpy.serialization import serialize_message
-
 from pam_bench.nodes.base import BenchNode, message_class, run_node, stamp_of_cdr
 
 __all__ = ['Recorder', 'main']

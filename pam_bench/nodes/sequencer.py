@@ -14,12 +14,12 @@ from typing import Any
 import yaml
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import WrenchStamped
+from pam_bench_interfaces.msg import CharacteristicPoint, LoadCommand, ProtocolStatus, ValveCommand
 from sensor_msgs.msg import FluidPressure, JointState
 
 from pam_bench.models.protocols import Measurement, Phase, Point, Sequencer, schedule_from_config
 from pam_bench.nodes.base import RELIABLE, BenchNode, run_node, time_of
 from pam_bench.nodes.valve_sim import ATMOSPHERE_PA
-from pam_bench_interfaces.msg import CharacteristicPoint, LoadCommand, ProtocolStatus, ValveCommand
 
 __all__ = ['SequencerNode', 'main']
 

@@ -14,11 +14,11 @@ import time
 from typing import Any
 
 import rclpy
+from pam_bench_interfaces.msg import ProtocolStatus, StepAck
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
-from pam_bench.nodes.base import RELIABLE, BenchNode, ns_of, run_node, time_of
-from pam_bench_interfaces.msg import ProtocolStatus, StepAck
+from pam_bench.nodes.base import RELIABLE, BenchNode, ns_of, time_of
 
 __all__ = ['SimClock', 'main']
 
@@ -171,4 +171,3 @@ def main(args: list[str] | None = None) -> None:
 if __name__ == '__main__':
     main()
 
-_ = run_node

@@ -11,11 +11,11 @@ from __future__ import annotations
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticStatus
+from pam_bench_interfaces.msg import MuscleState, ValveCommand
 from sensor_msgs.msg import FluidPressure
 
 from pam_bench.models.valve import ValveModel, ValveParams
 from pam_bench.nodes.base import RELIABLE, BenchNode, run_node, time_of
-from pam_bench_interfaces.msg import MuscleState, ValveCommand
 
 __all__ = ['ValveSim', 'ATMOSPHERE_PA', 'main']
 

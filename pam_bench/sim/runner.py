@@ -137,9 +137,9 @@ def _stop(procs: dict[str, subprocess.Popen]) -> None:
 
 def _run_in_process(scene: Scene, params: dict[str, Any], domain_id: int | None,
                     quiet: bool) -> RunResult:
+    import contextlib
     import importlib
     import io
-    import contextlib
 
     import rclpy
     from rclpy.executors import SingleThreadedExecutor

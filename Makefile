@@ -1,0 +1,31 @@
+# pam_bench: the two commands a newcomer needs are `make demo` and `make test`.
+# Both set up .venv first (ROS 2 Jazzy wheels, msg_defs/ build, pam_bench) when needed.
+SHELL := /bin/bash
+VENV := .venv
+PY := $(VENV)/bin/python
+# DDS stays on loopback; every make run gets its own domain unless the caller chose one.
+export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
+export ROS_DOMAIN_ID ?= $(shell python3 -c 'import os; print(1 + os.getpid() % 100)')
+export OPENBLAS_NUM_THREADS := 1
+export OMP_NUM_THREADS := 1
+
+.PHONY: setup demo test lint calibration clean
+
+setup:
+	@bash tools/bootstrap.sh
+
+demo: setup
+	$(VENV)/bin/pam-bench run demo --out bags/demo --overwrite
+
+test: setup
+	$(PY) -m ruff check pam_bench test
+	$(PY) -m pytest -q test
+
+lint: setup
+	$(PY) -m ruff check pam_bench test
+
+calibration: setup
+	$(VENV)/bin/pam-bench calibration --json
+
+clean:
+	rm -rf bags/*/ .pytest_cache .ruff_cache

@@ -1,0 +1,81 @@
+"""Muscle: gains at the 004 points, clamps, volume, hysteresis without chatter."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pam_bench.models.friction import MaxwellSlip
+from pam_bench.models.muscle import MuscleModel, MuscleParams
+
+KV = 1e5     # Pa per V (004: p = 0.1 u MPa)
+
+
+@pytest.mark.parametrize('x_m, gain_n_per_v, rtol', [(0.0, 284.3, 1e-3), (0.095, 17.4, 0.30)])
+def test_isometric_gain(x_m: float, gain_n_per_v: float, rtol: float) -> None:
+    m = MuscleModel()
+    np.testing.assert_allclose(m.gain(x_m) * KV, gain_n_per_v, rtol=rtol)
+
+
+@pytest.mark.parametrize('p_pa, x_m', [(0.0, 0.0), (6e5, 0.2), (1e6, 0.15), (6e5, 0.5),
+                                       (1e5, 0.1), (0.0, 0.05)])
+def test_force_never_negative(p_pa: float, x_m: float) -> None:
+    out = MuscleModel().step(p_pa, x_m)
+    assert out.force_n >= 0.0 and np.isfinite(out.force_n)
+
+
+def test_force_zero_at_and_beyond_max_contraction() -> None:
+    m = MuscleModel(MuscleParams(hysteresis=False))
+    for x in (m.p.gain_zero_contraction_m, m.p.gain_zero_contraction_m * 1.5, 1.0):
+        assert m.step(1e6, x).force_n == 0.0
+
+
+def test_threshold_no_force_below_threshold_pressure() -> None:
+    m = MuscleModel(MuscleParams(hysteresis=False))
+    assert m.step(0.5 * m.p.threshold_pressure_pa, 0.0).force_n == 0.0
+    assert m.step(2.0 * m.p.threshold_pressure_pa, 0.0).force_n > 0.0
+
+
+def test_volume_grows_with_contraction_and_matches_cylinder_at_rest() -> None:
+    m = MuscleModel()
+    v0 = np.pi * 0.01 ** 2 * 0.35
+    np.testing.assert_allclose(m.volume(0.0), v0, rtol=1e-12)
+    vs = [m.volume(x) for x in np.linspace(0, 0.11, 12)]
+    assert np.all(np.diff(vs) > 0)
+
+
+def test_stiffness_matches_finite_difference() -> None:
+    m = MuscleModel(MuscleParams(hysteresis=False))
+    p, x, h = 4e5, 0.04, 1e-7
+    k = m.backbone_stiffness(p, x)
+    fd = -(m.backbone(p, x + h) - m.backbone(p, x - h)) / (2 * h)
+    np.testing.assert_allclose(k, fd, rtol=1e-6)
+
+
+def test_isometric_hysteresis_up_below_down() -> None:
+    m = MuscleModel()
+    x = 0.02
+    up = [m.step(p, x).force_n for p in np.linspace(0, 6e5, 61)]
+    down = [m.step(p, x).force_n for p in np.linspace(6e5, 0, 61)]
+    diff = np.array(down[::-1]) - np.array(up)
+    assert diff[30] > 5.0           # unloading curve above the loading curve
+
+
+def test_friction_no_chatter_at_reversal() -> None:
+    f = MaxwellSlip([3e5, 1e5, 4e4], [1.0, 2.0, 2.0], [0.0, 0.0, 0.0])
+    f.force(0.01, 0.0)
+    # dither of 1e-9 m around a reversal: force changes by at most k * 2e-9 per move
+    vals = [f.force(0.01 + (1e-9 if i % 2 else -1e-9), 0.0) for i in range(100)]
+    assert np.ptp(vals) <= 4.4e5 * 2e-9 * 1.0001
+
+
+@pytest.mark.parametrize('n_steps', [10, 100, 1000])
+def test_friction_rate_independent(n_steps: int) -> None:
+    f = MaxwellSlip([3e5, 1e5, 4e4], [1.0, 2.0, 2.0], [5e-6, 1e-5, 1.5e-5])
+    path = np.concatenate([np.linspace(0, 1e-3, n_steps), np.linspace(1e-3, 4e-4, n_steps)])
+    for s in path:
+        out = f.force(s, 3e5)
+    ref = MaxwellSlip([3e5, 1e5, 4e4], [1.0, 2.0, 2.0], [5e-6, 1e-5, 1.5e-5])
+    ref.force(1e-3, 3e5)
+    np.testing.assert_allclose(out, ref.force(4e-4, 3e5), rtol=1e-12)
+    assert abs(out) <= sum([1.0 + 1.5, 2.0 + 3.0, 2.0 + 4.5]) + 1e-9
