@@ -7,6 +7,7 @@ import json
 import os
 import pathlib
 import shutil
+import signal
 import sys
 
 from pam_bench.models.errors import ModelError
@@ -56,9 +57,15 @@ def _cmd_pingpong(args: argparse.Namespace) -> int:
     return 0
 
 
+def _raise_interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pam-bench``."""
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    # SIGTERM ends a run like Ctrl-C: nodes stopped, bag closed, no orphans.
+    signal.signal(signal.SIGTERM, _raise_interrupt)
     ap = argparse.ArgumentParser(prog='pam-bench', description=__doc__)
     sub = ap.add_subparsers(dest='cmd', required=True)
     p = sub.add_parser('run', help='run a scene and record a bag')
@@ -84,6 +91,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f'error: {exc}', file=sys.stderr)
         return 2
     except KeyboardInterrupt:
+        print('interrupted: nodes stopped, bag closed', file=sys.stderr)
         return 130
 
 

@@ -1,10 +1,13 @@
 """recorder: writes the contract topics to a rosbag2 directory (metadata.yaml + .mcap).
 
 Messages stay CDR bytes end to end (raw subscriptions, rosbags writer); the log time of each
-message is its header stamp, i.e. sim time. Topics that are published at every step are
-recorded in lock-step (the recorder acknowledges a step only once it holds all of them, so it
-can never fall behind and lose data); event topics (points, status, diagnostics) as they come.
-The bag is closed valid at the end of the scene and on SIGINT or SIGTERM.
+message is its header stamp, i.e. sim time. Topics published at every step are recorded in
+lock-step: at its step to t_k the recorder writes /clock and every step topic stamped t_(k-1)
+(it cannot step before it holds them, so it never falls behind nor loses data). The clock's
+flush tick t_N + 1 ns makes it write the t_N data and then drop anything stamped later, so the
+recorded payloads of a scene are the same in every run. Event topics (points, status,
+diagnostics) are written as they come. The bag is closed valid at the end of the scene and on
+SIGINT or SIGTERM.
 """
 
 from __future__ import annotations
@@ -15,9 +18,10 @@ from typing import Any
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
 from rosbags.rosbag2 import StoragePlugin, Writer
+from rosgraph_msgs.msg import Clock
 
 from pam_bench.analysis.types import bench_typestore
-from pam_bench.nodes.base import BenchNode, message_class, run_node, stamp_of_cdr
+from pam_bench.nodes.base import BenchNode, message_class, run_node, stamp_of_cdr, time_of
 
 __all__ = ['Recorder', 'main']
 
@@ -44,20 +48,22 @@ class Recorder(BenchNode):
         self.writer = Writer(path, version=9, storage_plugin=StoragePlugin.MCAP)
         self.writer.open()
         self.count = 0
-        self._clock_ns = -1
+        self.end_ns: int | None = None
         self.connections = {}
         for entry in list(step_topics) + list(event_topics):
             topic, msgtype = self._split(entry)
             self.connections[topic] = self.writer.add_connection(topic, msgtype,
                                                                  typestore=self.store)
+        self.step_order = []
         for entry in step_topics:
             topic, msgtype = self._split(entry)
             if topic == '/clock':
                 continue
-            self.sync_input(message_class(msgtype), topic, self._writer_for(topic), raw=True)
+            self.step_order.append(topic)
+            self.sync_input(message_class(msgtype), topic, raw=True)
         for entry in event_topics:
             topic, msgtype = self._split(entry)
-            self.create_subscription(message_class(msgtype), topic, self._writer_for(topic),
+            self.create_subscription(message_class(msgtype), topic, self._event_writer(topic),
                                      KEEP_ALL, raw=True)
         self.start_lockstep()
 
@@ -68,26 +74,28 @@ class Recorder(BenchNode):
             raise ValueError(f'recorder topic entry {entry!r} must be topic:package/msg/Type')
         return (topic if topic.startswith('/') else '/' + topic), msgtype
 
-    def _writer_for(self, topic: str) -> Any:
-        conn = self.connections[topic]
+    def _write(self, topic: str, t_ns: int, data: bytes) -> None:
+        if self.writer is not None and (self.end_ns is None or t_ns <= self.end_ns):
+            self.writer.write(self.connections[topic], t_ns, bytes(data))
+            self.count += 1
 
+    def _event_writer(self, topic: str) -> Any:
         def write(data: bytes) -> None:
-            if self.writer is not None:
-                self.writer.write(conn, stamp_of_cdr(data), bytes(data))
-                self.count += 1
+            self._write(topic, stamp_of_cdr(data), data)
         return write
 
-    def _on_clock(self, msg: Any) -> None:
-        conn = self.connections.get('/clock')
-        t = msg.clock.sec * 1_000_000_000 + msg.clock.nanosec
-        if conn is not None and self.writer is not None and t > self._clock_ns:
-            self._clock_ns = t
-            self.writer.write(conn, t, serialize_message(msg))
-            self.count += 1
-        super()._on_clock(msg)
-
     def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
-        """Everything was written on arrival; the step only acknowledges."""
+        """Write /clock and every step topic of the previous tick t_(k-1)."""
+        if self.end_ns is not None:
+            return
+        prev = t_ns - round(dt_s * 1e9)
+        if '/clock' in self.connections:
+            self._write('/clock', prev, serialize_message(Clock(clock=time_of(prev))))
+        for topic in self.step_order:
+            if topic in inputs:
+                self._write(topic, prev, inputs[topic])
+        if dt_s < 1e-6:
+            self.end_ns = prev            # the clock's flush tick: nothing later is recorded
 
     def close(self) -> None:
         """Close the bag (idempotent)."""

@@ -3,8 +3,10 @@
 It repeats t_0 until every participant has acknowledged it (all are up and their inputs are
 matched), waits ``grace_s`` of wall time for the remaining matches, then publishes t_k+1 only
 when every participant has acknowledged t_k. It stops at ``duration_s`` or when the sequencer
-reports DONE, ABORTED or CANCELLED, prints one summary line (``LOCKSTEP steps=... rate=...``)
-and exits. With ``realtime`` the ticks are paced to the wall clock.
+reports DONE, ABORTED or CANCELLED: a last flush tick at t_N + 1 ns lets every participant
+(the recorder above all) take in the data stamped t_N, and once all have acknowledged it the
+clock prints one summary line (``LOCKSTEP steps=... rate=...``) and exits. With ``realtime``
+the ticks are paced to the wall clock.
 """
 
 from __future__ import annotations
@@ -47,6 +49,8 @@ class SimClock(Node):
                               'within this wall time', 's', 0.1, 3600.0)
         self.h_ns = round(self.step_s * 1e9)
         self.k = 0
+        self.tick_ns = 0
+        self.flushing = False
         self.acks: set[str] = set()
         self.ready = False
         self.done = False
@@ -64,7 +68,7 @@ class SimClock(Node):
 
     def _publish(self) -> None:
         self.last_tick_wall = time.monotonic()
-        self.pub.publish(Clock(clock=time_of(self.k * self.h_ns)))
+        self.pub.publish(Clock(clock=time_of(self.tick_ns)))
 
     def _on_timer(self) -> None:
         now = time.monotonic()
@@ -95,30 +99,45 @@ class SimClock(Node):
             return
         t_s = self.k * self.step_s
         if self.duration_s > 0.0 and t_s >= self.duration_s - 1e-12:
-            self._finish('duration reached', 0)
+            self._flush('duration reached', 0)
             return
         if self.realtime:
             lag = (self.k + 1) * self.step_s - (time.monotonic() - self.t_run0)
             if lag > 0:
                 time.sleep(lag)
         self.k += 1
+        self.tick_ns = self.k * self.h_ns
         self.acks = set()
         self._publish()
         self._progress()
 
+    def _flush(self, reason: str, code: int) -> None:
+        """Publish the flush tick t_N + 1 ns; finish once everyone acknowledged it."""
+        if self.flushing:
+            return
+        self.flushing = True
+        self.flush_reason, self.flush_code = reason, code
+        self.tick_ns = self.k * self.h_ns + 1
+        self.acks = set()
+        self._publish()
+
     def _on_ack(self, msg: StepAck) -> None:
-        if ns_of(msg.header.stamp) != self.k * self.h_ns:
+        if ns_of(msg.header.stamp) != self.tick_ns:
             return
         self.acks.add(msg.node)
-        if self.ready and self.k > 0 and self.acks >= self.participants:
+        if not (self.ready and self.k > 0 and self.acks >= self.participants):
+            return
+        if self.flushing:
+            self._finish(self.flush_reason, self.flush_code)
+        else:
             self._advance()
 
     def _on_status(self, msg: ProtocolStatus) -> None:
         if msg.remaining > 0.0:
             self.expected_total_s = msg.elapsed + msg.remaining
         if msg.state in STOP_STATES and not self.done:
-            self._finish(f'protocol {msg.protocol}: state {msg.state} {msg.reason}'.strip(),
-                         0 if msg.state == ProtocolStatus.STATE_DONE else 4)
+            self._flush(f'protocol {msg.protocol}: state {msg.state} {msg.reason}'.strip(),
+                        0 if msg.state == ProtocolStatus.STATE_DONE else 4)
 
     def _progress(self) -> None:
         now = time.monotonic()

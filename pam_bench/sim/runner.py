@@ -94,16 +94,14 @@ def _run_processes(scene: Scene, params: dict[str, Any], domain_id: int | None,
                 [sys.executable, '-m', NODE_TYPES['sim_clock'].module, '--ros-args',
                  '-r', '__node:=sim_clock', '--params-file', pfile],
                 env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+            procs = {'sim_clock': clock, **procs}
             lines = []
             for line in clock.stdout:
                 lines.append(line)
                 if not quiet and (line.startswith('[sim') or line.startswith('LOCKSTEP')):
                     print(line, end='', flush=True)
-                for name, p in procs.items():
-                    if p.poll() not in (None, 0):
-                        print(f'node {name} died with exit code {p.returncode}', flush=True)
             code = clock.wait()
-            dead = [n for n, p in procs.items() if p.poll() is not None]
+            dead = [n for n, p in procs.items() if n != 'sim_clock' and p.poll() is not None]
         finally:
             _stop(procs)
             log.flush()
@@ -118,9 +116,10 @@ def _run_processes(scene: Scene, params: dict[str, Any], domain_id: int | None,
 
 
 def _stop(procs: dict[str, subprocess.Popen]) -> None:
-    """SIGINT the devices, then the recorder; escalate after timeouts."""
-    names = [n for n in procs if n != 'recorder'] + (['recorder'] if 'recorder' in procs else [])
-    for group in (names[:-1], names[-1:]) if names and names[-1] == 'recorder' else (names,):
+    """SIGINT the clock and the devices, then the recorder; escalate after timeouts."""
+    devices = [n for n in procs if n != 'recorder']
+    groups = [devices] + ([['recorder']] if 'recorder' in procs else [])
+    for group in groups:
         for n in group:
             if procs[n].poll() is None:
                 procs[n].send_signal(signal.SIGINT)
