@@ -7,8 +7,14 @@ import pytest
 
 from pam_bench.models.errors import ParameterError
 from pam_bench.models.loading_servo import LoadMode
-from pam_bench.models.protocols import (Direction, Measurement, Phase, Sequencer,
-                                        schedule_from_config, sweep)
+from pam_bench.models.protocols import (
+    Direction,
+    Measurement,
+    Phase,
+    Sequencer,
+    schedule_from_config,
+    sweep,
+)
 
 FULL = {
     'isometric': {'kind': 'isometric', 'x_m': [0.0, 0.110, 0.005], 'voltage_v': [0, 6, 0.1]},

@@ -1,0 +1,58 @@
+"""Ctrl-C or SIGTERM during a run: nodes stop, no orphan, the bag is closed and valid."""
+
+from __future__ import annotations
+
+import os
+import pathlib
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from test.helpers import bag_payloads
+
+
+def node_processes(domain: int) -> list[int]:
+    """PIDs of pam_bench node processes running in ROS domain ``domain``."""
+    pids = []
+    for d in pathlib.Path('/proc').iterdir():
+        if not d.name.isdigit():
+            continue
+        try:
+            cmd = (d / 'cmdline').read_bytes()
+            env = (d / 'environ').read_bytes()
+        except OSError:
+            continue
+        if b'pam_bench.nodes' in cmd and f'ROS_DOMAIN_ID={domain}\0'.encode() in env:
+            pids.append(int(d.name))
+    return pids
+
+
+@pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM])
+def test_interrupted_run_leaves_a_valid_bag(tmp_path: pathlib.Path, ros_domain: int,
+                                            sig: signal.Signals) -> None:
+    bag = tmp_path / 'bag'
+    proc = subprocess.Popen([sys.executable, '-m', 'pam_bench.cli', 'run', 'isometric_quick',
+                             '--out', str(bag)], stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+    try:
+        deadline = time.monotonic() + 60
+        while not list(bag.glob('*.mcap')) or time.monotonic() < deadline - 55:
+            assert proc.poll() is None, proc.stdout.read()
+            assert time.monotonic() < deadline, 'the run never started recording'
+            time.sleep(0.2)
+        time.sleep(2.0)
+        proc.send_signal(sig)
+        out, _ = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130, out
+    assert 'bag closed' in out or 'interrupted' in out
+    assert (bag / 'metadata.yaml').exists()
+    payloads = bag_payloads(bag)
+    assert len(payloads['/load_cell_1/force']) > 50
+    time.sleep(0.5)
+    assert node_processes(ros_domain) == []
