@@ -8,11 +8,11 @@ from typing import Any
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
+from pam_bench_interfaces.msg import StepAck
 from rclpy.executors import SingleThreadedExecutor
 from rosgraph_msgs.msg import Clock
 
 from pam_bench.nodes.base import RELIABLE, ns_of, time_of
-from pam_bench_interfaces.msg import StepAck
 
 
 class Harness:

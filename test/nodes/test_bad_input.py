@@ -5,11 +5,11 @@ from __future__ import annotations
 import math
 
 import pytest
+from pam_bench_interfaces.msg import MuscleState, ValveCommand
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import FluidPressure
 
 from pam_bench.nodes.valve_sim import ATMOSPHERE_PA, ValveSim
-from pam_bench_interfaces.msg import MuscleState, ValveCommand
 from test.nodes.harness import Harness
 
 MS = 10_000_000
