@@ -27,8 +27,8 @@ if [ "$(cat "$VENV/.stamp-wheels" 2>/dev/null)" != "$want" ]; then
 fi
 
 # 2. The wheels' CMake exports name the interpreter of the machine that built them.
-grep -rl '/opt/python/cp311-cp311' "$VENV/share" "$VENV/lib" --include='*.cmake' 2>/dev/null \
-  | while read -r f; do
+{ grep -rl '/opt/python/cp311-cp311' "$VENV/share" "$VENV/lib" --include='*.cmake' 2>/dev/null \
+    || true; } | while read -r f; do
       sed -i -e "s#/opt/python/cp311-cp311/include/python3.11#$INC#g" \
              -e "s#/opt/python/cp311-cp311/lib/python3.11/site-packages#$SP#g" "$f"
     done

@@ -74,6 +74,7 @@ class BenchNode(Node):
         self._pending_ns: int | None = None
         self._step_index = 0
         self.rejected_count = 0
+        self.stop_request: tuple[int, str] | None = None   # (exit code, reason) sent on acks
         self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', RELIABLE)
         self._ack_pub = None
 
@@ -202,6 +203,8 @@ class BenchNode(Node):
 
     def _ack(self, t: int) -> None:
         ack = StepAck(node=self.get_fully_qualified_name())
+        if self.stop_request is not None:
+            ack.stop, ack.exit_code, ack.reason = True, *self.stop_request
         ack.header.stamp = time_of(t)
         self._ack_pub.publish(ack)
 

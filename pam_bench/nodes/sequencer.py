@@ -23,6 +23,7 @@ from pam_bench.nodes.valve_sim import ATMOSPHERE_PA
 
 __all__ = ['SequencerNode', 'main']
 
+END_CODES = {Phase.DONE: 0, Phase.ABORTED: 4, Phase.CANCELLED: 5}
 STATE_OF = {Phase.IDLE: ProtocolStatus.STATE_IDLE, Phase.SETTLE: ProtocolStatus.STATE_RUNNING,
             Phase.DWELL: ProtocolStatus.STATE_RUNNING, Phase.DONE: ProtocolStatus.STATE_DONE,
             Phase.ABORTED: ProtocolStatus.STATE_ABORTED,
@@ -51,6 +52,8 @@ class SequencerNode(BenchNode):
         self.protocol = self.declare_typed('protocol', 'demo', 'protocol name to run')
         path = self.declare_typed('protocols_file', default_protocols_file(),
                                   'YAML file of the protocols')
+        self.stop_on_end = self.declare_typed('stop_on_end', True,
+                                              'ask the sim clock to end the run with the protocol')
         self.status_period_s = self.declare_typed('status_period_s', 1.0,
                                                   'sim time between status messages', 's',
                                                   1e-3, 1e6)
@@ -103,6 +106,10 @@ class SequencerNode(BenchNode):
             self.point_pub.publish(self._point_msg(cmd.point, stamp))
         if self.core.phase != self._last_phase or t - self._last_status_t >= self.status_period_s:
             self._publish_status(t, stamp)
+        if self.core.phase in END_CODES and self.stop_on_end:
+            self.stop_request = (END_CODES[self.core.phase],
+                                 f'protocol {self.core.name} {self.core.phase.value}'
+                                 + (f': {self.core.reason}' if self.core.reason else ''))
 
     def _point_msg(self, pt: Point, stamp: Any) -> CharacteristicPoint:
         r, m = pt.reading, pt.measurement

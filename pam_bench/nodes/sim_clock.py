@@ -2,8 +2,9 @@
 
 It repeats t_0 until every participant has acknowledged it (all are up and their inputs are
 matched), waits ``grace_s`` of wall time for the remaining matches, then publishes t_k+1 only
-when every participant has acknowledged t_k. It stops at ``duration_s`` or when the sequencer
-reports DONE, ABORTED or CANCELLED: a last flush tick at t_N + 1 ns lets every participant
+when every participant has acknowledged t_k. It stops at ``duration_s`` or when a participant's
+acknowledgement asks to stop (the sequencer's, when its protocol ends; in the ack itself, so
+the last step is the same in every run): a last flush tick at t_N + 1 ns lets every participant
 (the recorder above all) take in the data stamped t_N, and once all have acknowledged it the
 clock prints one summary line (``LOCKSTEP steps=... rate=...``) and exits. With ``realtime``
 the ticks are paced to the wall clock.
@@ -23,9 +24,6 @@ from rosgraph_msgs.msg import Clock
 from pam_bench.nodes.base import RELIABLE, BenchNode, ns_of, time_of
 
 __all__ = ['SimClock', 'main']
-
-STOP_STATES = (ProtocolStatus.STATE_DONE, ProtocolStatus.STATE_ABORTED,
-               ProtocolStatus.STATE_CANCELLED)
 
 
 class SimClock(Node):
@@ -51,6 +49,7 @@ class SimClock(Node):
         self.k = 0
         self.tick_ns = 0
         self.flushing = False
+        self.stop_request: tuple[str, int] | None = None
         self.acks: set[str] = set()
         self.ready = False
         self.done = False
@@ -125,7 +124,12 @@ class SimClock(Node):
         if ns_of(msg.header.stamp) != self.tick_ns:
             return
         self.acks.add(msg.node)
+        if msg.stop and not self.flushing:
+            self.stop_request = (msg.reason, int(msg.exit_code))
         if not (self.ready and self.k > 0 and self.acks >= self.participants):
+            return
+        if self.stop_request is not None and not self.flushing:
+            self._flush(*self.stop_request)
             return
         if self.flushing:
             self._finish(self.flush_reason, self.flush_code)
@@ -135,9 +139,7 @@ class SimClock(Node):
     def _on_status(self, msg: ProtocolStatus) -> None:
         if msg.remaining > 0.0:
             self.expected_total_s = msg.elapsed + msg.remaining
-        if msg.state in STOP_STATES and not self.done:
-            self._flush(f'protocol {msg.protocol}: state {msg.state} {msg.reason}'.strip(),
-                        0 if msg.state == ProtocolStatus.STATE_DONE else 4)
+        # ending the run is asked for in the sequencer's StepAck, not here (no topic race)
 
     def _progress(self) -> None:
         now = time.monotonic()

@@ -11,6 +11,7 @@ from mcap_ros2.decoder import DecoderFactory
 from pam_bench.models.muscle import MuscleModel
 from pam_bench.sim.runner import run_scene
 from pam_bench.sim.scene import EVENT_TOPICS, STEP_TOPICS, load_scene
+from test.conftest import next_domain
 from test.helpers import bag_messages, bag_payloads, canonical_payloads
 
 SCENE = pathlib.Path(__file__).resolve().parents[1] / 'config_short.yaml'
@@ -19,13 +20,11 @@ STEPS = 450           # 0.5 s settle + 2 s up + 2 s down at 10 ms
 
 @pytest.fixture(scope='module')
 def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, pathlib.Path]:
-    import os
-    base = 60 + os.getpid() % 30
     out = {}
-    for i, (name, one) in enumerate([('proc_a', False), ('proc_b', False), ('one', True)]):
+    for name, one in [('proc_a', False), ('proc_b', False), ('one', True)]:
         bag = tmp_path_factory.mktemp('bags') / name
         res = run_scene(load_scene(str(SCENE)), str(bag), seed=3, one_process=one,
-                        domain_id=base + i, quiet=True)
+                        domain_id=next_domain(), quiet=True)
         assert res.code == 0, res
         assert res.steps == STEPS
         out[name] = bag
