@@ -18,8 +18,8 @@ import numpy as np
 from pam_bench.models.errors import ParameterError
 from pam_bench.models.loading_servo import LoadMode
 
-__all__ = ['Phase', 'Direction', 'Reading', 'Measurement', 'Point', 'Commands', 'Sequencer',
-           'sweep', 'schedule_from_config']
+__all__ = ['Phase', 'Direction', 'Reading', 'Measurement', 'Limits', 'Point', 'Commands',
+           'Sequencer', 'sweep', 'schedule_from_config']
 
 
 class Phase(enum.Enum):
@@ -27,7 +27,9 @@ class Phase(enum.Enum):
 
     IDLE = 'idle'
     SETTLE = 'settle'
+    LEAD = 'lead'
     DWELL = 'dwell'
+    RECORD = 'record'
     DONE = 'done'
     ABORTED = 'aborted'
     CANCELLED = 'cancelled'
@@ -55,6 +57,10 @@ class Reading:
     load_value: float
     dwell_s: float
     ramp_from_v: float | None = None     # ramp u linearly from this value over the dwell
+    pre_voltage_v: float | None = None   # hold this u during the dwell, then step to voltage_v
+    record_s: float = 0.0                # after the step: record the force this long
+    sample_period_s: float = 0.0         # of the record, s
+    lead_s: float = 0.0                  # extra wait before the dwell (protocol change)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -67,6 +73,17 @@ class Measurement:
 
 
 @dataclasses.dataclass(frozen=True)
+class Limits:
+    """Abort thresholds: load-cell range (N), set-value tolerances of the loading servo at a
+    reading (N, m; force tolerance also relative)."""
+
+    force_range_n: float = 2000.0
+    force_tolerance_n: float = 10.0
+    force_tolerance_rel: float = 0.05
+    position_tolerance_m: float = 1.0e-3
+
+
+@dataclasses.dataclass(frozen=True)
 class Point:
     """A reading taken: the schedule entry, the sim time (s) and the measurement."""
 
@@ -74,6 +91,8 @@ class Point:
     t_s: float
     voltage_v: float
     measurement: Measurement
+    samples: tuple[float, ...] = ()      # force record after a step, N (step response)
+    t_step_s: float = 0.0                # sim time of the step of a record
 
 
 @dataclasses.dataclass(frozen=True)
@@ -99,12 +118,57 @@ def _load_mode(name: str) -> LoadMode:
         raise ParameterError(f'unknown load mode {name!r}: use off, force or position') from None
 
 
-def schedule_from_config(name: str, cfg: Mapping[str, Any]) -> tuple[list[Reading], float]:
+def _isobaric_like(name: str, kind: str, cfg: Mapping[str, Any], get: Any, dwell: float
+                   ) -> list[Reading]:
+    out: list[Reading] = []
+    if kind in ('isometric', 'isotonic'):
+        held = get('x_m' if kind == 'isometric' else 'force_n')
+        series = sweep(*[float(v) for v in held])
+        swept = sweep(*[float(v) for v in get('voltage_v')])
+        mode = LoadMode.POSITION if kind == 'isometric' else LoadMode.FORCE
+    else:
+        series = sweep(*[float(v) for v in get('voltage_v')])
+        swept = sweep(*[float(v) for v in get('force_n')])
+        mode = LoadMode.FORCE
+    for s, held_value in enumerate(series):
+        seq = [(Direction.UP, v) for v in swept] + [(Direction.DOWN, v) for v in swept[::-1]]
+        for k, (d, v) in enumerate(seq):
+            if kind == 'isobaric':
+                u, load = float(held_value), float(v)
+            else:
+                u, load = float(v), float(held_value)
+            out.append(Reading(name, s, k, d, float(held_value), float(v), u, mode, load, dwell))
+    return out
+
+
+def _step_response(name: str, get: Any, dwell: float) -> list[Reading]:
+    out: list[Reading] = []
+    positions = sweep(*[float(v) for v in get('x_m')])
+    record, period = float(get('record_s')), float(get('sample_period_s'))
+    for s, x in enumerate(positions):
+        k = 0
+        for direction, key in ((Direction.UP, 'up'), (Direction.DOWN, 'down')):
+            spec = get(key)
+            u0, du, n = float(spec['u0_v']), float(spec['step_v']), int(spec['n'])
+            for i in range(1, n + 1):
+                un = round(u0 + du * i, 9)
+                out.append(Reading(name, s, k, direction, float(x), un, un, LoadMode.POSITION,
+                                   float(x), dwell, pre_voltage_v=u0, record_s=record,
+                                   sample_period_s=period))
+                k += 1
+    return out
+
+
+def schedule_from_config(name: str, cfg: Mapping[str, Any],
+                         table: Mapping[str, Any] | None = None
+                         ) -> tuple[list[Reading], float]:
     """Readings and settle time (s) of a protocol described in config/protocols.yaml.
 
     Kinds: ``ramp`` (hold a load, ramp u through ``voltage_v`` breakpoints, read every
     ``reading_every_s``), ``isometric`` / ``isotonic`` (series of a held x or F, u swept up then
-    down), ``isobaric`` (series of a held u, F swept up then down).
+    down), ``isobaric`` (series of a held u, F swept up then down), ``step_response`` (per
+    position: settle at u0, step to u0 + n du, record the force), ``campaign`` (the protocols
+    named in ``protocols``, one after the other; needs ``table``).
 
     Raises:
         ParameterError: a missing or malformed key, named.
@@ -117,113 +181,202 @@ def schedule_from_config(name: str, cfg: Mapping[str, Any]) -> tuple[list[Readin
     kind = get('kind')
     dwell = float(cfg.get('dwell_s', 3.0))
     settle = float(cfg.get('settle_s', dwell))
-    out: list[Reading] = []
-    if kind == 'ramp':
-        mode = _load_mode(get('load_mode'))
-        load = float(get('load_value'))
-        pts = [float(v) for v in get('voltage_v')]
-        every = float(get('reading_every_s'))
-        rate = float(get('ramp_rate_v_per_s'))
-        step = 0
-        for a, b in zip(pts[:-1], pts[1:], strict=True):
-            n = max(1, int(round(abs(b - a) / rate / every)))
-            d = Direction.UP if b >= a else Direction.DOWN
-            for i in range(1, n + 1):
-                u0, u1 = a + (b - a) * (i - 1) / n, a + (b - a) * i / n
-                out.append(Reading(name, 0, step, d, load, u1, u1, mode, load, every,
-                                   ramp_from_v=u0))
-                step += 1
-        return out, settle
-    if kind in ('isometric', 'isotonic'):
-        held = get('x_m' if kind == 'isometric' else 'force_n')
-        series = sweep(*[float(v) for v in held])
-        volts = sweep(*[float(v) for v in get('voltage_v')])
-        mode = LoadMode.POSITION if kind == 'isometric' else LoadMode.FORCE
-        for s, val in enumerate(series):
-            seq = [(Direction.UP, u) for u in volts] + [(Direction.DOWN, u) for u in volts[::-1]]
-            for k, (d, u) in enumerate(seq):
-                out.append(Reading(name, s, k, d, float(val), float(u), float(u), mode,
-                                   float(val), dwell))
-        return out, settle
-    if kind == 'isobaric':
-        volts = sweep(*[float(v) for v in get('voltage_v')])
-        forces = sweep(*[float(v) for v in get('force_n')])
-        for s, u in enumerate(volts):
-            seq = [(Direction.UP, f) for f in forces] + [(Direction.DOWN, f)
-                                                         for f in forces[::-1]]
-            for k, (d, f) in enumerate(seq):
-                out.append(Reading(name, s, k, d, float(u), float(f), float(u), LoadMode.FORCE,
-                                   float(f), dwell))
-        return out, settle
+    try:
+        if kind == 'ramp':
+            return _ramp(name, get), settle
+        if kind in ('isometric', 'isotonic', 'isobaric'):
+            return _isobaric_like(name, kind, cfg, get, dwell), settle
+        if kind == 'step_response':
+            return _step_response(name, get, dwell), settle
+        if kind == 'campaign':
+            if table is None:
+                raise ParameterError(f'protocol {name!r}: a campaign needs the protocol table')
+            out: list[Reading] = []
+            for i, sub in enumerate(get('protocols')):
+                if sub not in table:
+                    raise ParameterError(f'campaign {name!r}: unknown protocol {sub!r}')
+                readings, sub_settle = schedule_from_config(sub, table[sub], table)
+                if i > 0:
+                    readings[0] = dataclasses.replace(readings[0], lead_s=sub_settle)
+                else:
+                    settle = sub_settle
+                out.extend(readings)
+            return out, settle
+    except (TypeError, ValueError, KeyError) as exc:
+        raise ParameterError(f'protocol {name!r}: malformed value ({exc})') from None
     raise ParameterError(f'protocol {name!r}: unknown kind {kind!r}')
 
 
-class Sequencer:
-    """State machine over a schedule. ``tick`` is called at every sim-time step."""
+def _ramp(name: str, get: Any) -> list[Reading]:
+    out: list[Reading] = []
+    mode = _load_mode(get('load_mode'))
+    load = float(get('load_value'))
+    pts = [float(v) for v in get('voltage_v')]
+    every = float(get('reading_every_s'))
+    rate = float(get('ramp_rate_v_per_s'))
+    step = 0
+    for a, b in zip(pts[:-1], pts[1:], strict=True):
+        n = max(1, int(round(abs(b - a) / rate / every)))
+        d = Direction.UP if b >= a else Direction.DOWN
+        for i in range(1, n + 1):
+            u0, u1 = a + (b - a) * (i - 1) / n, a + (b - a) * i / n
+            out.append(Reading(name, 0, step, d, load, u1, u1, mode, load, every,
+                               ramp_from_v=u0))
+            step += 1
+    return out
 
-    def __init__(self, name: str, readings: list[Reading], settle_s: float) -> None:
+
+class Sequencer:
+    """State machine over a schedule. ``tick`` is called at every sim-time step.
+
+    Per reading: optional LEAD (extra settling after a change of protocol), DWELL (set values
+    applied, ``dwell_s``), then either the reading, or for a step-response reading the step of
+    u and a RECORD of the force every ``sample_period_s`` for ``record_s``. The run starts
+    with SETTLE at the first reading's set values. Safety: the run aborts, venting the valve,
+    when the load cell reaches its range, or when at a reading the loading servo is off its set
+    value by more than the tolerance.
+    """
+
+    def __init__(self, name: str, readings: list[Reading], settle_s: float,
+                 limits: Limits | None = None) -> None:
         if not readings:
             raise ParameterError(f'protocol {name!r} has no readings')
         self.name = name
         self.readings = readings
         self.settle_s = settle_s
+        self.limits = limits or Limits()
         self.phase = Phase.IDLE
         self.index = 0
         self.t_phase = 0.0
         self.t_start = 0.0
         self.reason = ''
         self.points_done = 0
+        self.samples: list[float] = []
+        self.t_next_sample = 0.0
+        self._total = settle_s + sum(r.lead_s + r.dwell_s + r.record_s for r in readings)
+        self._done_s = 0.0               # scheduled time of the readings already taken
 
     @property
     def total_s(self) -> float:
         """Scheduled sim time of the whole run, s."""
-        return self.settle_s + sum(r.dwell_s for r in self.readings)
+        return self._total
+
+    @property
+    def running(self) -> bool:
+        """True while the protocol is in progress."""
+        return self.phase in (Phase.SETTLE, Phase.LEAD, Phase.DWELL, Phase.RECORD)
 
     def remaining_s(self, t_s: float) -> float:
         """Scheduled sim time still to run, s."""
-        if self.phase in (Phase.DONE, Phase.ABORTED, Phase.CANCELLED, Phase.IDLE):
-            return 0.0 if self.phase != Phase.IDLE else self.total_s
+        if self.phase == Phase.IDLE:
+            return self.total_s
+        if not self.running:
+            return 0.0
         return max(self.total_s - (t_s - self.t_start), 0.0)
 
     def start(self, t_s: float) -> None:
         """Begin with the settle phase at the first reading's set values."""
         self.phase, self.t_phase, self.t_start, self.index = Phase.SETTLE, t_s, t_s, 0
+        self.points_done = 0
+        self.reason = ''
 
     def stop(self, phase: Phase, reason: str) -> None:
         """End early (ABORTED or CANCELLED) with a reason."""
-        if self.phase not in (Phase.DONE, Phase.ABORTED, Phase.CANCELLED):
+        if self.running or self.phase == Phase.IDLE:
             self.phase, self.reason = phase, reason
 
+    def next_event_s(self, t_s: float) -> float:
+        """Sim time of the next phase change or record sample (inf when idle or ended)."""
+        if not self.running:
+            return float('inf')
+        if self.phase == Phase.SETTLE:
+            return self.t_phase + self.settle_s
+        r = self.readings[self.index]
+        if self.phase == Phase.LEAD:
+            return self.t_phase + r.lead_s
+        if self.phase == Phase.DWELL:
+            return self.t_phase + r.dwell_s
+        return min(self.t_next_sample, self.t_phase + r.record_s)
+
     def _voltage(self, r: Reading, t_s: float) -> float:
-        if r.ramp_from_v is None or self.phase != Phase.DWELL:
-            return r.voltage_v
-        a = min(max((t_s - self.t_phase) / r.dwell_s, 0.0), 1.0)
-        return r.ramp_from_v + (r.voltage_v - r.ramp_from_v) * a
+        if self.phase == Phase.RECORD or r.pre_voltage_v is None:
+            if r.ramp_from_v is None or self.phase != Phase.DWELL:
+                return r.voltage_v
+            a = min(max((t_s - self.t_phase) / r.dwell_s, 0.0), 1.0)
+            return r.ramp_from_v + (r.voltage_v - r.ramp_from_v) * a
+        return r.pre_voltage_v
+
+    def _check(self, r: Reading, meas: Measurement) -> str:
+        lim = self.limits
+        if abs(meas.force_n) >= 0.999 * lim.force_range_n:
+            return f'load cell out of range: {meas.force_n:.1f} N'
+        if r.load_mode == LoadMode.FORCE:
+            tol = lim.force_tolerance_n + lim.force_tolerance_rel * abs(r.load_value)
+            if abs(meas.force_n - r.load_value) > tol:
+                return (f'loading servo cannot reach {r.load_value:.1f} N '
+                        f'(measured {meas.force_n:.1f} N)')
+        if r.load_mode == LoadMode.POSITION and r.record_s == 0.0:
+            if abs(meas.contraction_m - r.load_value) > lim.position_tolerance_m:
+                return (f'loading servo cannot reach x = {r.load_value * 1e3:.2f} mm '
+                        f'(measured {meas.contraction_m * 1e3:.2f} mm)')
+        return ''
 
     def tick(self, t_s: float, meas: Measurement) -> Commands:
         """Advance to ``t_s`` given the latest measurement; return what to command."""
         eps = 1e-9
         point = None
+        if self.running and abs(meas.force_n) >= 0.999 * self.limits.force_range_n:
+            self.stop(Phase.ABORTED, f'load cell out of range: {meas.force_n:.1f} N')
         if self.phase == Phase.SETTLE and t_s - self.t_phase >= self.settle_s - eps:
             self.phase, self.t_phase = Phase.DWELL, t_s
+            if self.readings[0].lead_s > 0:
+                self.phase = Phase.LEAD
+        if self.phase == Phase.LEAD:
+            r = self.readings[self.index]
+            if t_s - self.t_phase >= r.lead_s - eps:
+                self.phase, self.t_phase = Phase.DWELL, t_s
         elif self.phase == Phase.DWELL:
             r = self.readings[self.index]
             if t_s - self.t_phase >= r.dwell_s - eps:
-                point = Point(r, t_s, r.voltage_v, meas)
-                self.points_done += 1
-                self.index += 1
-                self.t_phase = t_s
-                if self.index >= len(self.readings):
-                    self.phase = Phase.DONE
-        if self.phase in (Phase.SETTLE, Phase.DWELL):
+                if r.record_s > 0.0:
+                    self.phase, self.t_phase = Phase.RECORD, t_s
+                    self.samples = []
+                    self.t_next_sample = t_s
+                else:
+                    point = self._take(r, t_s, meas)
+        if self.phase == Phase.RECORD:
             r = self.readings[self.index]
-            first = self.readings[0]
+            if t_s >= self.t_next_sample - eps and \
+                    t_s - self.t_phase < r.record_s - eps:
+                self.samples.append(meas.force_n)
+                self.t_next_sample = self.t_phase + len(self.samples) * r.sample_period_s
+            if t_s - self.t_phase >= r.record_s - eps:
+                point = self._take(r, t_s, meas, tuple(self.samples), self.t_phase)
+        if self.running:
+            r = self.readings[self.index]
             if self.phase == Phase.SETTLE:
-                u0 = first.ramp_from_v if first.ramp_from_v is not None else first.voltage_v
+                first = self.readings[0]
+                u0 = first.ramp_from_v if first.ramp_from_v is not None else (
+                    first.pre_voltage_v if first.pre_voltage_v is not None else first.voltage_v)
                 return Commands(u0, first.load_mode, first.load_value, point)
             return Commands(self._voltage(r, t_s), r.load_mode, r.load_value, point)
-        # idle, done, aborted, cancelled: vent the valve, hold the last load
         last = self.readings[min(self.index, len(self.readings) - 1)]
         if self.phase == Phase.DONE:
             return Commands(0.0, last.load_mode, last.load_value, point)
-        return Commands(0.0, LoadMode.OFF, 0.0, point)
+        return Commands(0.0, LoadMode.OFF, 0.0, point)          # vent, torque off
+
+    def _take(self, r: Reading, t_s: float, meas: Measurement,
+              samples: tuple[float, ...] = (), t_step: float = 0.0) -> Point | None:
+        problem = self._check(r, meas)
+        if problem:
+            self.stop(Phase.ABORTED, problem)
+            return None
+        point = Point(r, t_s, r.voltage_v, meas, samples, t_step)
+        self.points_done += 1
+        self.index += 1
+        self.t_phase = t_s
+        if self.index >= len(self.readings):
+            self.phase = Phase.DONE
+        else:
+            self.phase = Phase.LEAD if self.readings[self.index].lead_s > 0 else Phase.DWELL
+        return point

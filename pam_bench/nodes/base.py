@@ -1,12 +1,14 @@
 """Shared machinery of the bench nodes: typed parameters, diagnostics and the lock-step step.
 
-Lock-step (see ../shared/DESIGN.md, Time): ``sim_clock`` publishes /clock at t_k = k h. A
+Lock-step (see ../shared/DESIGN.md, Time): ``sim_clock`` publishes /clock at t_k. A
 participant steps to t_k once it holds, for each of its synchronous inputs, the message
 stamped exactly t_(k-1) (every participant publishes every output at every step). It then
 publishes its outputs stamped t_k and a StepAck. Inputs are buffered by stamp, so a fast
 producer's t_k output never replaces the t_(k-1) one a slower consumer still needs: the run is
 deterministic whatever order DDS delivers messages in. At t_0 a participant only says it is
-ready (its inputs have publishers); step 1 uses the initial values.
+ready (its inputs have publishers); step 1 uses the initial values. With its acknowledgement
+a participant may ask for a shorter next step (``max_next_step_s``), so that events such as a
+reading or a 1 kHz record land exactly on the exchange grid.
 """
 
 from __future__ import annotations
@@ -75,6 +77,7 @@ class BenchNode(Node):
         self._step_index = 0
         self.rejected_count = 0
         self.stop_request: tuple[int, str] | None = None   # (exit code, reason) sent on acks
+        self.max_next_step_s = 0.0        # longest next exchange step wanted (0: any)
         self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', RELIABLE)
         self._ack_pub = None
 
@@ -203,6 +206,7 @@ class BenchNode(Node):
 
     def _ack(self, t: int) -> None:
         ack = StepAck(node=self.get_fully_qualified_name())
+        ack.max_next_step = float(self.max_next_step_s)
         if self.stop_request is not None:
             ack.stop, ack.exit_code, ack.reason = True, *self.stop_request
         ack.header.stamp = time_of(t)

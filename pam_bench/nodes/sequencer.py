@@ -1,31 +1,59 @@
 """sequencer: runs a characterisation protocol over the measured topics only.
 
 Reads ``load_cell_N/force``, ``encoder/joint_state`` and ``valve_N/pressure``; commands
-``valve_N/command`` and ``loading_servo/command`` at every step; publishes one
-``protocol/point`` at the end of every dwell and ``protocol/status``. The protocol logic is the
-pure ``pam_bench.models.protocols.Sequencer``; this node only ticks it.
+``valve_N/command`` and ``loading_servo/command`` at every tick; publishes one
+``protocol/point`` at the end of every dwell, one ``protocol/step_response`` per recorded step,
+and ``protocol/status``. The protocol logic is the pure
+``pam_bench.models.protocols.Sequencer``; this node only ticks it.
+
+Start: with ``autostart`` the protocol named by ``protocol`` begins at t_0; otherwise (and at
+any time when idle) a ``protocol/run`` RunProtocol goal starts one, with optional YAML
+overrides. Cancelling the goal stops the run and vents the valve.
+
+Ticks: in lock-step (simulated bench) on every /clock tick, asking the clock for a step that
+lands on the next reading or record sample; with ``lockstep: false`` (real bench) on a timer of
+``tick_period_s``, aborting when a measured topic is older than ``stale_timeout_s``.
 """
 
 from __future__ import annotations
 
+import math
 import pathlib
 from typing import Any
 
 import yaml
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import WrenchStamped
-from pam_bench_interfaces.msg import CharacteristicPoint, LoadCommand, ProtocolStatus, ValveCommand
+from pam_bench_interfaces.action import RunProtocol
+from pam_bench_interfaces.msg import (
+    CharacteristicPoint,
+    LoadCommand,
+    ProtocolStatus,
+    StepResponseRecord,
+    ValveCommand,
+)
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.task import Future
 from sensor_msgs.msg import FluidPressure, JointState
 
-from pam_bench.models.protocols import Measurement, Phase, Point, Sequencer, schedule_from_config
-from pam_bench.nodes.base import RELIABLE, BenchNode, run_node, time_of
+from pam_bench.models.errors import ParameterError
+from pam_bench.models.protocols import (
+    Limits,
+    Measurement,
+    Phase,
+    Point,
+    Sequencer,
+    schedule_from_config,
+)
+from pam_bench.nodes.base import RELIABLE, BenchNode, ns_of, run_node, time_of
 from pam_bench.nodes.valve_sim import ATMOSPHERE_PA
 
 __all__ = ['SequencerNode', 'main']
 
 END_CODES = {Phase.DONE: 0, Phase.ABORTED: 4, Phase.CANCELLED: 5}
 STATE_OF = {Phase.IDLE: ProtocolStatus.STATE_IDLE, Phase.SETTLE: ProtocolStatus.STATE_RUNNING,
-            Phase.DWELL: ProtocolStatus.STATE_RUNNING, Phase.DONE: ProtocolStatus.STATE_DONE,
+            Phase.LEAD: ProtocolStatus.STATE_RUNNING, Phase.DWELL: ProtocolStatus.STATE_RUNNING,
+            Phase.RECORD: ProtocolStatus.STATE_RUNNING, Phase.DONE: ProtocolStatus.STATE_DONE,
             Phase.ABORTED: ProtocolStatus.STATE_ABORTED,
             Phase.CANCELLED: ProtocolStatus.STATE_CANCELLED}
 
@@ -48,68 +76,158 @@ class SequencerNode(BenchNode):
 
     def __init__(self, name: str = 'sequencer', **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
-        self.channel = self.declare_typed('channel', 1, 'muscle channel under test', '-', 1, 2)
-        self.protocol = self.declare_typed('protocol', 'demo', 'protocol name to run')
-        path = self.declare_typed('protocols_file', default_protocols_file(),
-                                  'YAML file of the protocols')
-        self.stop_on_end = self.declare_typed('stop_on_end', True,
-                                              'ask the sim clock to end the run with the protocol')
-        self.status_period_s = self.declare_typed('status_period_s', 1.0,
-                                                  'sim time between status messages', 's',
-                                                  1e-3, 1e6)
+        d = self.declare_typed
+        self.channel = d('channel', 1, 'muscle channel under test', '-', 1, 2)
+        self.protocol = d('protocol', 'demo', 'protocol started at t_0 with autostart')
+        self.autostart = d('autostart', True, 'start the protocol at t_0 (else: on a goal)')
+        path = d('protocols_file', default_protocols_file(), 'YAML file of the protocols')
+        self.status_period_s = d('status_period_s', 1.0, 'sim time between status messages',
+                                 's', 1e-3, 1e6)
+        self.stop_on_end = d('stop_on_end', True, 'ask the sim clock to end the run with '
+                             'the protocol')
+        self.tick_period_s = d('tick_period_s', 0.001, 'tick period without lock-step', 's',
+                               1e-4, 1.0)
+        self.stale_timeout_s = d('stale_timeout_s', 0.5, 'abort when a measured topic is '
+                                 'older than this (without lock-step)', 's', 1e-3, 60.0)
+        self.pulley_radius_m = d('pitch_diameter_m', 0.06366, 'pulley pitch diameter for '
+                                 'x = r theta', 'm', 1e-3, 10.0) / 2.0
+        self.limits = Limits(
+            force_range_n=d('force_range_n', 2000.0, 'load cell range: abort beyond', 'N',
+                            1.0, 1e6),
+            force_tolerance_n=d('force_tolerance_n', 10.0, 'servo force tolerance at a reading',
+                                'N', 0.0, 1e5),
+            force_tolerance_rel=d('force_tolerance_rel', 0.05, 'relative force tolerance', '-',
+                                  0.0, 1.0),
+            position_tolerance_m=d('position_tolerance_m', 1e-3, 'servo position tolerance at '
+                                   'a reading', 'm', 0.0, 1.0))
         with open(path, encoding='utf-8') as fh:
-            table = yaml.safe_load(fh) or {}
-        if self.protocol not in table:
-            raise KeyError(f'protocol {self.protocol!r} is not in {path}')
-        readings, settle = schedule_from_config(self.protocol, table[self.protocol])
-        self.core = Sequencer(self.protocol, readings, settle)
-        self.pulley_radius_m = self.declare_typed(
-            'pitch_diameter_m', 0.06366, 'pulley pitch diameter for x = r theta', 'm',
-            1e-3, 10.0) / 2.0
+            self.table = yaml.safe_load(fh) or {}
+        self.core = self._make(self.protocol, '') if self.autostart else None
         ch = self.channel
         self.cell_topic = f'load_cell_{ch}/force'
         self.enc_topic = 'encoder/joint_state'
         self.p_topic = f'valve_{ch}/pressure'
         self.meas = Measurement(0.0, 0.0, 0.0)
+        self.stamps: dict[str, float] = {}
         self.valve_pub = self.create_publisher(ValveCommand, f'valve_{ch}/command', RELIABLE)
         self.load_pub = self.create_publisher(LoadCommand, 'loading_servo/command', RELIABLE)
         self.point_pub = self.create_publisher(CharacteristicPoint, 'protocol/point', RELIABLE)
+        self.record_pub = self.create_publisher(StepResponseRecord, 'protocol/step_response',
+                                                RELIABLE)
         self.status_pub = self.create_publisher(ProtocolStatus, 'protocol/status', RELIABLE)
-        self._last_status_t = -1e300
-        self._last_phase = Phase.IDLE
-        self.sync_input(WrenchStamped, self.cell_topic)
-        self.sync_input(JointState, self.enc_topic)
-        self.sync_input(FluidPressure, self.p_topic)
-        self.start_lockstep()
+        self._last_status_t = -math.inf
+        self._last_phase: Phase | None = None
+        self._start_pending = False
+        self._goal: Any = None
+        self._goal_done: Future | None = None
+        self._t = 0.0
+        self.action = ActionServer(self, RunProtocol, 'protocol/run', self._execute,
+                                   goal_callback=self._on_goal,
+                                   cancel_callback=lambda _: CancelResponse.ACCEPT)
+        if self.lockstep:
+            self.sync_input(WrenchStamped, self.cell_topic)
+            self.sync_input(JointState, self.enc_topic)
+            self.sync_input(FluidPressure, self.p_topic)
+            self.start_lockstep()
+        else:
+            self.create_subscription(WrenchStamped, self.cell_topic,
+                                     lambda m: self._measured(self.cell_topic, m), RELIABLE)
+            self.create_subscription(JointState, self.enc_topic,
+                                     lambda m: self._measured(self.enc_topic, m), RELIABLE)
+            self.create_subscription(FluidPressure, self.p_topic,
+                                     lambda m: self._measured(self.p_topic, m), RELIABLE)
+            self.create_timer(self.tick_period_s, self._on_timer)
 
+    def _make(self, name: str, overrides_yaml: str) -> Sequencer:
+        if name not in self.table:
+            raise ParameterError(f'unknown protocol {name!r}; known: '
+                                 f'{", ".join(sorted(self.table))}')
+        cfg = dict(self.table[name])
+        if overrides_yaml.strip():
+            extra = yaml.safe_load(overrides_yaml)
+            if not isinstance(extra, dict):
+                raise ParameterError('overrides_yaml must be a YAML mapping')
+            cfg.update(extra)
+        readings, settle = schedule_from_config(name, cfg, self.table)
+        return Sequencer(name, readings, settle, self.limits)
+
+    # --- inputs -------------------------------------------------------------------------
+    def _update(self, topic: str, msg: Any) -> None:
+        if topic == self.cell_topic:
+            self.meas = Measurement(msg.wrench.force.x, self.meas.contraction_m,
+                                    self.meas.pressure_pa)
+        elif topic == self.enc_topic:
+            self.meas = Measurement(self.meas.force_n, msg.position[0] * self.pulley_radius_m,
+                                    self.meas.pressure_pa)
+        else:
+            self.meas = Measurement(self.meas.force_n, self.meas.contraction_m,
+                                    msg.fluid_pressure - ATMOSPHERE_PA)
+
+    def _measured(self, topic: str, msg: Any) -> None:
+        self.stamps[topic] = ns_of(msg.header.stamp) * 1e-9
+        self._update(topic, msg)
+
+    # --- ticking ------------------------------------------------------------------------
     def on_start(self, t_ns: int) -> None:
-        """Start the protocol at t_0."""
-        self.core.start(t_ns * 1e-9)
+        """Start the protocol at t_0 when autostart is set."""
+        if self.core is not None:
+            self.core.start(t_ns * 1e-9)
 
     def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
-        """Tick the protocol and publish commands, the point and the status."""
-        if inputs:
-            f = inputs[self.cell_topic].wrench.force.x
-            th = inputs[self.enc_topic].position[0]
-            p = inputs[self.p_topic].fluid_pressure - ATMOSPHERE_PA
-            self.meas = Measurement(f, th * self.pulley_radius_m, p)
+        """Lock-step tick: take the inputs of t_(k-1), tick the protocol."""
+        for topic, msg in inputs.items():
+            self._update(topic, msg)
+        self._tick(t_ns)
+
+    def _on_timer(self) -> None:
+        t_ns = self.get_clock().now().nanoseconds
         t = t_ns * 1e-9
-        cmd = self.core.tick(t, self.meas)
+        if self.core is not None and self.core.running:
+            for topic in (self.cell_topic, self.enc_topic, self.p_topic):
+                age = t - self.stamps.get(topic, -math.inf)
+                if age > self.stale_timeout_s:
+                    self.core.stop(Phase.ABORTED, f'measured topic {topic} stale '
+                                   f'({age:.3f} s old)')
+                    self.diagnose(DiagnosticStatus.ERROR, self.core.reason)
+                    break
+        self._tick(t_ns)
+
+    def _tick(self, t_ns: int) -> None:
+        t = t_ns * 1e-9
+        self._t = t
+        self._wake()
+        if self._start_pending and self.core is not None:
+            self.core.start(t)
+            self._start_pending = False
         stamp = time_of(t_ns)
-        v = ValveCommand(voltage=cmd.voltage_v)
-        v.header.stamp = stamp
-        self.valve_pub.publish(v)
-        lc = LoadCommand(mode=int(cmd.load_mode), channel=self.channel, setpoint=cmd.load_value)
-        lc.header.stamp = stamp
-        self.load_pub.publish(lc)
+        core = self.core
+        if core is None:
+            self._publish_commands(stamp, 0.0, 0, 0.0)
+            return
+        cmd = core.tick(t, self.meas)
+        self._publish_commands(stamp, cmd.voltage_v, int(cmd.load_mode), cmd.load_value)
         if cmd.point is not None:
             self.point_pub.publish(self._point_msg(cmd.point, stamp))
-        if self.core.phase != self._last_phase or t - self._last_status_t >= self.status_period_s:
+            if cmd.point.samples:
+                self.record_pub.publish(self._record_msg(cmd.point))
+        if core.phase != self._last_phase or t - self._last_status_t >= self.status_period_s:
             self._publish_status(t, stamp)
-        if self.core.phase in END_CODES and self.stop_on_end:
-            self.stop_request = (END_CODES[self.core.phase],
-                                 f'protocol {self.core.name} {self.core.phase.value}'
-                                 + (f': {self.core.reason}' if self.core.reason else ''))
+        nxt = core.next_event_s(t)
+        self.max_next_step_s = max(nxt - t, 1e-6) if math.isfinite(nxt) else 0.0
+        if not core.running and core.phase != Phase.IDLE:
+            self._finish_goal()
+            if self.stop_on_end and self.autostart:
+                self.stop_request = (END_CODES[core.phase], f'protocol {core.name} '
+                                     f'{core.phase.value}' + (f': {core.reason}'
+                                                              if core.reason else ''))
+
+    def _publish_commands(self, stamp: Any, u: float, mode: int, value: float) -> None:
+        v = ValveCommand(voltage=u)
+        v.header.stamp = stamp
+        self.valve_pub.publish(v)
+        lc = LoadCommand(mode=mode, channel=self.channel, setpoint=value)
+        lc.header.stamp = stamp
+        self.load_pub.publish(lc)
 
     def _point_msg(self, pt: Point, stamp: Any) -> CharacteristicPoint:
         r, m = pt.reading, pt.measurement
@@ -118,6 +236,16 @@ class SequencerNode(BenchNode):
                                   set_value=r.set_value, voltage=pt.voltage_v, force=m.force_n,
                                   contraction=m.contraction_m, pressure=m.pressure_pa)
         msg.header.stamp = stamp
+        return msg
+
+    def _record_msg(self, pt: Point) -> StepResponseRecord:
+        r = pt.reading
+        msg = StepResponseRecord(series=r.series, step=r.step, direction=int(r.direction),
+                                 contraction=r.series_value,
+                                 voltage_initial=float(r.pre_voltage_v or 0.0),
+                                 voltage_final=r.voltage_v, sample_period=r.sample_period_s,
+                                 force=list(pt.samples))
+        msg.header.stamp = time_of(round(pt.t_step_s * 1e9))
         return msg
 
     def _publish_status(self, t: float, stamp: Any) -> None:
@@ -131,10 +259,63 @@ class SequencerNode(BenchNode):
         self.status_pub.publish(msg)
         self._last_status_t = t
         self._last_phase = c.phase
+        if self._goal is not None and c.running:
+            fb = RunProtocol.Feedback(progress=msg.progress, points_done=msg.points_done,
+                                      points_total=total, phase=msg.phase,
+                                      remaining=msg.remaining)
+            self._goal.publish_feedback(fb)
+
+    # --- action -------------------------------------------------------------------------
+    def _on_goal(self, goal: RunProtocol.Goal) -> GoalResponse:
+        if self.core is not None and (self.core.running or self._start_pending):
+            self.get_logger().warning('protocol goal rejected: a protocol is running')
+            return GoalResponse.REJECT
+        try:
+            self.core = self._make(goal.protocol, goal.overrides_yaml)
+        except (ParameterError, yaml.YAMLError) as exc:
+            self.diagnose(DiagnosticStatus.ERROR, f'protocol goal rejected: {exc}')
+            return GoalResponse.REJECT
+        self._start_pending = True
+        return GoalResponse.ACCEPT
+
+    async def _execute(self, goal_handle: Any) -> RunProtocol.Result:
+        self._goal = goal_handle
+        self._goal_done = Future()
+        core = self.core
+        while not self._goal_done.done():
+            if goal_handle.is_cancel_requested and core.running:
+                core.stop(Phase.CANCELLED, 'cancelled by the client')
+            await self._wait_tick()
+        self._goal = None
+        result = RunProtocol.Result(success=core.phase == Phase.DONE, reason=core.reason,
+                                    points=core.points_done)
+        if core.phase == Phase.CANCELLED:
+            goal_handle.canceled()
+        elif core.phase == Phase.DONE:
+            goal_handle.succeed()
+        else:
+            goal_handle.abort()
+        return result
+
+    async def _wait_tick(self) -> None:
+        fut = Future()
+        self._tick_waiter = fut
+        await fut
+
+    def _finish_goal(self) -> None:
+        if self._goal_done is not None and not self._goal_done.done():
+            self._goal_done.set_result(True)
+        self._wake()
+
+    def _wake(self) -> None:
+        fut = getattr(self, '_tick_waiter', None)
+        if fut is not None and not fut.done():
+            fut.set_result(True)
 
     def on_fault(self, reason: str) -> None:
         """Abort: the next tick vents the valve."""
-        self.core.stop(Phase.ABORTED, reason)
+        if self.core is not None:
+            self.core.stop(Phase.ABORTED, reason)
         self.diagnose(DiagnosticStatus.ERROR, f'protocol aborted: {reason}')
 
 

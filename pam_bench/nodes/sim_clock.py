@@ -2,12 +2,14 @@
 
 It repeats t_0 until every participant has acknowledged it (all are up and their inputs are
 matched), waits ``grace_s`` of wall time for the remaining matches, then publishes t_k+1 only
-when every participant has acknowledged t_k. It stops at ``duration_s`` or when a participant's
-acknowledgement asks to stop (the sequencer's, when its protocol ends; in the ack itself, so
-the last step is the same in every run): a last flush tick at t_N + 1 ns lets every participant
-(the recorder above all) take in the data stamped t_N, and once all have acknowledged it the
-clock prints one summary line (``LOCKSTEP steps=... rate=...``) and exits. With ``realtime``
-the ticks are paced to the wall clock.
+when every participant has acknowledged t_k. The step t_k+1 - t_k is ``exchange_step_s``, or
+shorter when an acknowledgement asks for it (``max_next_step``).
+
+It stops at ``duration_s`` or when an acknowledgement asks to stop (the sequencer's, when its
+protocol ends: in the ack itself, so the last step is the same in every run). A last flush tick
+at t_N + 1 ns lets every participant (the recorder above all) take in the data stamped t_N;
+once all have acknowledged it the clock prints one summary line (``LOCKSTEP steps=...
+rate=...``) and exits. With ``realtime`` the ticks are paced to the wall clock.
 """
 
 from __future__ import annotations
@@ -51,6 +53,7 @@ class SimClock(Node):
         self.flushing = False
         self.stop_request: tuple[str, int] | None = None
         self.acks: set[str] = set()
+        self.next_step_ns = 0             # shortest step requested for the next tick
         self.ready = False
         self.done = False
         self.stop_reason = ''
@@ -96,16 +99,22 @@ class SimClock(Node):
     def _advance(self) -> None:
         if self.done:
             return
-        t_s = self.k * self.step_s
+        t_s = self.tick_ns * 1e-9
         if self.duration_s > 0.0 and t_s >= self.duration_s - 1e-12:
             self._flush('duration reached', 0)
             return
+        step = self.h_ns
+        if self.next_step_ns > 0:
+            step = min(step, self.next_step_ns)
+        if self.duration_s > 0.0:
+            step = min(step, round(self.duration_s * 1e9) - self.tick_ns)
         if self.realtime:
-            lag = (self.k + 1) * self.step_s - (time.monotonic() - self.t_run0)
+            lag = (self.tick_ns + step) * 1e-9 - (time.monotonic() - self.t_run0)
             if lag > 0:
                 time.sleep(lag)
         self.k += 1
-        self.tick_ns = self.k * self.h_ns
+        self.tick_ns += step
+        self.next_step_ns = 0
         self.acks = set()
         self._publish()
         self._progress()
@@ -116,7 +125,7 @@ class SimClock(Node):
             return
         self.flushing = True
         self.flush_reason, self.flush_code = reason, code
-        self.tick_ns = self.k * self.h_ns + 1
+        self.tick_ns += 1
         self.acks = set()
         self._publish()
 
@@ -124,6 +133,9 @@ class SimClock(Node):
         if ns_of(msg.header.stamp) != self.tick_ns:
             return
         self.acks.add(msg.node)
+        if msg.max_next_step > 0.0:
+            req = max(round(msg.max_next_step * 1e9), 1000)
+            self.next_step_ns = req if self.next_step_ns == 0 else min(self.next_step_ns, req)
         if msg.stop and not self.flushing:
             self.stop_request = (msg.reason, int(msg.exit_code))
         if not (self.ready and self.k > 0 and self.acks >= self.participants):
@@ -146,7 +158,7 @@ class SimClock(Node):
         if self.progress_s <= 0 or now - self.last_progress < self.progress_s:
             return
         self.last_progress = now
-        t = self.k * self.step_s
+        t = self.tick_ns * 1e-9
         wall = now - self.t_run0
         rtf = t / wall if wall > 0 else 0.0
         total = self.expected_total_s
@@ -162,8 +174,9 @@ class SimClock(Node):
         self.exit_code = code
         wall = max(time.monotonic() - self.t_run0, 1e-9) if self.t_run0 else 0.0
         rate = self.k / wall if wall else 0.0
-        print(f'LOCKSTEP steps={self.k} sim_s={self.k * self.step_s:.6f} wall_s={wall:.3f} '
-              f'rate={rate:.1f} rtf={self.k * self.step_s / wall if wall else 0:.2f} '
+        sim_s = (self.tick_ns - (1 if self.flushing else 0)) * 1e-9
+        print(f'LOCKSTEP steps={self.k} sim_s={sim_s:.6f} wall_s={wall:.3f} '
+              f'rate={rate:.1f} rtf={sim_s / wall if wall else 0:.2f} '
               f'reason="{reason}"', flush=True)
         raise SystemExit(code)
 

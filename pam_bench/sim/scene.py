@@ -53,6 +53,7 @@ STEP_TOPICS = [
 ]
 EVENT_TOPICS = [
     '/protocol/point:pam_bench_interfaces/msg/CharacteristicPoint',
+    '/protocol/step_response:pam_bench_interfaces/msg/StepResponseRecord',
     '/protocol/status:pam_bench_interfaces/msg/ProtocolStatus',
     '/diagnostics:diagnostic_msgs/msg/DiagnosticArray',
 ]

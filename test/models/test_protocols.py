@@ -47,19 +47,88 @@ def test_sequencer_reads_after_each_dwell() -> None:
     readings, settle = schedule_from_config(
         'q', {'kind': 'isotonic', 'force_n': [100, 200, 100], 'voltage_v': [0, 1, 0.5],
               'dwell_s': 3.0, 'settle_s': 2.0})
-    seq = Sequencer('q', readings, settle)
-    seq.start(0.0)
-    h, t, times = 0.01, 0.0, []
-    meas = Measurement(1.0, 2.0, 3.0)
-    while seq.phase not in (Phase.DONE,) and t < 100:
-        t = round(t + h, 9)
-        cmd = seq.tick(t, meas)
-        if cmd.point is not None:
-            times.append(cmd.point.t_s)
+    times = run(Sequencer('q', readings, settle))
     assert len(times) == len(readings) == 12
     np.testing.assert_allclose(np.diff(times), 3.0, atol=1e-9)
     np.testing.assert_allclose(times[0], 5.0, atol=1e-9)
-    assert seq.tick(t + h, meas).voltage_v == 0.0            # vented when done
+
+
+def run(seq: Sequencer, h: float = 0.01, bias_n: float = 0.0) -> list[float]:
+    """Tick with a fake bench that follows the set values; return the reading times."""
+    seq.start(0.0)
+    t, times = 0.0, []
+    cmd = seq.tick(0.0, Measurement(0.0, 0.0, 0.0))
+    while seq.running and t < 1e5:
+        t = round(min(t + h, seq.next_event_s(t)), 9)
+        f = cmd.load_value + bias_n if cmd.load_mode == LoadMode.FORCE else 100.0
+        x = cmd.load_value if cmd.load_mode == LoadMode.POSITION else 0.01
+        cmd = seq.tick(t, Measurement(f, x, 1e5 * cmd.voltage_v))
+        if cmd.point is not None:
+            times.append(cmd.point.t_s)
+    if seq.phase == Phase.DONE:
+        assert cmd.voltage_v == 0.0                       # vented when done
+    return times
+
+
+def test_abort_when_servo_misses_set_value() -> None:
+    readings, settle = schedule_from_config(
+        'q', {'kind': 'isotonic', 'force_n': [100, 200, 100], 'voltage_v': [0, 1, 0.5]})
+    seq = Sequencer('q', readings, settle)
+    times = run(seq, bias_n=40.0)
+    assert seq.phase == Phase.ABORTED and 'cannot reach' in seq.reason and times == []
+    assert seq.tick(100.0, Measurement(0, 0, 0)).voltage_v == 0.0
+    assert seq.tick(100.0, Measurement(0, 0, 0)).load_mode == LoadMode.OFF
+
+
+def test_abort_when_load_cell_out_of_range() -> None:
+    readings, settle = schedule_from_config(
+        'q', {'kind': 'isometric', 'x_m': [0, 0.01, 0.01], 'voltage_v': [0, 1, 1]})
+    seq = Sequencer('q', readings, settle)
+    seq.start(0.0)
+    seq.tick(0.5, Measurement(1999.0, 0.0, 0.0))
+    assert seq.phase == Phase.ABORTED and 'out of range' in seq.reason
+
+
+STEP = {'kind': 'step_response', 'x_m': [0.0, 0.080, 0.005],
+        'up': {'u0_v': 1.0, 'step_v': 0.2, 'n': 20},
+        'down': {'u0_v': 5.0, 'step_v': -0.2, 'n': 20},
+        'record_s': 1.0, 'sample_period_s': 0.001}
+
+
+def test_step_response_schedule() -> None:
+    readings, _ = schedule_from_config('step_response', STEP)
+    assert len(readings) == 17 * 40
+    first = readings[:40]
+    assert [r.voltage_v for r in first[:20]] == pytest.approx([1 + 0.2 * n for n in range(1, 21)])
+    assert [r.voltage_v for r in first[20:]] == pytest.approx([5 - 0.2 * n for n in range(1, 21)])
+    assert {r.pre_voltage_v for r in first[:20]} == {1.0}
+
+
+def test_step_response_records_1khz_on_exact_grid() -> None:
+    cfg = dict(STEP, x_m=[0.0, 0.0, 0.005], up={'u0_v': 1.0, 'step_v': 0.2, 'n': 2},
+               down={'u0_v': 5.0, 'step_v': -0.2, 'n': 1})
+    readings, settle = schedule_from_config('s', cfg)
+    seq = Sequencer('s', readings, settle)
+    seq.start(0.0)
+    t, cmd, pts = 0.0, seq.tick(0.0, Measurement(0, 0, 0)), []
+    while seq.running:
+        t = round(min(t + 0.1, seq.next_event_s(t)), 9)    # coarse steps, events exact
+        cmd = seq.tick(t, Measurement(10 * t, 0.0, 0.0))
+        if cmd.point is not None:
+            pts.append(cmd.point)
+    assert len(pts) == 3
+    for p in pts:
+        assert len(p.samples) == 1000
+        np.testing.assert_allclose(np.diff(p.samples), 10 * 0.001, atol=1e-9)
+        np.testing.assert_allclose(p.t_s - p.t_step_s, 1.0, atol=1e-9)
+
+
+def test_campaign_concatenates() -> None:
+    table = {'a': FULL['isobaric'], 'b': FULL['isotonic'], 'c': {'kind': 'campaign',
+                                                                  'protocols': ['a', 'b']}}
+    readings, _ = schedule_from_config('c', table['c'], table)
+    assert len(readings) == 1274 + 2318
+    assert readings[1274].lead_s == 3.0 and readings[1274].protocol == 'b'
 
 
 def test_missing_key_named() -> None:
