@@ -88,6 +88,10 @@ class LoadingServoParams:
                                 0.0, 10.0)
     speed_limit_rad_s: float = field(4.49, 'rad/s', 'output speed limit w_max (3000 rpm / i)',
                                      1.0e-3, 1.0e4)
+    transient_step_s: float = field(0.005, 's', 'longest exchange step asked for while the '
+                                    'drive moves', 1.0e-5, 10.0)
+    settled_speed_m_s: float = field(2.0e-4, 'm/s', 'the drive counts as settled below this '
+                                     'belt speed', 0.0, 10.0)
     dynamics: bool = field(True, '-', 'simulate the drive mechanics; false: ideal set value')
     scheme: str = field('zoh', '-', 'integration scheme: zoh (exact), rk4 or euler')
     internal_step_s: float = field(1.0e-3, 's', 'longest internal integration step',
@@ -238,6 +242,15 @@ class LoadingServoModel:
         self.contraction = x
         self.angle = float(s[0]) + self._play(f_end)
         return ServoOutput(self.angle, float(s[1]), x, self.torque, self.saturated)
+
+    def max_step(self) -> float:
+        """Longest next exchange step the drive asks for, s (0: any): short while the belt
+        moves, so the one-step coupling lag stays small where the muscle is soft or slack."""
+        if not self.p.dynamics or self.mode == LoadMode.OFF:
+            return 0.0
+        if abs(self.state[1]) * self.r > self.p.settled_speed_m_s or self.saturated:
+            return self.p.transient_step_s
+        return 0.0
 
     def _end_stops(self, a_x: float, c0: float) -> None:
         x = a_x * self.state[0] + c0

@@ -51,6 +51,10 @@ class ValveParams:
     line_volume_m3: float = field(2.0e-5, 'm^3', 'volume of the line and fittings', 0.0, 1.0)
     reference_volume_m3: float = field(1.3e-4, 'm^3', 'total volume V_ref at which w = w_ref',
                                        1.0e-9, 1.0)
+    transient_step_s: float = field(0.005, 's', 'longest exchange step asked for while the '
+                                    'pressure is in transient', 1.0e-5, 10.0)
+    settled_tolerance_pa: float = field(100.0, 'Pa', 'the pressure counts as settled within '
+                                        'this of its steady state', 0.0, 1.0e6)
 
 
 class ValveModel:
@@ -108,6 +112,21 @@ class ValveModel:
         ad, bd = self._cache.get(key, a, b, dt_s)
         self.state = ad @ self.state + bd[:, 0] * target
         return self.pressure
+
+    def max_step(self, voltage_v: float) -> float:
+        """Longest next exchange step this valve asks for, s (0: any).
+
+        While the pressure is in transient (off its steady state, or moving), a short step lets
+        the muscle follow the pressure path, overshoot included: braid friction depends on it.
+        """
+        if self.p.order == 0:
+            return 0.0
+        target = self.steady_pressure(voltage_v)
+        w = self.natural_frequency(None) if self.p.order == 2 else 1.0 / self.p.time_constant_s
+        tol = self.p.settled_tolerance_pa
+        if abs(self.state[0] - target) > tol or abs(self.state[1]) > tol * w:
+            return self.p.transient_step_s
+        return 0.0
 
     @property
     def pressure(self) -> float:

@@ -80,6 +80,7 @@ class LoadingServoSim(BenchNode):
         m = self.muscle
         out = self.model.step(dt_s, m.force, m.stiffness, m.contraction, self.f_meas,
                               self.th_meas)
+        self.max_next_step_s = self.model.max_step()
         if out.saturated != self._was_saturated:
             self._was_saturated = out.saturated
             self.diagnose(DiagnosticStatus.WARN if out.saturated else DiagnosticStatus.OK,

@@ -61,6 +61,7 @@ class ValveSim(BenchNode):
         if self.muscle_topic in inputs:
             self.volume_m3 = inputs[self.muscle_topic].volume
         p = self.model.step(self.voltage_v, dt_s, self.volume_m3)
+        self.max_next_step_s = self.model.max_step(self.voltage_v)
         msg = FluidPressure(fluid_pressure=p + ATMOSPHERE_PA, variance=0.0)
         msg.header.stamp = time_of(t_ns)
         msg.header.frame_id = f'valve_{self.channel}'

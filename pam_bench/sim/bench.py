@@ -82,10 +82,31 @@ class SingleMuscleBench:
         return BenchState(self.t, self.u, self.p, self.out.force_n, self.x, self.f_meas,
                           self.th_meas, srv.output_torque_nm)
 
-    def run(self, duration_s: float, h_s: float) -> BenchState:
-        """Step for ``duration_s`` and return the last state."""
-        n = max(1, round(duration_s / h_s))
+    def max_step(self) -> float:
+        """Longest next exchange step the devices ask for, s (0: any)."""
+        reqs = [r for r in (self.valve.max_step(self.u), self.servo.max_step()) if r > 0.0]
+        return min(reqs) if reqs else 0.0
+
+    def run(self, duration_s: float, h_s: float, adaptive: bool = False) -> BenchState:
+        """Step for ``duration_s`` and return the last state.
+
+        With ``adaptive`` the step is ``h_s`` unless a device asks for a shorter one (as the
+        ROS sim clock does with the requests in the StepAck), and the run ends exactly at
+        ``duration_s``.
+        """
         st = None
-        for _ in range(n):
-            st = self.step(h_s)
+        if not adaptive:
+            for _ in range(max(1, round(duration_s / h_s))):
+                st = self.step(h_s)
+            return st
+        t_end = self.t + duration_s
+        self.steps = getattr(self, 'steps', 0)
+        while self.t < t_end - 1e-12:
+            h = h_s
+            req = self.max_step()
+            if req > 0.0:
+                h = min(h, req)
+            h = min(h, t_end - self.t)
+            st = self.step(h)
+            self.steps += 1
         return st
