@@ -88,7 +88,7 @@ class LoadingServoParams:
                                 0.0, 10.0)
     speed_limit_rad_s: float = field(4.49, 'rad/s', 'output speed limit w_max (3000 rpm / i)',
                                      1.0e-3, 1.0e4)
-    transient_step_s: float = field(0.005, 's', 'longest exchange step asked for while the '
+    transient_step_s: float = field(0.02, 's', 'longest exchange step asked for while the '
                                     'drive moves', 1.0e-5, 10.0)
     settled_speed_m_s: float = field(2.0e-4, 'm/s', 'the drive counts as settled below this '
                                      'belt speed', 0.0, 10.0)

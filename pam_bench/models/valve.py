@@ -51,9 +51,9 @@ class ValveParams:
     line_volume_m3: float = field(2.0e-5, 'm^3', 'volume of the line and fittings', 0.0, 1.0)
     reference_volume_m3: float = field(1.3e-4, 'm^3', 'total volume V_ref at which w = w_ref',
                                        1.0e-9, 1.0)
-    transient_step_s: float = field(0.005, 's', 'longest exchange step asked for while the '
+    transient_step_s: float = field(0.02, 's', 'longest exchange step asked for while the '
                                     'pressure is in transient', 1.0e-5, 10.0)
-    settled_tolerance_pa: float = field(100.0, 'Pa', 'the pressure counts as settled within '
+    settled_tolerance_pa: float = field(2000.0, 'Pa', 'the pressure counts as settled within '
                                         'this of its steady state', 0.0, 1.0e6)
 
 

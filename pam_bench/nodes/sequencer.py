@@ -81,6 +81,8 @@ class SequencerNode(BenchNode):
         self.protocol = d('protocol', 'demo', 'protocol started at t_0 with autostart')
         self.autostart = d('autostart', True, 'start the protocol at t_0 (else: on a goal)')
         path = d('protocols_file', default_protocols_file(), 'YAML file of the protocols')
+        overrides = d('protocol_overrides_yaml', '', 'YAML mapping merged over the autostart '
+                      'protocol (e.g. a coarser grid)')
         self.status_period_s = d('status_period_s', 1.0, 'sim time between status messages',
                                  's', 1e-3, 1e6)
         self.stop_on_end = d('stop_on_end', True, 'ask the sim clock to end the run with '
@@ -102,7 +104,7 @@ class SequencerNode(BenchNode):
                                    'a reading', 'm', 0.0, 1.0))
         with open(path, encoding='utf-8') as fh:
             self.table = yaml.safe_load(fh) or {}
-        self.core = self._make(self.protocol, '') if self.autostart else None
+        self.core = self._make(self.protocol, overrides) if self.autostart else None
         ch = self.channel
         self.cell_topic = f'load_cell_{ch}/force'
         self.enc_topic = 'encoder/joint_state'

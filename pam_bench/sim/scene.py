@@ -1,8 +1,9 @@
 """Scenes: which nodes a run brings up, their parameters, the exchange step and the protocol.
 
 A scene file (config/scenes/NAME.yaml) holds ``description``, ``exchange_step_s``,
-``protocol``, ``nodes`` (names from ``NODE_TYPES``), optional ``duration_s`` and optional
-``parameters`` (per node, merged over config/bench.yaml). ``node_parameters`` returns the
+``protocol``, ``nodes`` (names from ``NODE_TYPES``), optional ``duration_s``, optional
+``parameters`` (per node, merged over config/bench.yaml) and optional ``protocol_overrides``
+(merged over the protocol's entry in config/protocols.yaml). ``node_parameters`` returns the
 parameters of every node of the run in the ROS 2 params-file layout.
 """
 
@@ -84,6 +85,7 @@ class Scene:
     nodes: list[str]
     duration_s: float
     parameters: dict[str, dict[str, Any]]
+    protocol_overrides: dict[str, Any] = dataclasses.field(default_factory=dict)
 
     def node_parameters(self, out_dir: str, seed: int, realtime: bool) -> dict[str, Any]:
         """Parameters of every node: config/bench.yaml, then the scene, then this run."""
@@ -101,6 +103,9 @@ class Scene:
             duration_s=self.duration_s, realtime=realtime, use_sim_time=False)
         if 'sequencer' in out:
             out['sequencer']['ros__parameters']['protocol'] = self.protocol
+            if self.protocol_overrides:
+                out['sequencer']['ros__parameters']['protocol_overrides_yaml'] = yaml.safe_dump(
+                    self.protocol_overrides)
         if 'recorder' in out:
             out['recorder']['ros__parameters'].update(out_dir=out_dir, step_topics=STEP_TOPICS,
                                                       event_topics=EVENT_TOPICS)
@@ -158,4 +163,5 @@ def load_scene(name: str) -> Scene:
         raise ParameterError(f'scene {path.name}: exchange_step_s {step} out of (0, 10] s')
     return Scene(path.stem, str(data.get('description', '')), float(step),
                  str(data.get('protocol', '')), list(nodes), float(data.get('duration_s', 0.0)),
-                 dict(data.get('parameters', {}) or {}))
+                 dict(data.get('parameters', {}) or {}),
+                 dict(data.get('protocol_overrides', {}) or {}))

@@ -1,0 +1,68 @@
+"""Quick protocol scenes end to end through separate-process nodes: counts, order, dwell."""
+
+from __future__ import annotations
+
+import pathlib
+
+import numpy as np
+import pytest
+
+from pam_bench.models.protocols import Direction
+from pam_bench.sim.runner import run_scene
+from pam_bench.sim.scene import load_scene
+from test.conftest import next_domain
+from test.helpers import bag_messages
+
+HERE = pathlib.Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope='module')
+def isometric_bag(tmp_path_factory: pytest.TempPathFactory) -> pathlib.Path:
+    bag = tmp_path_factory.mktemp('iso') / 'bag'
+    res = run_scene(load_scene('isometric_quick'), str(bag), domain_id=next_domain(),
+                    quiet=True)
+    assert res.code == 0, res
+    return bag
+
+
+def test_isometric_quick_counts_order_and_dwell(isometric_bag: pathlib.Path) -> None:
+    pts = bag_messages(isometric_bag, '/protocol/point')
+    assert len(pts) == 3 * 14
+    assert [p.series for p in pts] == [s for s in range(3) for _ in range(14)]
+    assert [p.step for p in pts] == list(range(14)) * 3
+    dirs = [p.direction for p in pts[:14]]
+    assert dirs == [Direction.UP] * 7 + [Direction.DOWN] * 7
+    np.testing.assert_allclose([p.voltage for p in pts[:14]],
+                               list(range(7)) + list(range(6, -1, -1)))
+    t = np.array([p.header.stamp.sec + p.header.stamp.nanosec * 1e-9 for p in pts])
+    np.testing.assert_allclose(np.diff(t), 3.0, atol=1e-9)      # one reading every 3 s sim
+    np.testing.assert_allclose([p.series_value for p in pts[::14]], [0.0, 0.04, 0.08])
+    for p in pts:
+        assert abs(p.contraction - p.series_value) < 1e-3        # held by the loading servo
+
+
+def test_isometric_quick_force_is_near_linear_in_u(isometric_bag: pathlib.Path) -> None:
+    pts = bag_messages(isometric_bag, '/protocol/point')
+    up = [p for p in pts[:7]]
+    slope = np.polyfit([p.voltage for p in up[2:]], [p.force for p in up[2:]], 1)[0]
+    assert 250.0 < slope < 300.0          # about 284 N/V at x = 0 (004)
+
+
+def test_step_response_records_at_1khz(tmp_path: pathlib.Path, ros_domain: int) -> None:
+    bag = tmp_path / 'bag'
+    res = run_scene(load_scene(str(HERE / 'config_step.yaml')), str(bag),
+                    domain_id=ros_domain, quiet=True)
+    assert res.code == 0, res
+    recs = bag_messages(bag, '/protocol/step_response')
+    assert len(recs) == 2
+    up, down = recs
+    for r in recs:
+        assert len(r.force) == 1000 and r.sample_period == pytest.approx(0.001)
+        assert r.contraction == pytest.approx(0.04)
+    assert (up.voltage_initial, up.voltage_final) == pytest.approx((1.0, 1.2))
+    assert (down.voltage_initial, down.voltage_final) == pytest.approx((5.0, 4.8))
+    f = np.array(up.force)
+    assert f[-1] - f[0] > 5.0                                   # the force rose after the step
+    assert f.max() > f[-1] + 0.5                                # and overshot: 2nd order (004)
+    pts = bag_messages(bag, '/protocol/point')
+    assert len(pts) == 2
