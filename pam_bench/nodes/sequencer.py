@@ -138,6 +138,7 @@ class SequencerNode(BenchNode):
                                      lambda m: self._measured(self.enc_topic, m), RELIABLE)
             self.create_subscription(FluidPressure, self.p_topic,
                                      lambda m: self._measured(self.p_topic, m), RELIABLE)
+            self._start_pending = self.core is not None       # autostart at the first tick
             self.create_timer(self.tick_period_s, self._on_timer)
 
     def _make(self, name: str, overrides_yaml: str) -> Sequencer:

@@ -1,0 +1,112 @@
+"""Sequencer on a wall clock (as on a real bench): stale input aborts, cancel vents."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+from action_msgs.msg import GoalStatus
+from geometry_msgs.msg import WrenchStamped
+from pam_bench_interfaces.action import RunProtocol
+from pam_bench_interfaces.msg import LoadCommand, ProtocolStatus, ValveCommand
+from rclpy.action import ActionClient
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import FluidPressure, JointState
+
+from pam_bench.nodes.sequencer import SequencerNode
+from pam_bench.nodes.valve_sim import ATMOSPHERE_PA
+from test.nodes.harness import Harness
+
+
+def make(autostart: bool):
+    def factory(ctx):
+        return SequencerNode('sequencer', context=ctx, parameter_overrides=[
+            Parameter('lockstep', value=False), Parameter('autostart', value=autostart),
+            Parameter('protocol', value='isometric_quick'),
+            Parameter('tick_period_s', value=0.01), Parameter('stale_timeout_s', value=0.2),
+            Parameter('status_period_s', value=0.05)])
+    return factory
+
+
+@pytest.fixture
+def harness_factory(ros_domain: int):
+    made = []
+
+    def build(autostart: bool) -> Harness:
+        h = Harness(make(autostart))
+        made.append(h)
+        h.publisher(WrenchStamped, 'load_cell_1/force')
+        h.publisher(JointState, 'encoder/joint_state')
+        h.publisher(FluidPressure, 'valve_1/pressure')
+        h.listen(ProtocolStatus, 'protocol/status')
+        h.listen(ValveCommand, 'valve_1/command')
+        h.listen(LoadCommand, 'loading_servo/command')
+        h.node = h.make_node(h.context)
+        h.executor.add_node(h.node)
+        return h
+    try:
+        yield build
+    finally:
+        for h in made:
+            h.close()
+
+
+def feed(h: Harness, seconds: float, with_force: bool = True) -> None:
+    """Publish measurements stamped with the wall clock for ``seconds``."""
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        now = h.tester.get_clock().now().nanoseconds
+        if with_force:
+            h.send('load_cell_1/force', WrenchStamped(), now)
+        h.send('encoder/joint_state', JointState(name=['pulley'], position=[0.0]), now)
+        h.send('valve_1/pressure', FluidPressure(fluid_pressure=ATMOSPHERE_PA), now)
+        h.executor.spin_once(timeout_sec=0.005)
+
+
+def test_stale_load_cell_aborts_and_vents(harness_factory) -> None:
+    h = harness_factory(True)
+    feed(h, 0.5)
+    running = [s for s in h.received['protocol/status'] if s.state == ProtocolStatus.STATE_RUNNING]
+    assert running, 'the protocol did not start'
+    feed(h, 1.0, with_force=False)                       # the load cell stops publishing
+    aborted = [s for s in h.received['protocol/status'] if s.state == ProtocolStatus.STATE_ABORTED]
+    assert aborted and 'load_cell_1/force' in aborted[0].reason and 'stale' in aborted[0].reason
+    assert h.received['valve_1/command'][-1].voltage == 0.0
+    assert h.received['loading_servo/command'][-1].mode == LoadCommand.MODE_OFF
+
+
+def test_cancel_stops_and_vents(harness_factory) -> None:
+    h = harness_factory(False)
+    client = ActionClient(h.tester, RunProtocol, 'protocol/run')
+    h.spin_until(lambda: client.server_is_ready())
+    feedback = []
+    send = client.send_goal_async(RunProtocol.Goal(protocol='isometric_quick'),
+                                  feedback_callback=lambda m: feedback.append(m.feedback))
+    h.spin_until(send.done)
+    goal = send.result()
+    assert goal.accepted
+    end = time.monotonic() + 0.6
+    while time.monotonic() < end:
+        feed(h, 0.05)
+    assert feedback and feedback[-1].points_total == 42
+    cancel = goal.cancel_goal_async()
+    h.spin_until(cancel.done)
+    result = goal.get_result_async()
+    while not result.done():
+        feed(h, 0.05)
+    assert result.result().status == GoalStatus.STATUS_CANCELED
+    assert not result.result().result.success
+    feed(h, 0.1)
+    states = [s.state for s in h.received['protocol/status']]
+    assert ProtocolStatus.STATE_CANCELLED in states
+    assert h.received['valve_1/command'][-1].voltage == 0.0
+    assert h.received['loading_servo/command'][-1].mode == LoadCommand.MODE_OFF
+
+
+def test_unknown_protocol_goal_rejected(harness_factory) -> None:
+    h = harness_factory(False)
+    client = ActionClient(h.tester, RunProtocol, 'protocol/run')
+    h.spin_until(lambda: client.server_is_ready())
+    send = client.send_goal_async(RunProtocol.Goal(protocol='no_such_protocol'))
+    h.spin_until(send.done)
+    assert not send.result().accepted
