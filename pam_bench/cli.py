@@ -61,9 +61,20 @@ def _raise_interrupt(signum: int, frame: object) -> None:
     raise KeyboardInterrupt
 
 
+def _cmd_bench(args: argparse.Namespace) -> int:
+    from pam_bench.sim.benchmark import run_benchmarks
+    root = pathlib.Path(args.root)
+    run_benchmarks(args.quick, root, args.scene or None)
+    print(f'wrote {root / "BENCHMARKS.md"} and {root / "bench.json"}')
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pam-bench``."""
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    # small matrices only: BLAS thread pools just spin against the node processes
+    for var in ('OPENBLAS_NUM_THREADS', 'OMP_NUM_THREADS', 'MKL_NUM_THREADS'):
+        os.environ.setdefault(var, '1')
     # SIGTERM ends a run like Ctrl-C: nodes stopped, bag closed, no orphans.
     signal.signal(signal.SIGTERM, _raise_interrupt)
     ap = argparse.ArgumentParser(prog='pam-bench', description=__doc__)
@@ -84,6 +95,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument('--count', type=int, default=2000)
     p.add_argument('--json', action='store_true')
     p.set_defaults(func=_cmd_pingpong)
+    p = sub.add_parser('bench', help='benchmarks -> BENCHMARKS.md and bench.json')
+    p.add_argument('--quick', action='store_true', help='a few minutes: quick grids and scenes')
+    p.add_argument('--root', default='.', help='where to write the report (default: here)')
+    p.add_argument('--scene', action='append', help='scene to time (repeatable)')
+    p.set_defaults(func=_cmd_bench)
     args = ap.parse_args(argv)
     try:
         return args.func(args)
