@@ -102,7 +102,7 @@ class Recorder(BenchNode):
         if self.writer is not None:
             self.writer.close()
             self.writer = None
-            self.get_logger().info(f'bag closed with {self.count} messages')
+            print(f'recorder: bag closed with {self.count} messages', flush=True)
 
     def destroy_node(self) -> None:
         """Close the bag before the node goes."""

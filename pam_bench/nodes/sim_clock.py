@@ -45,7 +45,7 @@ class SimClock(Node):
                             's', 0.0, 60.0)
         self.progress_s = decl('progress_period_s', 2.0, 'wall time between progress lines',
                                's', 0.0, 3600.0)
-        self.timeout_s = decl('stall_timeout_s', 30.0, 'abort when a step is not acknowledged '
+        self.timeout_s = decl('stall_timeout_s', 10.0, 'abort when a step is not acknowledged '
                               'within this wall time', 's', 0.1, 3600.0)
         self.h_ns = round(self.step_s * 1e9)
         self.k = 0
@@ -61,6 +61,7 @@ class SimClock(Node):
         self.pub = self.create_publisher(Clock, '/clock', RELIABLE)
         self.create_subscription(StepAck, '/sim/ack', self._on_ack, RELIABLE)
         self.create_subscription(ProtocolStatus, 'protocol/status', self._on_status, RELIABLE)
+        self.status_pub = self.create_publisher(ProtocolStatus, 'protocol/status', RELIABLE)
         self.t_wall0 = time.monotonic()
         self.t_run0 = 0.0
         self.last_progress = time.monotonic()
@@ -87,8 +88,15 @@ class SimClock(Node):
                                  f'{sorted(self.participants - self.acks)}', 2)
             return
         if not self.done and now - self.last_tick_wall > self.timeout_s:
-            self._finish(f'step {self.k} not acknowledged by '
-                         f'{sorted(self.participants - self.acks)}', 3)
+            reason = (f'lock-step stalled at t = {self.tick_ns * 1e-9:.3f} s: no '
+                      f'acknowledgement from {", ".join(sorted(self.participants - self.acks))}'
+                      f' within {self.timeout_s:g} s (node dead or hung)')
+            status = ProtocolStatus(state=ProtocolStatus.STATE_ABORTED, phase='aborted',
+                                    reason=reason)
+            status.header.stamp = time_of(self.tick_ns)
+            self.status_pub.publish(status)
+            time.sleep(0.2)                 # let the recorder take the status in
+            self._finish(reason, 3)
 
     def _start(self) -> None:
         self.timer.cancel()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import pathlib
 import signal
 import subprocess
@@ -53,5 +54,34 @@ def test_interrupted_run_leaves_a_valid_bag(tmp_path: pathlib.Path, ros_domain: 
     assert (bag / 'metadata.yaml').exists()
     payloads = bag_payloads(bag)
     assert len(payloads['/load_cell_1/force']) > 50
+    time.sleep(0.5)
+    assert node_processes(ros_domain) == []
+
+
+def test_dead_node_ends_the_run_with_a_reason(tmp_path: pathlib.Path, ros_domain: int) -> None:
+    bag = tmp_path / 'bag'
+    proc = subprocess.Popen([sys.executable, '-m', 'pam_bench.cli', 'run', 'isotonic_quick',
+                             '--out', str(bag)], stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+    try:
+        lines = []
+        for line in proc.stdout:                  # wait until the run is stepping
+            lines.append(line)
+            if line.startswith('[sim'):
+                break
+        muscle = [p for p in node_processes(ros_domain)
+                  if b'muscle_sim' in pathlib.Path(f'/proc/{p}/cmdline').read_bytes()]
+        assert len(muscle) == 1
+        os.kill(muscle[0], signal.SIGKILL)
+        out, _ = proc.communicate(timeout=90)
+        out = ''.join(lines) + out
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode not in (0, 130), out
+    assert 'muscle_1' in out and 'stalled' in out
+    from test.helpers import bag_messages
+    statuses = bag_messages(bag, '/protocol/status')
+    assert statuses[-1].state == 3 and 'muscle_1' in statuses[-1].reason      # ABORTED
     time.sleep(0.5)
     assert node_processes(ros_domain) == []
