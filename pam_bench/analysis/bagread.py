@@ -1,0 +1,130 @@
+"""Read characteristic points and step-response records from one or many rosbag2 bags.
+
+Only ``rosbags`` is needed (no ROS install): the bench's own message types are registered
+from the .msg text in msg_defs/. Every failure gives one ``BagError`` with a clear message:
+a path that is not a bag, a truncated or corrupt file, a bag without the protocol topics.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import pathlib
+from collections.abc import Iterable
+
+import numpy as np
+from rosbags.rosbag2 import Reader
+
+from pam_bench.analysis.types import bench_typestore
+
+__all__ = ['BagError', 'Points', 'StepRecord', 'BagData', 'read_bags']
+
+POINT_TOPIC = '/protocol/point'
+RECORD_TOPIC = '/protocol/step_response'
+
+
+class BagError(Exception):
+    """A bag cannot be read or holds nothing to extract."""
+
+
+@dataclasses.dataclass
+class Points:
+    """Characteristic points of one protocol as columns (SI units), each of shape (n,)."""
+
+    protocol: str
+    t_s: np.ndarray
+    series: np.ndarray
+    step: np.ndarray
+    direction: np.ndarray          # 0 up, 1 down
+    series_value: np.ndarray
+    set_value: np.ndarray
+    voltage_v: np.ndarray
+    force_n: np.ndarray
+    contraction_m: np.ndarray
+    pressure_pa: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.t_s)
+
+
+@dataclasses.dataclass
+class StepRecord:
+    """One step response: held contraction (m), u0 -> u1 (V), force samples (N), period (s)."""
+
+    series: int
+    step: int
+    direction: int
+    contraction_m: float
+    voltage_initial_v: float
+    voltage_final_v: float
+    sample_period_s: float
+    force_n: np.ndarray
+
+
+@dataclasses.dataclass
+class BagData:
+    """Everything extracted from the bags: points per protocol and the step records."""
+
+    points: dict[str, Points]
+    records: list[StepRecord]
+
+
+def _open(path: pathlib.Path) -> Reader:
+    if not path.exists():
+        raise BagError(f'{path}: no such bag')
+    if path.is_file():
+        raise BagError(f'{path}: not a rosbag2 directory (expected a folder with '
+                       'metadata.yaml and the .mcap file)')
+    if not (path / 'metadata.yaml').exists():
+        raise BagError(f'{path}: no metadata.yaml, not a rosbag2 bag')
+    try:
+        reader = Reader(path)
+        reader.open()
+    except Exception as exc:  # noqa: BLE001 - rosbags raises several types
+        raise BagError(f'{path}: cannot open the bag ({exc})') from None
+    return reader
+
+
+def read_bags(paths: Iterable[str | pathlib.Path]) -> BagData:
+    """Read the protocol points and step records of every bag.
+
+    Raises:
+        BagError: a bag is missing, not a bag, truncated, or none holds protocol points.
+    """
+    store = bench_typestore()
+    rows: dict[str, list[tuple]] = {}
+    records: list[StepRecord] = []
+    paths = [pathlib.Path(p) for p in paths]
+    if not paths:
+        raise BagError('no bag given')
+    for path in paths:
+        reader = _open(path)
+        try:
+            conns = [c for c in reader.connections if c.topic in (POINT_TOPIC, RECORD_TOPIC)]
+            for conn, _, raw in reader.messages(connections=conns):
+                msg = store.deserialize_cdr(raw, conn.msgtype)
+                if conn.topic == POINT_TOPIC:
+                    t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+                    rows.setdefault(msg.protocol, []).append(
+                        (t, msg.series, msg.step, msg.direction, msg.series_value,
+                         msg.set_value, msg.voltage, msg.force, msg.contraction, msg.pressure))
+                else:
+                    records.append(StepRecord(msg.series, msg.step, msg.direction,
+                                              msg.contraction, msg.voltage_initial,
+                                              msg.voltage_final, msg.sample_period,
+                                              np.asarray(msg.force, dtype=float)))
+        except BagError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - truncated chunks, bad CDR, ...
+            raise BagError(f'{path}: the bag is damaged or truncated ({exc})') from None
+        finally:
+            reader.close()
+    if not rows:
+        raise BagError('no protocol points (topic /protocol/point) in '
+                       + ', '.join(str(p) for p in paths))
+    points = {}
+    for name, r in rows.items():
+        a = np.array(sorted(r), dtype=float)
+        points[name] = Points(name, a[:, 0], a[:, 1].astype(int), a[:, 2].astype(int),
+                              a[:, 3].astype(int), a[:, 4], a[:, 5], a[:, 6], a[:, 7], a[:, 8],
+                              a[:, 9])
+    return BagData(points, records)
