@@ -61,6 +61,21 @@ def _raise_interrupt(signum: int, frame: object) -> None:
     raise KeyboardInterrupt
 
 
+def _cmd_extract(args: argparse.Namespace) -> int:
+    from pam_bench.analysis.bagread import BagError
+    from pam_bench.analysis.extract import ExtractError, extract
+    try:
+        summary = extract(args.bags, args.out)
+    except (BagError, ExtractError) as exc:
+        print(f'error: {exc}', file=sys.stderr)
+        return 2
+    t = summary['timing_s']
+    print(f'wrote {args.out}/summary.json, report.md and CSV files '
+          f'(read {t["read_and_static"]:.2f} s, {t["records"]} step fits '
+          f'{t["identification"]:.2f} s)')
+    return 0
+
+
 def _cmd_bench(args: argparse.Namespace) -> int:
     from pam_bench.sim.benchmark import run_benchmarks
     root = pathlib.Path(args.root)
@@ -95,6 +110,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument('--count', type=int, default=2000)
     p.add_argument('--json', action='store_true')
     p.set_defaults(func=_cmd_pingpong)
+    p = sub.add_parser('extract', help='bags -> characteristics, gains, identified model')
+    p.add_argument('bags', nargs='+', help='rosbag2 directories')
+    p.add_argument('--out', required=True, help='output folder (replaced when complete)')
+    p.set_defaults(func=_cmd_extract)
     p = sub.add_parser('bench', help='benchmarks -> BENCHMARKS.md and bench.json')
     p.add_argument('--quick', action='store_true', help='a few minutes: quick grids and scenes')
     p.add_argument('--root', default='.', help='where to write the report (default: here)')

@@ -1,0 +1,92 @@
+"""Static characteristics of 004 section 2.2 from characteristic points.
+
+- isometric gain k(x) (N/V): least-squares slope of F over u per series, over the readings
+  where the muscle pulls (F > 1 % of the series' largest force), both sweeps pooled so the
+  friction offsets cancel;
+- isotonic gain k(u, F) (mm/V): dx/du between neighbouring readings of the up sweep, placed at
+  the mid voltage;
+- isobaric hysteresis (mm): x on the way down minus x on the way up at the same set force.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from pam_bench.analysis.bagread import Points
+
+__all__ = ['isometric_gains', 'isotonic_gains', 'isobaric_hysteresis', 'gain_summary']
+
+
+def isometric_gains(p: Points) -> tuple[np.ndarray, np.ndarray]:
+    """(x in m, gain in N/V) per series, shapes (n_series,)."""
+    xs, ks = [], []
+    for s in np.unique(p.series):
+        m = p.series == s
+        u, f = p.voltage_v[m], p.force_n[m]
+        use = f > 0.01 * max(float(f.max()), 1e-9)
+        if use.sum() >= 2 and np.ptp(u[use]) > 0:
+            xs.append(float(p.series_value[m][0]))
+            ks.append(float(np.polyfit(u[use], f[use], 1)[0]))
+    return np.array(xs), np.array(ks)
+
+
+def isotonic_gains(p: Points) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(u mid in V, F in N, gain in mm/V) over all series' up sweeps, shapes (n,)."""
+    us, fs, ks = [], [], []
+    for s in np.unique(p.series):
+        m = (p.series == s) & (p.direction == 0)
+        order = np.argsort(p.voltage_v[m])
+        u, x = p.voltage_v[m][order], p.contraction_m[m][order]
+        du = np.diff(u)
+        ok = du > 0
+        us.extend((0.5 * (u[1:] + u[:-1]))[ok])
+        fs.extend([float(p.series_value[m][0])] * int(ok.sum()))
+        ks.extend((np.diff(x)[ok] / du[ok]) * 1e3)
+    return np.array(us), np.array(fs), np.array(ks)
+
+
+def isobaric_hysteresis(p: Points) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(u in V, F in N, x_down - x_up in mm) at every set force read both ways."""
+    us, fs, hs = [], [], []
+    for s in np.unique(p.series):
+        m = p.series == s
+        up = {round(v, 6): x for v, x, d in zip(p.set_value[m], p.contraction_m[m],
+                                               p.direction[m], strict=True) if d == 0}
+        down = {round(v, 6): x for v, x, d in zip(p.set_value[m], p.contraction_m[m],
+                                                 p.direction[m], strict=True) if d == 1}
+        for f in sorted(set(up) & set(down)):
+            us.append(float(p.series_value[m][0]))
+            fs.append(f)
+            hs.append((down[f] - up[f]) * 1e3)
+    return np.array(us), np.array(fs), np.array(hs)
+
+
+def gain_summary(points: dict[str, Points]) -> dict[str, Any]:
+    """The static part of summary.json for whichever protocols are present."""
+    out: dict[str, Any] = {}
+    # when a kind appears more than once (full and quick grids), the largest protocol wins
+    for name, p in sorted(points.items(), key=lambda kv: len(kv[1])):
+        if name.startswith('isometric'):
+            x, k = isometric_gains(p)
+            if len(k):
+                i, j = int(np.argmax(k)), int(np.argmin(k))
+                out['isometric'] = {'protocol': name, 'gain_N_per_V': {
+                    'max': float(k[i]), 'x_mm_at_max': float(x[i] * 1e3),
+                    'min': float(k[j]), 'x_mm_at_min': float(x[j] * 1e3)},
+                    'series': [{'x_mm': float(a * 1e3), 'gain_N_per_V': float(b)}
+                               for a, b in zip(x, k, strict=True)]}
+        elif name.startswith('isotonic'):
+            u, f, k = isotonic_gains(p)
+            if len(k):
+                i, j = int(np.argmax(k)), int(np.argmin(k))
+                out['isotonic'] = {'protocol': name, 'gain_mm_per_V': {
+                    'max': float(k[i]), 'u_V_at_max': float(u[i]), 'F_N_at_max': float(f[i]),
+                    'min': float(k[j]), 'u_V_at_min': float(u[j]), 'F_N_at_min': float(f[j])}}
+        elif name.startswith('isobaric'):
+            _, _, h = isobaric_hysteresis(p)
+            if len(h):
+                out['isobaric'] = {'protocol': name,
+                                   'hysteresis_mm_max': float(np.max(np.abs(h)))}
+    return out

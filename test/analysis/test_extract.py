@@ -1,0 +1,94 @@
+"""Extraction from small synthetic bags: known gains and step coefficients, bad input."""
+
+from __future__ import annotations
+
+import json
+import pathlib
+
+import numpy as np
+import pytest
+
+from pam_bench.analysis.bagread import BagError, read_bags
+from pam_bench.analysis.extract import extract
+from pam_bench.cli import main as cli
+from test.analysis.bags import write_bag
+from test.analysis.test_identify import synth
+
+
+def isometric_points(gains: dict[float, float]) -> list[dict]:
+    pts = []
+    volts = np.arange(0.0, 6.01, 0.5)
+    for s, (x, k) in enumerate(gains.items()):
+        seq = [(0, u) for u in volts] + [(1, u) for u in volts[::-1]]
+        for step, (d, u) in enumerate(seq):
+            f = max(k * (u - 0.2), 0.0) + (-3.0 if d == 0 else 3.0) * (u > 0.2)
+            pts.append(dict(protocol='isometric', series=s, step=step, direction=d,
+                            series_value=x, set_value=u, voltage=u, force=f, contraction=x,
+                            pressure=1e5 * u))
+    return pts
+
+
+def test_isometric_gains_recovered(tmp_path: pathlib.Path) -> None:
+    gains = {0.0: 284.3, 0.05: 95.0, 0.095: 17.4}
+    write_bag(tmp_path / 'bag', isometric_points(gains))
+    s = extract([str(tmp_path / 'bag')], str(tmp_path / 'out'))
+    g = s['isometric']['gain_N_per_V']
+    np.testing.assert_allclose([g['max'], g['min']], [284.3, 17.4], rtol=1e-3)
+    assert (g['x_mm_at_max'], g['x_mm_at_min']) == pytest.approx((0.0, 95.0))
+    assert json.loads((tmp_path / 'out' / 'summary.json').read_text())['isometric']
+    assert (tmp_path / 'out' / 'isometric.csv').exists()
+
+
+def test_step_coefficients_and_polynomials(tmp_path: pathlib.Path) -> None:
+    recs = []
+    truth = {}
+    for s, x in enumerate([0.0, 0.02, 0.04, 0.06, 0.08]):
+        b, c, d = 18.8 - 80 * x, 986.0 - 4000 * x, 2.8e4 - 2e5 * x
+        truth[round(x * 1e3)] = (b, c, d)
+        f = synth(b, c, d, 300.0 - 1000 * x, 4.0, delay=3)
+        recs.append(dict(series=s, step=0, direction=0, contraction=x, voltage_initial=1.0,
+                         voltage_final=5.0, sample_period=0.001, force=f))
+    write_bag(tmp_path / 'bag', isometric_points({0.0: 284.3, 0.04: 120.0}), recs)
+    s = extract([str(tmp_path / 'bag')], str(tmp_path / 'out'))
+    for fit in s['step_response']['fits']:
+        np.testing.assert_allclose([fit['b'], fit['c'], fit['d']], truth[round(fit['x_mm'])],
+                                   rtol=1e-4)
+    poly = s['step_response']['polynomials']['b']
+    assert poly['degree'] == 4 and poly['rms_residual'] < 1e-3
+
+
+@pytest.mark.parametrize('make, message', [
+    (lambda p: None, 'no such bag'),
+    (lambda p: p.write_text('not a bag'), 'not a rosbag2 directory'),
+    (lambda p: p.mkdir(), 'no metadata.yaml'),
+])
+def test_bad_paths_one_clear_message(tmp_path: pathlib.Path, make, message: str) -> None:
+    bag = tmp_path / 'bag'
+    make(bag)
+    with pytest.raises(BagError, match=message):
+        read_bags([bag])
+
+
+def test_truncated_bag(tmp_path: pathlib.Path, capsys: pytest.CaptureFixture) -> None:
+    write_bag(tmp_path / 'bag', isometric_points({0.0: 284.3}))
+    mcap = next((tmp_path / 'bag').glob('*.mcap'))
+    mcap.write_bytes(mcap.read_bytes()[:200])
+    assert cli(['extract', str(tmp_path / 'bag'), '--out', str(tmp_path / 'out')]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith('error:') and 'Traceback' not in err
+    assert not (tmp_path / 'out').exists()                     # nothing half-written
+
+
+def test_bag_without_points(tmp_path: pathlib.Path, capsys: pytest.CaptureFixture) -> None:
+    write_bag(tmp_path / 'bag', [])
+    assert cli(['extract', str(tmp_path / 'bag'), '--out', str(tmp_path / 'out')]) == 2
+    assert 'no protocol points' in capsys.readouterr().err
+    assert not (tmp_path / 'out').exists()
+
+
+def test_too_few_points_to_fit(tmp_path: pathlib.Path, capsys: pytest.CaptureFixture) -> None:
+    pts = isometric_points({0.0: 284.3})[:1]
+    write_bag(tmp_path / 'bag', pts)
+    assert cli(['extract', str(tmp_path / 'bag'), '--out', str(tmp_path / 'out')]) == 2
+    assert 'too few points' in capsys.readouterr().err
+    assert not (tmp_path / 'out').exists()
