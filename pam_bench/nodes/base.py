@@ -225,13 +225,62 @@ class BenchNode(Node):
         """Put the device in its safe state after a failed step."""
 
 
+def lean_spin(node: Node) -> None:
+    """Spin a node that has only subscriptions, cheaper than rclpy's executor.
+
+    One wait set over the node's subscriptions and the signal guard condition; at every wake-up
+    every ready subscription is drained. rclpy's SingleThreadedExecutor rebuilds its wait set
+    and schedules a task per callback, which dominates the cost of a lock-step exchange.
+    A node may define ``lean_poll()``: it is called after every wake-up and at least every
+    50 ms (the place for what timers would do). Returns when the context shuts down; SIGINT or
+    SIGTERM raise KeyboardInterrupt.
+    """
+    from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+    from rclpy.signals import SignalHandlerGuardCondition
+
+    ctx = node.context
+    subs = list(node.subscriptions)
+    by_ptr = {s.handle.pointer: s for s in subs}
+    guard = SignalHandlerGuardCondition(context=ctx)
+    wait_set = _rclpy.WaitSet(len(subs), 1, 0, 0, 0, 0, ctx.handle)
+    poll = getattr(node, 'lean_poll', None)
+    try:
+        while ctx.ok():
+            wait_set.clear_entities()
+            for sub in subs:
+                wait_set.add_subscription(sub.handle)
+            wait_set.add_guard_condition(guard.handle)
+            wait_set.wait(50_000_000)
+            if guard.handle.pointer in wait_set.get_ready_entities('guard_condition'):
+                raise KeyboardInterrupt
+            for ptr in wait_set.get_ready_entities('subscription'):
+                sub = by_ptr[ptr]
+                while True:
+                    taken = sub.handle.take_message(sub.msg_type, sub.raw)
+                    if taken is None:
+                        break
+                    sub.callback(taken[0])
+            if poll is not None:
+                poll()
+    finally:
+        guard.destroy()
+
+
 def run_node(cls: type[Node], args: list[str] | None = None) -> None:
-    """The Jazzy ``main()``: init, spin, stop on Ctrl-C or external shutdown, clean up."""
+    """The Jazzy ``main()``: init, spin, stop on Ctrl-C or external shutdown, clean up.
+
+    Nodes with only subscriptions (``LEAN_SPIN``) use ``lean_spin`` unless
+    ``PAM_BENCH_EXECUTOR=single`` asks for rclpy's SingleThreadedExecutor.
+    """
+    import os
     rclpy.init(args=args)
     node = None
     try:
         node = cls()
-        rclpy.spin(node)
+        if getattr(node, 'LEAN_SPIN', False) and os.environ.get('PAM_BENCH_EXECUTOR') != 'single':
+            lean_spin(node)
+        else:
+            rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:

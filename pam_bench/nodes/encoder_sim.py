@@ -19,6 +19,8 @@ __all__ = ['EncoderSim', 'main']
 class EncoderSim(BenchNode):
     """Thin node over ``EncoderModel``."""
 
+    LEAN_SPIN = True    # subscriptions only: see nodes.base.lean_spin
+
     def __init__(self, name: str = 'encoder', **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
         self.model = EncoderModel(self.declare_model('encoder', EncoderParams))

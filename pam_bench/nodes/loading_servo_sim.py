@@ -26,6 +26,8 @@ __all__ = ['LoadingServoSim', 'main']
 class LoadingServoSim(BenchNode):
     """Thin node over ``LoadingServoModel``."""
 
+    LEAN_SPIN = True    # subscriptions only: see nodes.base.lean_spin
+
     def __init__(self, name: str = 'loading_servo', **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
         self.channel = self.declare_typed('channel', 1, 'muscle channel on the belt', '-', 1, 2)

@@ -22,6 +22,8 @@ __all__ = ['MuscleSim', 'main']
 class MuscleSim(BenchNode):
     """Thin node over ``MuscleModel``."""
 
+    LEAN_SPIN = True    # subscriptions only: see nodes.base.lean_spin
+
     def __init__(self, name: str = 'muscle_1', **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
         self.channel = self.declare_typed('channel', 1, 'muscle channel N', '-', 1, 2)

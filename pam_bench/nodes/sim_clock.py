@@ -14,6 +14,7 @@ rate=...``) and exits. With ``realtime`` the ticks are paced to the wall clock.
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 from typing import Any
@@ -23,7 +24,7 @@ from pam_bench_interfaces.msg import ProtocolStatus, StepAck
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
-from pam_bench.nodes.base import RELIABLE, BenchNode, ns_of, time_of
+from pam_bench.nodes.base import RELIABLE, BenchNode, lean_spin, ns_of, time_of
 
 __all__ = ['SimClock', 'main']
 
@@ -31,7 +32,9 @@ __all__ = ['SimClock', 'main']
 class SimClock(Node):
     """Lock-step master clock."""
 
-    def __init__(self, name: str = 'sim_clock', **kwargs: Any) -> None:
+    def __init__(self, name: str = 'sim_clock', lean: bool | None = None, **kwargs: Any) -> None:
+        """``lean``: driven by ``lean_spin`` (polls instead of timers); default: unless
+        ``PAM_BENCH_EXECUTOR=single``. Under an rclpy executor pass ``lean=False``."""
         kwargs.setdefault('start_parameter_services', False)
         super().__init__(name, **kwargs)
         decl = BenchNode.declare_typed.__get__(self)
@@ -66,8 +69,24 @@ class SimClock(Node):
         self.t_run0 = 0.0
         self.last_progress = time.monotonic()
         self.last_tick_wall = time.monotonic()
-        self.timer = self.create_timer(0.05, self._on_timer)
         self.exit_code = 0
+        self.ready_at: float | None = None    # wall time when all were ready (lean mode)
+        self.lean = (os.environ.get('PAM_BENCH_EXECUTOR') != 'single') if lean is None else lean
+        if not self.lean:
+            self.timer = self.create_timer(0.05, self._on_timer)
+
+    def lean_poll(self) -> None:
+        """What the timers do, called by ``lean_spin`` at every wake-up (>= every 50 ms)."""
+        now = time.monotonic()
+        if self.ready_at is not None:
+            if self.t_run0 == 0.0 and now - self.ready_at >= self.grace_s:
+                self.t_run0 = now
+                self._advance()
+            elif self.t_run0 and not self.done and now - self.last_tick_wall > self.timeout_s:
+                self._stall()
+            return
+        if now - self.last_tick_wall >= 0.05:
+            self._on_timer()
 
     def _publish(self) -> None:
         self.last_tick_wall = time.monotonic()
@@ -78,6 +97,9 @@ class SimClock(Node):
         if not self.ready:
             if self.acks >= self.participants:
                 self.ready = True
+                if self.lean:
+                    self.ready_at = now
+                    return
                 self.timer.cancel()
                 self.timer = self.create_timer(self.grace_s if self.grace_s > 0 else 1e-3,
                                                self._start)
@@ -88,15 +110,19 @@ class SimClock(Node):
                                  f'{sorted(self.participants - self.acks)}', 2)
             return
         if not self.done and now - self.last_tick_wall > self.timeout_s:
-            reason = (f'lock-step stalled at t = {self.tick_ns * 1e-9:.3f} s: no '
-                      f'acknowledgement from {", ".join(sorted(self.participants - self.acks))}'
-                      f' within {self.timeout_s:g} s (node dead or hung)')
-            status = ProtocolStatus(state=ProtocolStatus.STATE_ABORTED, phase='aborted',
-                                    reason=reason)
-            status.header.stamp = time_of(self.tick_ns)
-            self.status_pub.publish(status)
-            time.sleep(0.2)                 # let the recorder take the status in
-            self._finish(reason, 3)
+            self._stall()
+
+    def _stall(self) -> None:
+        """A participant did not acknowledge in time: publish why, end the run."""
+        reason = (f'lock-step stalled at t = {self.tick_ns * 1e-9:.3f} s: no '
+                  f'acknowledgement from {", ".join(sorted(self.participants - self.acks))}'
+                  f' within {self.timeout_s:g} s (node dead or hung)')
+        status = ProtocolStatus(state=ProtocolStatus.STATE_ABORTED, phase='aborted',
+                                reason=reason)
+        status.header.stamp = time_of(self.tick_ns)
+        self.status_pub.publish(status)
+        time.sleep(0.2)                 # let the recorder take the status in
+        self._finish(reason, 3)
 
     def _start(self) -> None:
         self.timer.cancel()
@@ -196,7 +222,10 @@ def main(args: list[str] | None = None) -> None:
     code = 0
     try:
         node = SimClock()
-        rclpy.spin(node)
+        if node.lean:
+            lean_spin(node)
+        else:
+            rclpy.spin(node)
     except SystemExit as exc:
         code = int(exc.code or 0)
     except KeyboardInterrupt:

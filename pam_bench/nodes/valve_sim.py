@@ -25,6 +25,8 @@ ATMOSPHERE_PA = 101325.0
 class ValveSim(BenchNode):
     """Thin node over ``ValveModel``."""
 
+    LEAN_SPIN = True    # subscriptions only: see nodes.base.lean_spin
+
     def __init__(self, name: str = 'valve_1', **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
         self.channel = self.declare_typed('channel', 1, 'muscle channel N', '-', 1, 2)

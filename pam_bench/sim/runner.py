@@ -54,6 +54,15 @@ def ros_env(domain_id: int | None = None) -> dict[str, str]:
     return env
 
 
+def _die_with_parent() -> None:
+    """In a node process: get SIGTERM when the runner dies, even by SIGKILL (Linux)."""
+    try:
+        import ctypes
+        ctypes.CDLL('libc.so.6', use_errno=True).prctl(1, signal.SIGTERM)   # PR_SET_PDEATHSIG
+    except OSError:
+        pass
+
+
 def _parse(summary: str, code: int) -> RunResult:
     m = LOCKSTEP_RE.search(summary)
     if not m:
@@ -89,11 +98,12 @@ def _run_processes(scene: Scene, params: dict[str, Any], domain_id: int | None,
                 procs[name] = subprocess.Popen(
                     [sys.executable, '-m', NODE_TYPES[name].module, '--ros-args',
                      '-r', f'__node:={name}', '--params-file', pfile],
-                    env=env, stdout=log, stderr=subprocess.STDOUT)
+                    env=env, stdout=log, stderr=subprocess.STDOUT, preexec_fn=_die_with_parent)
             clock = subprocess.Popen(
                 [sys.executable, '-m', NODE_TYPES['sim_clock'].module, '--ros-args',
                  '-r', '__node:=sim_clock', '--params-file', pfile],
-                env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+                env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                preexec_fn=_die_with_parent)
             procs = {'sim_clock': clock, **procs}
             lines = []
             for line in clock.stdout:
@@ -161,7 +171,8 @@ def _run_in_process(scene: Scene, params: dict[str, Any], domain_id: int | None,
             cls = getattr(importlib.import_module(t.module), t.cls)
             overrides = [Parameter(k, value=v) for k, v in
                          _flatten(params[name]['ros__parameters']).items()]
-            node = cls(name, context=context, parameter_overrides=overrides)
+            extra = {'lean': False} if name == 'sim_clock' else {}    # under the executor
+            node = cls(name, context=context, parameter_overrides=overrides, **extra)
             nodes.append(node)
             executor.add_node(node)
         with contextlib.redirect_stdout(buf if quiet else sys.stdout):
