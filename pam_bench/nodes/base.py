@@ -225,7 +225,7 @@ class BenchNode(Node):
         """Put the device in its safe state after a failed step."""
 
 
-def lean_spin(node: Node) -> None:
+def lean_spin(node: Node, graceful: bool = False) -> None:
     """Spin a node that has only subscriptions, cheaper than rclpy's executor.
 
     One wait set over the node's subscriptions and the signal guard condition; at every wake-up
@@ -233,8 +233,11 @@ def lean_spin(node: Node) -> None:
     and schedules a task per callback, which dominates the cost of a lock-step exchange.
     A node may define ``lean_poll()``: it is called after every wake-up and at least every
     50 ms (the place for what timers would do). Returns when the context shuts down; SIGINT or
-    SIGTERM raise KeyboardInterrupt.
+    SIGTERM raise KeyboardInterrupt. With ``graceful`` they only set a flag that the loop reads
+    between messages, so a callback (a bag write) is never cut in the middle, and it returns.
     """
+    import signal as _signal
+
     from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
     from rclpy.signals import SignalHandlerGuardCondition
 
@@ -244,8 +247,12 @@ def lean_spin(node: Node) -> None:
     guard = SignalHandlerGuardCondition(context=ctx)
     wait_set = _rclpy.WaitSet(len(subs), 1, 0, 0, 0, 0, ctx.handle)
     poll = getattr(node, 'lean_poll', None)
+    stop = []
+    if graceful:
+        for sig in (_signal.SIGINT, _signal.SIGTERM):
+            _signal.signal(sig, lambda *_: stop.append(True))
     try:
-        while ctx.ok():
+        while ctx.ok() and not stop:
             wait_set.clear_entities()
             for sub in subs:
                 wait_set.add_subscription(sub.handle)
@@ -255,7 +262,7 @@ def lean_spin(node: Node) -> None:
                 raise KeyboardInterrupt
             for ptr in wait_set.get_ready_entities('subscription'):
                 sub = by_ptr[ptr]
-                while True:
+                while not stop:
                     taken = sub.handle.take_message(sub.msg_type, sub.raw)
                     if taken is None:
                         break
@@ -278,7 +285,7 @@ def run_node(cls: type[Node], args: list[str] | None = None) -> None:
     try:
         node = cls()
         if getattr(node, 'LEAN_SPIN', False) and os.environ.get('PAM_BENCH_EXECUTOR') != 'single':
-            lean_spin(node)
+            lean_spin(node, graceful=getattr(node, 'GRACEFUL_STOP', False))
         else:
             rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):

@@ -30,8 +30,10 @@ KEEP_ALL = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE,
 
 
 class Recorder(BenchNode):
-    """Raw-bytes rosbag2 MCAP recorder (spun by rclpy's executor, not ``lean_spin``: under the
-    lean loop a bag was once left without metadata.yaml after SIGINT, not yet understood)."""
+    """Raw-bytes rosbag2 MCAP recorder."""
+
+    LEAN_SPIN = True        # subscriptions only: see nodes.base.lean_spin
+    GRACEFUL_STOP = True    # SIGINT/SIGTERM end the loop between writes, never inside one
 
 
     def __init__(self, name: str = 'recorder', **kwargs: Any) -> None:
