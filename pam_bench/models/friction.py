@@ -56,14 +56,6 @@ class MaxwellSlip:
         self.sticking = ~over
         return float(np.dot(self.k, s_m - self.z))
 
-    def peek(self, s_m: float, pressure_pa: float) -> float:
-        """F_f at ``s_m`` without changing the state, N."""
-        z, stick = self.z.copy(), self.sticking.copy()
-        try:
-            return self.force(s_m, pressure_pa)
-        finally:
-            self.z, self.sticking = z, stick
-
     @property
     def sticking_stiffness(self) -> float:
         """dF_f/ds of the elements currently sticking, N/m."""

@@ -122,7 +122,6 @@ class SequencerNode(BenchNode):
         self._start_pending = False
         self._goal: Any = None
         self._goal_done: Future | None = None
-        self._t = 0.0
         self.action = ActionServer(self, RunProtocol, 'protocol/run', self._execute,
                                    goal_callback=self._on_goal,
                                    cancel_callback=lambda _: CancelResponse.ACCEPT)
@@ -197,7 +196,6 @@ class SequencerNode(BenchNode):
 
     def _tick(self, t_ns: int) -> None:
         t = t_ns * 1e-9
-        self._t = t
         self._wake()
         if self._start_pending and self.core is not None:
             self.core.start(t)

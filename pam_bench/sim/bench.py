@@ -58,6 +58,7 @@ class SingleMuscleBench:
         self.theta = 0.0
         self.f_meas = 0.0
         self.th_meas = 0.0
+        self.steps = 0                # exchanges taken by adaptive runs
 
     def command_valve(self, voltage_v: float) -> None:
         """Hold ``voltage_v`` from now on."""
@@ -100,7 +101,6 @@ class SingleMuscleBench:
                 st = self.step(h_s)
             return st
         t_end = self.t + duration_s
-        self.steps = getattr(self, 'steps', 0)
         while self.t < t_end - 1e-12:
             h = h_s
             req = self.max_step()

@@ -17,43 +17,38 @@ __all__ = ['isometric_sweep', 'isotonic_sweep', 'isobaric_sweep', 'isometric_gai
            'calibration_figures']
 
 
-def _bench(**kw) -> SingleMuscleBench:
-    return SingleMuscleBench(**kw)
+def _voltage_sweep(mode: LoadMode, load: float, voltages_v: np.ndarray, dwell_s: float,
+                   h_s: float, read_force: bool, **bench_kw) -> tuple[np.ndarray, np.ndarray]:
+    """Hold the load (mode, set value), step u up then down; return (u, reading) where the
+    reading is the load-cell force (N) or the encoder contraction (m), shapes (2 n,)."""
+    b = SingleMuscleBench(**bench_kw)
+    b.command_load(mode, load)
+    b.run(2.0, h_s)
+    us = np.concatenate([voltages_v, voltages_v[::-1]])
+    out = []
+    for u in us:
+        b.command_valve(float(u))
+        st = b.run(dwell_s, h_s)
+        out.append(st.measured_force_n if read_force else st.measured_angle_rad * b.servo.r)
+    return us, np.array(out)
 
 
 def isometric_sweep(x_m: float, voltages_v: np.ndarray, dwell_s: float = 3.0,
                     h_s: float = 0.01, **bench_kw) -> tuple[np.ndarray, np.ndarray]:
     """Hold x, step u up then down; return (u, F) readings, shapes (2 n,)."""
-    b = _bench(**bench_kw)
-    b.command_load(LoadMode.POSITION, x_m)
-    b.run(2.0, h_s)
-    us = np.concatenate([voltages_v, voltages_v[::-1]])
-    fs = []
-    for u in us:
-        b.command_valve(float(u))
-        fs.append(b.run(dwell_s, h_s).measured_force_n)
-    return us, np.array(fs)
+    return _voltage_sweep(LoadMode.POSITION, x_m, voltages_v, dwell_s, h_s, True, **bench_kw)
 
 
 def isotonic_sweep(force_n: float, voltages_v: np.ndarray, dwell_s: float = 3.0,
                    h_s: float = 0.01, **bench_kw) -> tuple[np.ndarray, np.ndarray]:
     """Hold F, step u up then down; return (u, x) readings with x in m, shapes (2 n,)."""
-    b = _bench(**bench_kw)
-    b.command_load(LoadMode.FORCE, force_n)
-    b.run(2.0, h_s)
-    us = np.concatenate([voltages_v, voltages_v[::-1]])
-    xs = []
-    for u in us:
-        b.command_valve(float(u))
-        st = b.run(dwell_s, h_s)
-        xs.append(st.measured_angle_rad * b.servo.r)
-    return us, np.array(xs)
+    return _voltage_sweep(LoadMode.FORCE, force_n, voltages_v, dwell_s, h_s, False, **bench_kw)
 
 
 def isobaric_sweep(voltage_v: float, forces_n: np.ndarray, dwell_s: float = 3.0,
                    h_s: float = 0.01, **bench_kw) -> tuple[np.ndarray, np.ndarray]:
     """Hold u, step F up then down; return (F set, x) readings with x in m, shapes (2 n,)."""
-    b = _bench(**bench_kw)
+    b = SingleMuscleBench(**bench_kw)
     b.command_valve(voltage_v)
     b.command_load(LoadMode.FORCE, float(forces_n[0]))
     b.run(3.0, h_s)
