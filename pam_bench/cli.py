@@ -76,6 +76,32 @@ def _cmd_extract(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_truth(args: argparse.Namespace) -> int:
+    from pam_bench.sim.truth import compare, truth_summary
+    truth = truth_summary(args.scene, reference=not args.no_reference)
+    if args.against:
+        path = pathlib.Path(args.against)
+        if path.is_dir():
+            path = path / 'summary.json'
+        try:
+            summary = json.loads(path.read_text(encoding='utf-8'))
+        except (OSError, ValueError) as exc:
+            print(f'error: cannot read {path}: {exc}', file=sys.stderr)
+            return 2
+        truth['comparison'] = compare(truth, summary)
+    if args.json:
+        print(json.dumps(truth, indent=2))
+        return 0
+    for k in ('isometric', 'isotonic', 'isobaric'):
+        if k in truth:
+            print(k, json.dumps({a: b for a, b in truth[k].items() if a != 'series'}))
+    if 'step_response' in truth:
+        print(f"step_response: {len(truth['step_response']['fits'])} steps (use --json)")
+    for name, rows in truth.get('comparison', {}).items():
+        print(f'{name}: {json.dumps(rows)[:2000]}')
+    return 0
+
+
 def _cmd_bench(args: argparse.Namespace) -> int:
     from pam_bench.sim.benchmark import run_benchmarks
     root = pathlib.Path(args.root)
@@ -114,6 +140,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument('bags', nargs='+', help='rosbag2 directories')
     p.add_argument('--out', required=True, help='output folder (replaced when complete)')
     p.set_defaults(func=_cmd_extract)
+    p = sub.add_parser('truth', help="what the scene's parameters imply (summary.json keys)")
+    p.add_argument('scene', help='scene name or scene file')
+    p.add_argument('--json', action='store_true', help='print the whole JSON')
+    p.add_argument('--against', help='an extraction folder or summary.json to compare with')
+    p.add_argument('--no-reference', action='store_true',
+                   help='skip the noise-free simulated step responses (faster)')
+    p.set_defaults(func=_cmd_truth)
     p = sub.add_parser('bench', help='benchmarks -> BENCHMARKS.md and bench.json')
     p.add_argument('--quick', action='store_true', help='a few minutes: quick grids and scenes')
     p.add_argument('--root', default='.', help='where to write the report (default: here)')

@@ -2,4 +2,5 @@
 
 from __future__ import annotations
 
-__all__ = ['types']
+__all__ = ['bagread', 'extract', 'force_models', 'identify', 'inverse_export', 'plots', 'report',
+           'static', 'types']

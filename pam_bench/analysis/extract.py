@@ -8,43 +8,64 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 import pathlib
 import shutil
 import tempfile
 import time
+from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
 import numpy as np
+import yaml
 
-from pam_bench.analysis.bagread import BagData, StepRecord, read_bags
+from pam_bench.analysis import plots
+from pam_bench.analysis.bagread import BagData, Points, StepRecord, read_bags
+from pam_bench.analysis.force_models import fit_force_models
 from pam_bench.analysis.identify import fit_step
+from pam_bench.analysis.inverse_export import inverse_model_dict
+from pam_bench.analysis.report import report_markdown
 from pam_bench.analysis.static import gain_summary
 
-__all__ = ['extract', 'step_summary', 'ExtractError']
+__all__ = ['extract', 'step_summary', 'coefficient_polynomials', 'ExtractError']
 
 
 class ExtractError(Exception):
     """Nothing could be extracted (too few points to fit, ...)."""
 
 
-def _fit_records(records: list[StepRecord]) -> list[dict[str, Any]]:
-    fits = []
-    for r in records:
-        dv = r.voltage_final_v - r.voltage_initial_v
-        fit = fit_step(r.force_n, r.sample_period_s, dv)
-        fits.append({'x_mm': r.contraction_m * 1e3,
-                     'direction': 'up' if r.direction == 0 else 'down',
-                     'u0_V': r.voltage_initial_v, 'u1_V': r.voltage_final_v,
-                     'b': fit.b, 'c': fit.c, 'd': fit.d, 'F_a0_N': fit.f_a0_n,
-                     'rms_error_N': fit.rms_error_n, 'delay_samples': fit.delay_samples})
-    return fits
+def _fit_one(r: StepRecord) -> dict[str, Any]:
+    dv = r.voltage_final_v - r.voltage_initial_v
+    fit = fit_step(r.force_n, r.sample_period_s, dv)
+    return {'x_mm': r.contraction_m * 1e3, 'direction': 'up' if r.direction == 0 else 'down',
+            'u0_V': r.voltage_initial_v, 'u1_V': r.voltage_final_v,
+            'b': fit.b, 'c': fit.c, 'd': fit.d, 'F_a0_N': fit.f_a0_n,
+            'rms_error_N': fit.rms_error_n, 'delay_samples': fit.delay_samples}
+
+
+def _fit_records(records: list[StepRecord], workers: int | None = None) -> list[dict[str, Any]]:
+    """Fit every record; many records are shared out over the CPU cores (order kept)."""
+    workers = workers or min(os.cpu_count() or 1, 8)
+    if workers < 2 or len(records) < 40:
+        return [_fit_one(r) for r in records]
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        return list(pool.map(_fit_one, records, chunksize=max(1, len(records) // (4 * workers))))
 
 
 def step_summary(records: list[StepRecord]) -> dict[str, Any]:
-    """Fits of every step response and, per coefficient, a polynomial in the centred and
-    scaled contraction z = (x - x_mid) / x_half (004: 5th degree) over the largest up step
-    at each position, with its residuals."""
+    """Fits of every step response and their polynomials over x (``coefficient_polynomials``)."""
     fits = _fit_records(records)
+    return {'fits': fits, 'polynomials': coefficient_polynomials(fits)}
+
+
+def coefficient_polynomials(fits: list[dict[str, Any]]) -> dict[str, Any]:
+    """Per coefficient (b, c, d, F_a0), a polynomial in the centred and scaled contraction
+    z = (x - x_mid) / x_half (004: 5th degree; lower when there are fewer positions) over the
+    largest up step at each position, with its residuals.
+
+    Args:
+        fits: dicts with x_mm, direction, u1_V, b, c, d, F_a0_N.
+    """
     by_x: dict[float, dict[str, Any]] = {}
     for f in fits:
         if f['direction'] == 'up':
@@ -63,9 +84,9 @@ def step_summary(records: list[StepRecord]) -> dict[str, Any]:
             res = y - np.polynomial.polynomial.polyval(z, coef)
             polys[key.replace('_N', '')] = {
                 'coefficients_low_to_high': coef.tolist(), 'degree': deg,
-                'x_mid_mm': mid, 'x_half_range_mm': half,
+                'x_mid_mm': mid, 'x_half_range_mm': half, 'x_mm': xs.tolist(),
                 'residuals': res.tolist(), 'rms_residual': float(np.sqrt(np.mean(res ** 2)))}
-    return {'fits': fits, 'polynomials': polys}
+    return polys
 
 
 def _write_csv(path: pathlib.Path, data: BagData) -> None:
@@ -81,8 +102,42 @@ def _write_csv(path: pathlib.Path, data: BagData) -> None:
                             p.pressure_pa[i] * 1e-6, p.t_s[i]])
 
 
-def extract(bags: list[str], out_dir: str) -> dict[str, Any]:
-    """Read the bags, write DIR/summary.json, DIR/report.md and DIR/<protocol>.csv.
+def _largest(points: dict[str, Points], kind: str) -> Points | None:
+    """The largest protocol of a kind (full and quick grids may both be present)."""
+    found = [p for name, p in points.items() if name.startswith(kind)]
+    return max(found, key=len) if found else None
+
+
+def _model_comparison(points: dict[str, Points]) -> list[dict[str, Any]]:
+    """Static force models fitted to the isometric and isobaric readings pooled."""
+    use = [p for p in (_largest(points, 'isometric'), _largest(points, 'isobaric')) if p]
+    if not use:
+        return []
+    cat = [np.concatenate([getattr(p, c) for p in use])
+           for c in ('pressure_pa', 'contraction_m', 'force_n')]
+    return fit_force_models(*cat)
+
+
+def _figures(tmp: pathlib.Path, data: BagData, summary: dict[str, Any],
+             models: list[dict[str, Any]]) -> list[str]:
+    names = []
+    for kind in ('isobaric', 'isotonic', 'isometric'):
+        p = _largest(data.points, kind)
+        if p is not None and len(p) >= 2:
+            names.append(plots.plot_family(p, kind, tmp))
+            names.append(plots.plot_surfaces(p, kind, tmp))
+            if kind == 'isometric' and 'isometric' in summary:
+                names.append(plots.plot_gains(p, tmp))
+    if summary.get('step_response', {}).get('polynomials'):
+        names.append(plots.plot_step_polynomials(summary['step_response'], tmp))
+    if models:
+        names.append(plots.plot_model_residuals(models, tmp))
+    return names
+
+
+def extract(bags: list[str], out_dir: str, figures: bool = True) -> dict[str, Any]:
+    """Read the bags; write DIR/summary.json, DIR/report.md, DIR/inverse_model.yaml (when the
+    bags hold step responses and isometric points), DIR/<protocol>.csv and the figures.
 
     Raises:
         BagError: unreadable bags or no protocol points.
@@ -101,17 +156,31 @@ def extract(bags: list[str], out_dir: str) -> dict[str, Any]:
     if not summary:
         raise ExtractError('too few points to extract anything (need at least two readings '
                            'where the muscle pulls in a series)')
+    models = _model_comparison(data.points)
+    if models:
+        summary['model_comparison'] = [{k: v for k, v in m.items() if not k.startswith('_')}
+                                       for m in models]
+    inverse = inverse_model_dict(summary.get('step_response'),
+                                 _largest(data.points, 'isometric'))
+    t3 = time.perf_counter()
     summary['timing_s'] = {'read_and_static': t1 - t0, 'identification': t2 - t1,
-                           'records': len(data.records)}
+                           'model_comparison': t3 - t2, 'records': len(data.records)}
     summary['bags'] = [str(b) for b in bags]
     out = pathlib.Path(out_dir)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = pathlib.Path(tempfile.mkdtemp(prefix=f'.{out.name}.', dir=out.parent))
     try:
         _write_csv(tmp, data)
+        if inverse is not None:
+            summary['inverse_model'] = 'inverse_model.yaml'
+            (tmp / 'inverse_model.yaml').write_text(
+                yaml.safe_dump(inverse, sort_keys=False), encoding='utf-8')
+        names = _figures(tmp, data, summary, models) if figures else []
+        summary['timing_s']['figures'] = time.perf_counter() - t3
+        summary['figures'] = names
         (tmp / 'summary.json').write_text(json.dumps(summary, indent=2) + '\n',
                                           encoding='utf-8')
-        (tmp / 'report.md').write_text(_report(summary), encoding='utf-8')
+        (tmp / 'report.md').write_text(report_markdown(summary), encoding='utf-8')
         if out.exists():
             shutil.rmtree(out)
         tmp.rename(out)
@@ -119,29 +188,3 @@ def extract(bags: list[str], out_dir: str) -> dict[str, Any]:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return summary
-
-
-def _report(s: dict[str, Any]) -> str:
-    lines = ['# Extracted characteristics', '']
-    if 'isometric' in s:
-        g = s['isometric']['gain_N_per_V']
-        lines += [f"Isometric gain: max {g['max']:.1f} N/V at x = {g['x_mm_at_max']:.0f} mm, "
-                  f"min {g['min']:.1f} N/V at x = {g['x_mm_at_min']:.0f} mm.", '']
-    if 'isotonic' in s:
-        g = s['isotonic']['gain_mm_per_V']
-        lines += [f"Isotonic gain: max {g['max']:.2f} mm/V at u = {g['u_V_at_max']:.2f} V, "
-                  f"F = {g['F_N_at_max']:.0f} N; min {g['min']:.2f} mm/V at "
-                  f"u = {g['u_V_at_min']:.2f} V, F = {g['F_N_at_min']:.0f} N.", '']
-    if 'isobaric' in s:
-        lines += [f"Isobaric hysteresis: up to {s['isobaric']['hysteresis_mm_max']:.2f} mm.", '']
-    if 'step_response' in s:
-        lines += ['| x mm | direction | u0 -> u1 V | b 1/s | c 1/s^2 | d N/(V s^2) | F_a0 N | '
-                  'RMS N |', '|---|---|---|---|---|---|---|---|']
-        for f in s['step_response']['fits']:
-            lines.append(f"| {f['x_mm']:.0f} | {f['direction']} | {f['u0_V']:.1f} -> "
-                         f"{f['u1_V']:.1f} | {f['b']:.2f} | {f['c']:.1f} | {f['d']:.0f} | "
-                         f"{f['F_a0_N']:.1f} | {f['rms_error_N']:.3f} |")
-    return '\n'.join(lines) + '\n'
-
-
-

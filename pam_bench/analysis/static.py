@@ -1,8 +1,7 @@
 """Static characteristics of 004 section 2.2 from characteristic points.
 
-- isometric gain k(x) (N/V): least-squares slope of F over u per series, over the readings
-  where the muscle pulls (F > 1 % of the series' largest force), both sweeps pooled so the
-  friction offsets cancel;
+- isometric gain k(x) (N/V): least-squares slope of F over u per series, taken on the
+  hysteresis midline so the friction of the braid cancels (see ``isometric_gains``);
 - isotonic gain k(u, F) (mm/V): dx/du between neighbouring readings of the up sweep, placed at
   the mid voltage;
 - isobaric hysteresis (mm): x on the way down minus x on the way up at the same set force.
@@ -16,20 +15,59 @@ import numpy as np
 
 from pam_bench.analysis.bagread import Points
 
-__all__ = ['isometric_gains', 'isotonic_gains', 'isobaric_hysteresis', 'gain_summary']
+__all__ = ['isometric_gains', 'isometric_lines', 'midline_fit', 'isotonic_gains', 'isobaric_hysteresis',
+           'gain_summary']
 
 
 def isometric_gains(p: Points) -> tuple[np.ndarray, np.ndarray]:
-    """(x in m, gain in N/V) per series, shapes (n_series,)."""
-    xs, ks = [], []
+    """(x in m, gain in N/V) per series, shapes (n_series,).
+
+    With both sweeps present the gain is the slope of the hysteresis midline
+    (F_up(u) + F_down(u)) / 2 over the readings where both branches pull (F > 1 % of the
+    series' largest force), leaving out the top 30 % of that voltage range: there the braid
+    friction is still changing side after the turn of the sweep, so the branches are not yet
+    parallel. Where the friction has fully slipped it adds +-(f0 + mu F) to the two branches
+    and cancels in the midline. With one sweep only: the slope of that sweep where it pulls.
+    """
+    x, k, _ = isometric_lines(p)
+    return x, k
+
+
+def isometric_lines(p: Points) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(x in m, gain k in N/V, intercept F0 in N) of F = k u + F0 per series (see
+    ``isometric_gains``), shapes (n_series,)."""
+    xs, ks, f0s = [], [], []
     for s in np.unique(p.series):
         m = p.series == s
-        u, f = p.voltage_v[m], p.force_n[m]
-        use = f > 0.01 * max(float(f.max()), 1e-9)
-        if use.sum() >= 2 and np.ptp(u[use]) > 0:
+        line = midline_fit(p.voltage_v[m], p.force_n[m], p.direction[m])
+        if line is not None:
             xs.append(float(p.series_value[m][0]))
-            ks.append(float(np.polyfit(u[use], f[use], 1)[0]))
-    return np.array(xs), np.array(ks)
+            ks.append(line[0])
+            f0s.append(line[1])
+    return np.array(xs), np.array(ks), np.array(f0s)
+
+
+def midline_fit(u: np.ndarray, f: np.ndarray, direction: np.ndarray
+             ) -> tuple[float, float] | None:
+    """(slope N/V, intercept N) of one isometric series (None: too few usable readings)."""
+    floor = 0.01 * max(float(f.max()), 1e-9)
+    up = {round(float(a), 6): float(b) for a, b, d in zip(u, f, direction, strict=True)
+          if d == 0}
+    down = {round(float(a), 6): float(b) for a, b, d in zip(u, f, direction, strict=True)
+            if d == 1}
+    both = sorted(v for v in set(up) & set(down) if up[v] > floor and down[v] > floor)
+    if len(both) >= 4:
+        uu = np.array(both)
+        mid = np.array([(up[v] + down[v]) / 2.0 for v in both])
+        keep = uu <= uu[0] + 0.7 * (uu[-1] - uu[0])
+        if keep.sum() >= 3:
+            k, f0 = np.polyfit(uu[keep], mid[keep], 1)
+            return float(k), float(f0)
+    use = f > floor
+    if use.sum() >= 2 and np.ptp(u[use]) > 0:
+        k, f0 = np.polyfit(u[use], f[use], 1)
+        return float(k), float(f0)
+    return None
 
 
 def isotonic_gains(p: Points) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -2,4 +2,5 @@
 
 from __future__ import annotations
 
-__all__ = ['errors', 'friction', 'loading_servo', 'lti', 'muscle', 'params', 'sensors', 'valve']
+__all__ = ['errors', 'friction', 'inverse', 'loading_servo', 'lti', 'muscle', 'params',
+           'protocols', 'sensors', 'valve']

@@ -3,11 +3,12 @@
 004 (section 2.2) attributes the hysteresis of all three static families to friction between
 the braid fibres and between the braid and the bladder. The friction force is
 
-    F_f = sum_i phi_i,   phi_i = k_i (s - z_i),   |phi_i| <= f_i(p) = f0_i + mu_i p
+    F_f = sum_i phi_i,   phi_i = k_i (s - z_i),   |phi_i| <= f_i(N) = f0_i + mu_i N
 
-with element stiffness k_i (N/m), break force f_i (N) growing with the gauge pressure p (Pa)
-because the bladder presses the braid harder, and slip coordinate s (m). Each element sticks
-(z_i fixed) until its spring force reaches f_i, then slides with z_i = s -+ f_i / k_i.
+with element stiffness k_i (N/m), break force f_i (N) growing with the load N (N) that presses
+the fibres together (Coulomb: the muscle passes the braid tension, its backbone force), and
+slip coordinate s (m). Each element sticks (z_i fixed) until its spring force reaches f_i, then
+slides with z_i = s -+ f_i / k_i.
 
 The update is an exact algebraic projection onto |phi_i| <= f_i: it uses no velocity and no
 sign(v), so it cannot chatter at a velocity reversal, and the result depends only on the path
@@ -27,14 +28,14 @@ class MaxwellSlip:
     Args:
         stiffness_n_per_m: k_i, shape (n,).
         break_force_n: f0_i, shape (n,).
-        break_force_per_pa: mu_i, N/Pa, shape (n,).
+        break_force_ratio: mu_i, break force per newton of load, shape (n,).
     """
 
     def __init__(self, stiffness_n_per_m: list[float], break_force_n: list[float],
-                 break_force_per_pa: list[float]) -> None:
+                 break_force_ratio: list[float]) -> None:
         self.k = np.asarray(stiffness_n_per_m, dtype=float)
         self.f0 = np.asarray(break_force_n, dtype=float)
-        self.mu = np.asarray(break_force_per_pa, dtype=float)
+        self.mu = np.asarray(break_force_ratio, dtype=float)
         if not (self.k.shape == self.f0.shape == self.mu.shape):
             raise ValueError('friction element lists must have equal lengths')
         self.z = np.zeros_like(self.k)
@@ -45,11 +46,11 @@ class MaxwellSlip:
         self.z[:] = s_m
         self.sticking[:] = True
 
-    def force(self, s_m: float, pressure_pa: float) -> float:
-        """Advance to slip coordinate ``s_m`` at gauge pressure ``pressure_pa``; return F_f, N."""
+    def force(self, s_m: float, load_n: float) -> float:
+        """Advance to slip coordinate ``s_m`` (m) under the load ``load_n`` (N); return F_f, N."""
         if self.k.size == 0:
             return 0.0
-        limit = (self.f0 + self.mu * max(pressure_pa, 0.0)) / self.k   # m of pre-slide
+        limit = (self.f0 + self.mu * max(load_n, 0.0)) / self.k   # m of pre-slide
         d = s_m - self.z
         over = np.abs(d) >= limit
         self.z = np.where(over, s_m - np.sign(d) * limit, self.z)

@@ -18,8 +18,13 @@ Static force (quasi-static: the muscle's own mass and the gas inertia are neglec
   muscle is stretched below its nominal length, which makes heavy loads barely move the
   muscle at first (004 isotonic threshold).
 - F_f is braid friction (``pam_bench.models.friction.MaxwellSlip``) driven by the slip
-  coordinate s = x + kappa_p p: fibres slide over the bladder when the length changes and
-  when the bladder swells under pressure, so hysteresis shows in all three families (004).
+  coordinate s = x + c_t F_bb^+: the fibres slide over the bladder when the length changes and
+  when the braid tension changes (the bladder swelling under pressure stretches the braid by
+  c_t per newton), so hysteresis shows in all three families (004). The break force of each
+  element is f0_i + mu_i F_bb^+ (Coulomb: the braid presses on the bladder with its tension).
+  Two bounds keep the friction a reaction that can at most hold the force, never reverse it:
+  c_t sum(k_i) < 1 (while the elements stick, dF/dF_bb = 1 - c_t sum k_sticking > 0 at held
+  x) and sum(mu_i) < 1 (while they slide, dF/dF_bb = 1 -+ sum mu_i > 0); both are checked.
 
 Chamber volume from the inextensible-braid kinematics (001 Eq. 1-2): with thread length
 b = l_n / cos(theta_0) and n_t = b sin(theta_0) / (pi d_n) turns,
@@ -59,16 +64,16 @@ class MuscleParams:
     stretch_stiffness_n_per_m: float = field(5.0e5, 'N/m', 'braid lock-up stiffness k_s for '
                                              'x < 0', 0.0, 1.0e10)
     hysteresis: bool = field(True, '-', 'model braid friction (Maxwell-slip)')
-    friction_stiffness_n_per_m: list = field([3.0e5, 1.0e5, 4.0e4], 'N/m',
+    friction_stiffness_n_per_m: list = field([3.0e5, 2.0e5, 1.0e5], 'N/m',
                                              'stiffness k_i of each friction element',
                                              0.0, 1.0e10)
     friction_break_force_n: list = field([1.0, 2.0, 2.0], 'N',
-                                         'break force f0_i at zero pressure', 0.0, 1.0e5)
-    friction_break_force_n_per_pa: list = field([5.0e-6, 1.0e-5, 1.5e-5], 'N/Pa',
-                                                'growth mu_i of the break force with pressure',
-                                                0.0, 1.0)
-    slip_per_pa_m: float = field(5.0e-9, 'm/Pa', 'bladder slip kappa_p per unit pressure',
-                                 0.0, 1.0e-3)
+                                         'break force f0_i at zero load', 0.0, 1.0e5)
+    friction_break_force_ratio: list = field([0.004, 0.008, 0.012], '-',
+                                             'growth mu_i of the break force per newton of '
+                                             'backbone force', 0.0, 1.0)
+    slip_compliance_m_per_n: float = field(8.0e-7, 'm/N', 'braid slip c_t per newton of '
+                                           'backbone force', 0.0, 1.0e-3)
 
 
 @dataclasses.dataclass
@@ -87,12 +92,19 @@ class MuscleModel:
     def __init__(self, params: MuscleParams | None = None) -> None:
         self.p = params or MuscleParams()
         if len({len(self.p.friction_stiffness_n_per_m), len(self.p.friction_break_force_n),
-                len(self.p.friction_break_force_n_per_pa)}) != 1:
+                len(self.p.friction_break_force_ratio)}) != 1:
             raise ModelError('friction_stiffness_n_per_m, friction_break_force_n and '
-                             'friction_break_force_n_per_pa must have the same length')
+                             'friction_break_force_ratio must have the same length')
+        if self.p.slip_compliance_m_per_n * sum(self.p.friction_stiffness_n_per_m) >= 1.0:
+            raise ModelError('slip_compliance_m_per_n * sum(friction_stiffness_n_per_m) must '
+                             'be < 1: sticking friction would make the force fall as the '
+                             'pressure rises')
+        if sum(self.p.friction_break_force_ratio) >= 1.0:
+            raise ModelError('sum(friction_break_force_ratio) must be < 1: sliding friction '
+                             'would exceed the force it resists')
         self.friction = MaxwellSlip(self.p.friction_stiffness_n_per_m,
                                     self.p.friction_break_force_n,
-                                    self.p.friction_break_force_n_per_pa)
+                                    self.p.friction_break_force_ratio)
         th0 = math.radians(self.p.braid_angle_deg)
         self._thread_m = self.p.nominal_length_m / math.cos(th0)
         self._turns = self._thread_m * math.sin(th0) / (math.pi * self.p.nominal_diameter_m)
@@ -132,8 +144,9 @@ class MuscleModel:
         return k
 
     def slip(self, contraction_m: float, pressure_pa: float) -> float:
-        """Slip coordinate s = x + kappa_p p, m."""
-        return contraction_m + self.p.slip_per_pa_m * max(pressure_pa, 0.0)
+        """Slip coordinate s = x + c_t F_bb^+, m."""
+        tension = max(self.backbone(pressure_pa, contraction_m), 0.0)
+        return contraction_m + self.p.slip_compliance_m_per_n * tension
 
     def volume(self, contraction_m: float) -> float:
         """Chamber volume V(x) from braid kinematics, m^3 (clamped at the braid's limits)."""
@@ -153,14 +166,18 @@ class MuscleModel:
             raise ModelError(f'muscle input not finite: p={pressure_pa!r}, x={contraction_m!r}')
         ff = 0.0
         kf = 0.0
+        f_bb = self.backbone(pressure_pa, contraction_m)
+        k_bb = self.backbone_stiffness(pressure_pa, contraction_m)
         if self.p.hysteresis:
-            ff = self.friction.force(self.slip(contraction_m, pressure_pa), pressure_pa)
-            kf = self.friction.sticking_stiffness
-        f = self.backbone(pressure_pa, contraction_m) - ff
+            tension = max(f_bb, 0.0)
+            ct = self.p.slip_compliance_m_per_n
+            ff = self.friction.force(contraction_m + ct * tension, tension)
+            # -dF/dx through s: ds/dx = 1 - c_t K_bb while the braid is under tension
+            kf = self.friction.sticking_stiffness * (1.0 - ct * k_bb if f_bb > 0.0 else 1.0)
+        f = f_bb - ff
         if f <= 0.0:
             return MuscleOutput(0.0, 0.0, ff, self.volume(contraction_m))
-        k = self.backbone_stiffness(pressure_pa, contraction_m) + kf
-        return MuscleOutput(f, k, ff, self.volume(contraction_m))
+        return MuscleOutput(f, k_bb + kf, ff, self.volume(contraction_m))
 
     def static_force(self, pressure_pa: float, contraction_m: float) -> float:
         """max(0, F_bb): the friction-free force, N."""

@@ -2,4 +2,5 @@
 
 from __future__ import annotations
 
-__all__ = ['bench']
+__all__ = ['bench', 'benchmark', 'calibration', 'pingpong', 'quasistatic', 'runner', 'scene',
+           'truth']

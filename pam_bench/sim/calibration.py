@@ -2,14 +2,14 @@
 
 Each figure is read the way the protocol reads it: set the held quantity, step the swept one,
 wait a dwell, read the sensors (load cell, encoder). Gains are least-squares slopes of the
-readings over the part of the sweep where the muscle pulls (F > 1 % of the largest reading),
-both sweep directions pooled so that the friction offsets cancel.
+readings on the hysteresis midline, as the extraction takes them (pam_bench.analysis.static).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from pam_bench.analysis.static import midline_fit
 from pam_bench.models.loading_servo import LoadMode
 from pam_bench.sim.bench import SingleMuscleBench
 
@@ -62,11 +62,12 @@ def isobaric_sweep(voltage_v: float, forces_n: np.ndarray, dwell_s: float = 3.0,
 
 
 def isometric_gain(u: np.ndarray, f: np.ndarray) -> float:
-    """Slope dF/du over the readings where the muscle pulls, N/V."""
-    mask = f > 0.01 * max(float(np.max(f)), 1e-9)
-    if mask.sum() < 2:
-        return 0.0
-    return float(np.polyfit(u[mask], f[mask], 1)[0])
+    """Slope dF/du of an up-then-down sweep (first half up), N/V, by the extraction's own
+    estimator (hysteresis midline, ``pam_bench.analysis.static.isometric_lines``)."""
+    n = len(u) // 2
+    direction = np.concatenate([np.zeros(n, dtype=int), np.ones(len(u) - n, dtype=int)])
+    line = midline_fit(np.asarray(u), np.asarray(f), direction)
+    return line[0] if line is not None else 0.0
 
 
 def calibration_figures(h_s: float = 0.01, dwell_s: float = 3.0) -> dict[str, float]:

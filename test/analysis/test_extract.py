@@ -11,6 +11,7 @@ import pytest
 from pam_bench.analysis.bagread import BagError, read_bags
 from pam_bench.analysis.extract import extract
 from pam_bench.cli import main as cli
+from pam_bench.models.inverse import InverseModel
 from test.analysis.bags import write_bag
 from test.analysis.test_identify import synth
 
@@ -55,6 +56,16 @@ def test_step_coefficients_and_polynomials(tmp_path: pathlib.Path) -> None:
                                    rtol=1e-4)
     poly = s['step_response']['polynomials']['b']
     assert poly['degree'] == 4 and poly['rms_residual'] < 1e-3
+    # the inverse model the servo loads: b(x) as identified, static inverse of the lines
+    inv = InverseModel.load(tmp_path / 'out' / 'inverse_model.yaml')
+    np.testing.assert_allclose(inv.b(0.04), truth[40][0], rtol=1e-3)
+    f_set = 120.0 * 3.0 - 0.2 * 120.0          # the isometric line at x = 40 mm, u = 3 V
+    np.testing.assert_allclose(inv.static_voltage(f_set, 0.04), 3.0, rtol=1e-6)
+    out = tmp_path / 'out'
+    assert {m['model'] for m in s['model_comparison']} >= {'chou_hannaford', 'sarosi'}
+    for name in s['figures']:
+        assert (out / name).stat().st_size > 1000 and f'({name})' in (
+            out / 'report.md').read_text()
 
 
 @pytest.mark.parametrize('make, message', [

@@ -71,11 +71,25 @@ def test_friction_no_chatter_at_reversal() -> None:
 
 @pytest.mark.parametrize('n_steps', [10, 100, 1000])
 def test_friction_rate_independent(n_steps: int) -> None:
-    f = MaxwellSlip([3e5, 1e5, 4e4], [1.0, 2.0, 2.0], [5e-6, 1e-5, 1.5e-5])
+    f = MaxwellSlip([3e5, 1e5, 4e4], [1.0, 2.0, 2.0], [0.004, 0.008, 0.012])
     path = np.concatenate([np.linspace(0, 1e-3, n_steps), np.linspace(1e-3, 4e-4, n_steps)])
     for s in path:
-        out = f.force(s, 3e5)
-    ref = MaxwellSlip([3e5, 1e5, 4e4], [1.0, 2.0, 2.0], [5e-6, 1e-5, 1.5e-5])
-    ref.force(1e-3, 3e5)
-    np.testing.assert_allclose(out, ref.force(4e-4, 3e5), rtol=1e-12)
-    assert abs(out) <= sum([1.0 + 1.5, 2.0 + 3.0, 2.0 + 4.5]) + 1e-9
+        out = f.force(s, 300.0)
+    ref = MaxwellSlip([3e5, 1e5, 4e4], [1.0, 2.0, 2.0], [0.004, 0.008, 0.012])
+    ref.force(1e-3, 300.0)
+    np.testing.assert_allclose(out, ref.force(4e-4, 300.0), rtol=1e-12)
+    assert abs(out) <= sum([1.0 + 0.004 * 300, 2.0 + 0.008 * 300, 2.0 + 0.012 * 300]) + 1e-9
+
+
+@pytest.mark.parametrize('x_m', [0.0, 0.04, 0.08, 0.11, 0.14])
+@pytest.mark.parametrize('direction', [1.0, -1.0])
+def test_friction_never_reverses_the_force(x_m: float, direction: float) -> None:
+    """At held x the force follows the pressure: up never lowers it, down never raises it,
+    through every stick-slip transition (the braid friction is a reaction, not a source)."""
+    m = MuscleModel()
+    p_path = np.linspace(0.0, 6e5, 601)
+    for p in p_path:                      # load up first, then run the tested direction
+        m.step(float(p), x_m)
+    path = p_path if direction > 0 else p_path[::-1]
+    forces = np.array([m.step(float(p), x_m).force_n for p in path])
+    assert np.all(direction * np.diff(forces) >= -1e-9)

@@ -1,0 +1,59 @@
+"""report.md of an extraction: the figures embedded, the figures of merit in tables."""
+
+from __future__ import annotations
+
+from typing import Any
+
+__all__ = ['report_markdown']
+
+
+def report_markdown(s: dict[str, Any]) -> str:
+    """The human report of an extraction: figures, gains, fits, model comparison."""
+    lines = ['# Extracted characteristics', '']
+    if 'isometric' in s:
+        g = s['isometric']['gain_N_per_V']
+        lines += [f"Isometric gain: max {g['max']:.1f} N/V at x = {g['x_mm_at_max']:.0f} mm, "
+                  f"min {g['min']:.1f} N/V at x = {g['x_mm_at_min']:.0f} mm.", '']
+    if 'isotonic' in s:
+        g = s['isotonic']['gain_mm_per_V']
+        lines += [f"Isotonic gain: max {g['max']:.2f} mm/V at u = {g['u_V_at_max']:.2f} V, "
+                  f"F = {g['F_N_at_max']:.0f} N; min {g['min']:.2f} mm/V at "
+                  f"u = {g['u_V_at_min']:.2f} V, F = {g['F_N_at_min']:.0f} N.", '']
+    if 'isobaric' in s:
+        lines += [f"Isobaric hysteresis: up to {s['isobaric']['hysteresis_mm_max']:.2f} mm.", '']
+    if 'step_response' in s:
+        lines += ['| x mm | direction | u0 -> u1 V | b 1/s | c 1/s^2 | d N/(V s^2) | F_a0 N | '
+                  'RMS N |', '|---|---|---|---|---|---|---|---|']
+        for f in s['step_response']['fits']:
+            lines.append(f"| {f['x_mm']:.0f} | {f['direction']} | {f['u0_V']:.1f} -> "
+                         f"{f['u1_V']:.1f} | {f['b']:.2f} | {f['c']:.1f} | {f['d']:.0f} | "
+                         f"{f['F_a0_N']:.1f} | {f['rms_error_N']:.3f} |")
+        lines.append('')
+        polys = s['step_response'].get('polynomials', {})
+        if polys:
+            lines += ['Polynomials over z = (x - x_mid) / x_half (largest up step per position):',
+                      '', '| coefficient | degree | coefficients, low to high | RMS residual |',
+                      '|---|---|---|---|']
+            for key, p in polys.items():
+                coef = ', '.join(f'{c:.4g}' for c in p['coefficients_low_to_high'])
+                lines.append(f"| {key} | {p['degree']} | {coef} | {p['rms_residual']:.4g} |")
+            lines.append('')
+    if 'model_comparison' in s:
+        lines += ['## Static force models', '',
+                  '| model | seed | parameters | RMSE N | max error N | fit s | readings |',
+                  '|---|---|---|---|---|---|---|']
+        for m in sorted(s['model_comparison'], key=lambda m: m['rmse_N']):
+            lines.append(f"| {m['model']} | {m['seed']} | {m['n_params']} | {m['rmse_N']:.2f} | "
+                         f"{m['max_error_N']:.1f} | {m['fit_s']:.3f} | {m['n_points']} |")
+        lines.append('')
+    if s.get('inverse_model'):
+        lines += [f"Inverse model for the torque servo: `{s['inverse_model']}`.", '']
+    if s.get('figures'):
+        lines += ['## Figures', '']
+        lines += [f'![{name}]({name})' for name in s['figures']]
+        lines.append('')
+    t = s.get('timing_s', {})
+    if t:
+        lines += ['Timing: ' + ', '.join(f'{k} {v:.2f} s' if isinstance(v, float) else f'{k} {v}'
+                                         for k, v in t.items()), '']
+    return '\n'.join(lines) + '\n'

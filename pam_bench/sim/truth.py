@@ -1,0 +1,172 @@
+"""`pam-bench truth SCENE`: what the simulated bench's own parameters imply for the figures
+`pam-bench extract` reports, in the same keys as summary.json.
+
+The scene's protocol is settled reading by reading on the quasi-static bench
+(``pam_bench.sim.quasistatic``) with the scene's model parameters, and the readings go through
+the same estimators as the recorded ones (``pam_bench.analysis.static``):
+
+- gains (isometric N/V, isotonic mm/V): on the friction-free backbone (hysteresis off), i.e.
+  the muscle law g(x) (p - p_th) - k_bl x of the muscle module seen through the valve gain k_v
+  and the belt stretch F / k_b. This is what an estimator that cancels the friction must find.
+- isobaric hysteresis: with the Maxwell-slip friction on, along the protocol's path.
+- step response (004 Eq. 2, F'' + b F' + c F = d u around the working point): b = 2 zeta w(V),
+  c = w(V)^2 of the valve's pressure loop at the chamber volume of x (valve module; F is
+  affine in p at held x, so the force inherits the pressure dynamics), d = c dF/du with dF/du
+  the settled force change of the step divided by its voltage step (friction on, path as in the
+  protocol: settle at u0, step to u1), F_a0 the settled force at u0.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections import defaultdict
+from typing import Any
+
+import numpy as np
+import yaml
+
+from pam_bench.analysis.bagread import Points
+from pam_bench.analysis.extract import coefficient_polynomials
+from pam_bench.analysis.identify import fit_step
+from pam_bench.analysis.static import gain_summary
+from pam_bench.models.loading_servo import LoadingServoParams
+from pam_bench.models.muscle import MuscleParams
+from pam_bench.models.params import from_mapping
+from pam_bench.models.protocols import Reading, schedule_from_config
+from pam_bench.models.valve import ValveParams
+from pam_bench.sim.quasistatic import QuasiStaticBench, SettledReading
+from pam_bench.sim.scene import config_dir, load_scene
+
+__all__ = ['truth_summary', 'scene_schedule', 'scene_models', 'compare']
+
+
+def scene_models(scene_name: str) -> tuple[ValveParams, MuscleParams, LoadingServoParams]:
+    """Model parameters of the scene's valve_1, muscle_1 and loading servo (bench.yaml merged
+    with the scene's own)."""
+    params = load_scene(scene_name).node_parameters('', 0, False)
+
+    def of(node: str, key: str) -> dict[str, Any]:
+        return params.get(node, {}).get('ros__parameters', {}).get(key, {})
+
+    return (from_mapping(ValveParams, of('valve_1', 'valve'), 'valve.'),
+            from_mapping(MuscleParams, of('muscle_1', 'muscle'), 'muscle.'),
+            from_mapping(LoadingServoParams, of('loading_servo', 'servo'), 'servo.'))
+
+
+def scene_schedule(scene_name: str) -> list[Reading]:
+    """Readings of the scene's protocol (config/protocols.yaml + the scene's overrides)."""
+    scene = load_scene(scene_name)
+    table = yaml.safe_load((config_dir() / 'protocols.yaml').read_text(encoding='utf-8'))
+    cfg = dict(table.get(scene.protocol, {}))
+    cfg.update(scene.protocol_overrides)
+    return schedule_from_config(scene.protocol, cfg, table)[0]
+
+
+def _points(rows: list[tuple[Reading, SettledReading]]) -> dict[str, Points]:
+    by: dict[str, list[tuple[Reading, SettledReading]]] = defaultdict(list)
+    for r, s in rows:
+        if r.record_s == 0.0 and r.ramp_from_v is None:
+            by[r.protocol].append((r, s))
+    out = {}
+    for name, items in by.items():
+        def col(f: Any, items: list = items) -> np.ndarray:
+            return np.array([f(r, s) for r, s in items])
+        out[name] = Points(name, col(lambda r, s: 0.0), col(lambda r, s: r.series),
+                           col(lambda r, s: r.step), col(lambda r, s: int(r.direction)),
+                           col(lambda r, s: r.series_value), col(lambda r, s: r.set_value),
+                           col(lambda r, s: s.voltage_v), col(lambda r, s: s.force_n),
+                           col(lambda r, s: s.contraction_m), col(lambda r, s: s.pressure_pa))
+    return out
+
+
+def _step_truth(bench: QuasiStaticBench, readings: list[Reading], reference: bool
+                ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """(parameter fits, reference fits) of every step reading; see ``truth_summary``."""
+    fits, ref = [], []
+    for r in readings:
+        if r.record_s <= 0.0 or r.pre_voltage_v is None:
+            continue
+        x = r.load_value
+        f0, gain = bench.dc_gain(x, r.pre_voltage_v, r.voltage_v)
+        b, c = bench.pressure_dynamics(bench.x_t)
+        head = {'x_mm': x * 1e3, 'direction': 'up' if r.direction == 0 else 'down',
+                'u0_V': r.pre_voltage_v, 'u1_V': r.voltage_v}
+        fits.append({**head, 'b': b, 'c': c, 'd': c * gain, 'F_a0_N': f0, 'rms_error_N': 0.0,
+                     'delay_samples': 0})
+        if reference:
+            force = bench.step_response(x, r.pre_voltage_v, r.voltage_v, r.record_s,
+                                        r.sample_period_s)
+            fit = fit_step(force, r.sample_period_s, r.voltage_v - r.pre_voltage_v)
+            ref.append({**head, 'b': fit.b, 'c': fit.c, 'd': fit.d, 'F_a0_N': fit.f_a0_n,
+                        'rms_error_N': fit.rms_error_n, 'delay_samples': fit.delay_samples})
+    return fits, ref
+
+
+def truth_summary(scene_name: str, reference: bool = True) -> dict[str, Any]:
+    """summary.json-shaped figures the scene's parameters imply (see the module docstring).
+
+    With ``reference``, ``step_response.reference_fits`` adds the 2nd-order fit of each step
+    simulated noise-free on the valve and muscle models at an ideal position hold: the
+    friction of the braid is not linear, so the best linear model of the bench differs from
+    the valve loop's b, c (friction adds damping); the difference between ``fits`` and
+    ``reference_fits`` is the model-structure error, the rest is the measurement's."""
+    valve, muscle, servo = scene_models(scene_name)
+    readings = scene_schedule(scene_name)
+    backbone = QuasiStaticBench(valve, _without_friction(muscle), servo)
+    summary = gain_summary(_points([(r, backbone.settle(r)) for r in readings]))
+    summary.pop('isobaric', None)
+    with_friction = QuasiStaticBench(valve, muscle, servo)
+    rows = [(r, with_friction.settle(r)) for r in readings if r.record_s == 0.0]
+    hyst = gain_summary({k: v for k, v in _points(rows).items() if k.startswith('isobaric')})
+    summary.update(hyst)
+    fits, ref = _step_truth(QuasiStaticBench(valve, muscle, servo), readings, reference)
+    if fits:
+        summary['step_response'] = {'fits': fits, 'polynomials': coefficient_polynomials(fits)}
+        if ref:
+            summary['step_response']['reference_fits'] = ref
+            summary['step_response']['reference_polynomials'] = coefficient_polynomials(ref)
+    summary['scene'] = scene_name
+    summary['basis'] = ('parameters of the scene: gains on the friction-free backbone, '
+                        'hysteresis and step gains with the braid friction, b and c from the '
+                        'valve pressure loop at the chamber volume of x')
+    return summary
+
+
+def _without_friction(muscle: MuscleParams) -> MuscleParams:
+    return dataclasses.replace(muscle, hysteresis=False)
+
+
+def _rel(measured: float, true: float) -> float:
+    return (measured - true) / true if true else float('inf')
+
+
+def compare(truth: dict[str, Any], summary: dict[str, Any]) -> dict[str, Any]:
+    """Relative errors (measured - truth) / truth of an extraction against the truth, per
+    quantity both hold: isometric gain per series, isotonic gain max and min, step-response
+    b, c, d per record (against ``fits`` and, when present, ``reference_fits``)."""
+    out: dict[str, Any] = {}
+    if 'isometric' in truth and 'isometric' in summary:
+        ref = {round(s['x_mm'], 6): s['gain_N_per_V'] for s in truth['isometric']['series']}
+        out['isometric_gain'] = [
+            {'x_mm': s['x_mm'], 'measured': s['gain_N_per_V'], 'truth': ref[round(s['x_mm'], 6)],
+             'rel_error': _rel(s['gain_N_per_V'], ref[round(s['x_mm'], 6)])}
+            for s in summary['isometric']['series'] if round(s['x_mm'], 6) in ref]
+    if 'isotonic' in truth and 'isotonic' in summary:
+        t, m = truth['isotonic']['gain_mm_per_V'], summary['isotonic']['gain_mm_per_V']
+        out['isotonic_gain'] = {k: {'measured': m[k], 'truth': t[k], 'rel_error': _rel(m[k], t[k])}
+                                for k in ('max', 'min')}
+    if 'step_response' in truth and 'step_response' in summary:
+        for key in ('fits', 'reference_fits'):
+            if key not in truth['step_response']:
+                continue
+            ref = {(round(f['x_mm'], 6), f['direction'], round(f['u1_V'], 6)): f
+                   for f in truth['step_response'][key]}
+            rows = []
+            for f in summary['step_response']['fits']:
+                t = ref.get((round(f['x_mm'], 6), f['direction'], round(f['u1_V'], 6)))
+                if t is not None:
+                    rows.append({'x_mm': f['x_mm'], 'direction': f['direction'],
+                                 'u0_V': f['u0_V'], 'u1_V': f['u1_V'],
+                                 **{f'{c}_rel_error': _rel(f[c], t[c]) for c in ('b', 'c', 'd')}})
+            out[f'step_{key}'] = rows
+    return out

@@ -1,0 +1,45 @@
+"""Inverse models: the dynamic inverse undoes 004 Eq. 2, the static one the isometric line."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pam_bench.models.errors import ModelError
+from pam_bench.models.inverse import InverseModel, Poly
+
+
+def const(v: float) -> Poly:
+    return Poly((v,), 0.04, 0.04)
+
+
+def model() -> InverseModel:
+    # b, c, d constant; F_a0 and k linear in x over 0..80 mm
+    return InverseModel(const(18.0), const(900.0), const(2.5e5), Poly((150.0, -100.0), 0.04, 0.04),
+                        1.0, Poly((150.0, -120.0), 0.04, 0.04), const(-40.0), 0.0, 6.0)
+
+
+@pytest.mark.parametrize('x_m', [0.0, 0.02, 0.08])
+def test_dynamic_inverse_matches_forward_model(x_m: float) -> None:
+    m = model()
+    f, df, ddf = 400.0, 30.0, -5.0
+    u = m.dynamic_voltage(f, df, ddf, x_m)
+    # forward: F'' + b F' + c (F - F_a0) = d (u - u0)
+    lhs = ddf + 18.0 * df + 900.0 * (f - m.f_a0(x_m))
+    np.testing.assert_allclose(lhs, 2.5e5 * (u - 1.0), rtol=1e-12)
+
+
+def test_static_inverse_and_clamps() -> None:
+    m = model()
+    x = 0.04
+    k = m.k(x)
+    np.testing.assert_allclose(m.static_voltage(k * 2.0 - 40.0, x), 2.0, rtol=1e-12)
+    assert m.static_voltage(1e6, x) == 6.0 and m.static_voltage(-1e6, x) == 0.0
+    # x is clamped to the identified range: no extrapolation beyond 80 mm
+    assert m.k(0.2) == pytest.approx(m.k(0.08))
+
+
+def test_malformed_file(tmp_path) -> None:
+    (tmp_path / 'inv.yaml').write_text('dynamic: {}\n')
+    with pytest.raises(ModelError, match='missing or malformed'):
+        InverseModel.load(tmp_path / 'inv.yaml')
