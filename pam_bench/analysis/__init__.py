@@ -2,5 +2,5 @@
 
 from __future__ import annotations
 
-__all__ = ['bagread', 'extract', 'force_models', 'identify', 'inverse_export', 'plots', 'report',
-           'static', 'types']
+__all__ = ['bagread', 'bagwrite', 'extract', 'force_models', 'identify', 'inverse_export',
+           'plots', 'report', 'static', 'types']

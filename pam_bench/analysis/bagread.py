@@ -118,8 +118,8 @@ def read_bags(paths: Iterable[str | pathlib.Path]) -> BagData:
             raise BagError(f'{path}: the bag is damaged or truncated ({exc})') from None
         finally:
             reader.close()
-    if not rows:
-        raise BagError('no protocol points (topic /protocol/point) in '
+    if not rows and not records:
+        raise BagError('no protocol points (topics /protocol/point, /protocol/step_response) in '
                        + ', '.join(str(p) for p in paths))
     points = {}
     for name, r in rows.items():

@@ -15,7 +15,8 @@ import numpy as np
 
 from pam_bench.analysis.bagread import Points
 
-__all__ = ['isometric_gains', 'isometric_lines', 'midline_fit', 'isotonic_gains', 'isobaric_hysteresis',
+__all__ = ['isometric_gains', 'isometric_lines', 'midline_fit', 'isotonic_gains',
+           'isobaric_hysteresis',
            'gain_summary']
 
 
