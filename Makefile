@@ -9,7 +9,7 @@ export ROS_DOMAIN_ID ?= $(shell python3 -c 'import os; print(1 + os.getpid() % 1
 export OPENBLAS_NUM_THREADS := 1
 export OMP_NUM_THREADS := 1
 
-.PHONY: setup demo test lint calibration clean
+.PHONY: setup demo test lint calibration inverse-model servo-compare clean
 
 setup:
 	@bash tools/bootstrap.sh
@@ -26,6 +26,17 @@ lint: setup
 
 calibration: setup
 	$(VENV)/bin/pam-bench calibration --json
+
+# the torque servo's inverse model: identify it from a recorded run (about 5 min)
+inverse-model: setup
+	$(VENV)/bin/pam-bench run identification --out bags/identification --overwrite
+	$(VENV)/bin/pam-bench extract bags/identification --out reports/identification
+	{ sed -n '1,5p' config/inverse_model.yaml; cat reports/identification/inverse_model.yaml; } \
+		> config/inverse_model.yaml.new && mv config/inverse_model.yaml.new config/inverse_model.yaml
+
+# every servo scene x controller through the ROS nodes (about 40 min) -> reports/servo
+servo-compare: setup
+	$(VENV)/bin/pam-bench servo-compare --engine ros --out reports/servo
 
 clean:
 	rm -rf bags/*/ .pytest_cache .ruff_cache

@@ -16,6 +16,7 @@ NODES = {
     'loading_servo_sim': 'pam_bench.nodes.loading_servo_sim',
     'sequencer': 'pam_bench.nodes.sequencer',
     'recorder': 'pam_bench.nodes.recorder',
+    'torque_servo': 'pam_bench.nodes.torque_servo',
 }
 
 setup(

@@ -102,6 +102,18 @@ def _cmd_truth(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_servo_compare(args: argparse.Namespace) -> int:
+    from pam_bench.sim.servo_compare import compare_servo
+    out = pathlib.Path(args.out)
+    rows = compare_servo(out, args.engine, args.scene or None, args.duration)
+    print(f"{'scene':26s} {'controller':20s} {'RMS':>8s} {'max':>8s} {'at reversal':>12s}")
+    for r in rows:
+        print(f"{r['scene']:26s} {r['controller']:20s} {r['rms_error']:8.3f} "
+              f"{r['max_error']:8.3f} {r['error_at_reversal']:12.3f} {r['unit']}")
+    print(f'wrote {out / "metrics.json"} and one plot per scene')
+    return 0
+
+
 def _cmd_bench(args: argparse.Namespace) -> int:
     from pam_bench.sim.benchmark import run_benchmarks
     root = pathlib.Path(args.root)
@@ -147,6 +159,14 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument('--no-reference', action='store_true',
                    help='skip the noise-free simulated step responses (faster)')
     p.set_defaults(func=_cmd_truth)
+    p = sub.add_parser('servo-compare', help='every servo scene x controller -> metrics.json')
+    p.add_argument('--engine', choices=['numpy', 'ros'], default='ros',
+                   help='ros: separate-process nodes (minutes); numpy: same models in one '
+                   'process (seconds)')
+    p.add_argument('--out', default='reports/servo', help='output folder')
+    p.add_argument('--scene', action='append', help='servo scene (repeatable; default all)')
+    p.add_argument('--duration', type=float, help='sim time per run, s (default: the scene)')
+    p.set_defaults(func=_cmd_servo_compare)
     p = sub.add_parser('bench', help='benchmarks -> BENCHMARKS.md and bench.json')
     p.add_argument('--quick', action='store_true', help='a few minutes: quick grids and scenes')
     p.add_argument('--root', default='.', help='where to write the report (default: here)')

@@ -16,7 +16,7 @@ from rosbags.rosbag2 import Reader
 
 from pam_bench.analysis.types import bench_typestore
 
-__all__ = ['BagError', 'Points', 'StepRecord', 'BagData', 'read_bags']
+__all__ = ['BagError', 'Points', 'StepRecord', 'BagData', 'read_bags', 'open_bag']
 
 POINT_TOPIC = '/protocol/point'
 RECORD_TOPIC = '/protocol/step_response'
@@ -68,7 +68,8 @@ class BagData:
     records: list[StepRecord]
 
 
-def _open(path: pathlib.Path) -> Reader:
+def open_bag(path: pathlib.Path) -> Reader:
+    """Open a rosbag2 folder or raise one clear ``BagError``."""
     if not path.exists():
         raise BagError(f'{path}: no such bag')
     if path.is_file():
@@ -97,7 +98,7 @@ def read_bags(paths: Iterable[str | pathlib.Path]) -> BagData:
     if not paths:
         raise BagError('no bag given')
     for path in paths:
-        reader = _open(path)
+        reader = open_bag(path)
         try:
             conns = [c for c in reader.connections if c.topic in (POINT_TOPIC, RECORD_TOPIC)]
             for conn, _, raw in reader.messages(connections=conns):

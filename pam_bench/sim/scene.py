@@ -9,6 +9,7 @@ parameters of every node of the run in the ROS 2 params-file layout.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import pathlib
 from typing import Any
@@ -18,7 +19,7 @@ import yaml
 from pam_bench.models.errors import ParameterError
 
 __all__ = ['NodeType', 'NODE_TYPES', 'Scene', 'config_dir', 'load_scene', 'scene_names',
-           'STEP_TOPICS', 'EVENT_TOPICS']
+           'STEP_TOPICS', 'STEP_TOPIC_SOURCES', 'EVENT_TOPICS', 'step_topics']
 
 
 @dataclasses.dataclass(frozen=True)
@@ -36,22 +37,45 @@ NODE_TYPES = {
     'load_cell_1': NodeType('pam_bench.nodes.load_cell_sim', 'LoadCellSim'),
     'encoder': NodeType('pam_bench.nodes.encoder_sim', 'EncoderSim'),
     'loading_servo': NodeType('pam_bench.nodes.loading_servo_sim', 'LoadingServoSim'),
+    'valve_2': NodeType('pam_bench.nodes.valve_sim', 'ValveSim'),
+    'muscle_2': NodeType('pam_bench.nodes.muscle_sim', 'MuscleSim'),
+    'load_cell_2': NodeType('pam_bench.nodes.load_cell_sim', 'LoadCellSim'),
     'sequencer': NodeType('pam_bench.nodes.sequencer', 'SequencerNode'),
+    'torque_servo': NodeType('pam_bench.nodes.torque_servo', 'TorqueServoNode'),
     'recorder': NodeType('pam_bench.nodes.recorder', 'Recorder'),
     'sim_clock': NodeType('pam_bench.nodes.sim_clock', 'SimClock', lockstep=False),
 }
 
-STEP_TOPICS = [
-    '/valve_1/command:pam_bench_interfaces/msg/ValveCommand',
-    '/valve_1/pressure:sensor_msgs/msg/FluidPressure',
-    '/sim/muscle_1/state:pam_bench_interfaces/msg/MuscleState',
-    '/load_cell_1/force:geometry_msgs/msg/WrenchStamped',
-    '/encoder/joint_state:sensor_msgs/msg/JointState',
-    '/loading_servo/command:pam_bench_interfaces/msg/LoadCommand',
-    '/loading_servo/state:sensor_msgs/msg/JointState',
-    '/sim/pulley/state:sensor_msgs/msg/JointState',
-    '/clock:rosgraph_msgs/msg/Clock',
-]
+# every topic published at every exchange step, with the nodes that can publish it
+STEP_TOPIC_SOURCES = {
+    '/valve_1/command:pam_bench_interfaces/msg/ValveCommand': ('sequencer', 'torque_servo'),
+    '/valve_1/pressure:sensor_msgs/msg/FluidPressure': ('valve_1',),
+    '/sim/muscle_1/state:pam_bench_interfaces/msg/MuscleState': ('muscle_1',),
+    '/load_cell_1/force:geometry_msgs/msg/WrenchStamped': ('load_cell_1',),
+    '/valve_2/command:pam_bench_interfaces/msg/ValveCommand': ('torque_servo',),
+    '/valve_2/pressure:sensor_msgs/msg/FluidPressure': ('valve_2',),
+    '/sim/muscle_2/state:pam_bench_interfaces/msg/MuscleState': ('muscle_2',),
+    '/load_cell_2/force:geometry_msgs/msg/WrenchStamped': ('load_cell_2',),
+    '/encoder/joint_state:sensor_msgs/msg/JointState': ('encoder',),
+    '/loading_servo/command:pam_bench_interfaces/msg/LoadCommand': ('sequencer',),
+    '/loading_servo/state:sensor_msgs/msg/JointState': ('loading_servo',),
+    '/sim/pulley/state:sensor_msgs/msg/JointState': ('loading_servo',),
+    '/torque_servo/state:pam_bench_interfaces/msg/TorqueServoState': ('torque_servo',),
+    '/clock:rosgraph_msgs/msg/Clock': ('sim_clock',),
+}
+
+
+def step_topics(nodes: list[str]) -> list[str]:
+    """The step topics some node of a scene publishes (the recorder waits for each)."""
+    have = {*nodes, 'sim_clock'}
+    # valve_2/command only exists with two muscles
+    return [t for t, src in STEP_TOPIC_SOURCES.items() if set(src) & have
+            and not (t.startswith('/valve_2/command') and 'valve_2' not in have)]
+
+
+# the single-muscle characterisation bench
+STEP_TOPICS = step_topics(['valve_1', 'muscle_1', 'load_cell_1', 'encoder', 'loading_servo',
+                           'sequencer', 'recorder'])
 EVENT_TOPICS = [
     '/protocol/point:pam_bench_interfaces/msg/CharacteristicPoint',
     '/protocol/step_response:pam_bench_interfaces/msg/StepResponseRecord',
@@ -94,8 +118,12 @@ class Scene:
         out: dict[str, Any] = {}
         for name in self.nodes + ['sim_clock']:
             params = dict(common)
-            params.update(base.get(name, {}).get('ros__parameters', {}))
-            _merge(params, self.parameters.get(name, {}))
+            # deep copies: bench.yaml shares one mapping between the channels (YAML anchors)
+            params.update(copy.deepcopy(base.get(name, {}).get('ros__parameters', {})))
+            _merge(params, copy.deepcopy(self.parameters.get(name, {})))
+            model = params.get('inverse_model_file')
+            if model and not pathlib.Path(model).is_absolute():
+                params['inverse_model_file'] = str(config_dir().parent / model)
             out[name] = {'ros__parameters': params}
         participants = [f'/{n}' for n in self.nodes if NODE_TYPES[n].lockstep]
         out['sim_clock']['ros__parameters'].update(
@@ -107,10 +135,12 @@ class Scene:
                 out['sequencer']['ros__parameters']['protocol_overrides_yaml'] = yaml.safe_dump(
                     self.protocol_overrides)
         if 'recorder' in out:
-            out['recorder']['ros__parameters'].update(out_dir=out_dir, step_topics=STEP_TOPICS,
+            out['recorder']['ros__parameters'].update(out_dir=out_dir,
+                                                      step_topics=step_topics(self.nodes),
                                                       event_topics=EVENT_TOPICS)
-        if 'load_cell_1' in out:
-            out['load_cell_1']['ros__parameters']['seed'] = seed
+        for i in (1, 2):
+            if f'load_cell_{i}' in out:
+                out[f'load_cell_{i}']['ros__parameters']['seed'] = seed + i - 1
         return out
 
 

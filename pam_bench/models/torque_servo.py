@@ -1,0 +1,224 @@
+"""Torque servo of 004 section 3: two antagonistic muscles on a toothed-belt pulley, each driven
+by an inverse model plus a PID on its own force.
+
+Geometry (pulley pitch radius r, m; angle theta, rad; both muscles mounted at the rest
+contraction x0 when theta = 0):
+
+    M = r (F1 - F2)                 (N m; positive when muscle 1 pulls harder)
+    x1 = x0 + r theta,  x2 = x0 - r theta
+
+Force split with pretension (keeps both muscles taut: a muscle cannot push, and a slack one
+loses its force control): with the base force F_b = max(F_p, F_min + |M*| / (2 r)),
+
+    F1* = F_b + M* / (2 r),   F2* = F_b - M* / (2 r)      so both >= F_min and r (F1* - F2*) = M*
+
+Per muscle i the valve voltage is u_i = u_ff,i + u_pid,i, clamped to [u_min, u_max]:
+
+- ``dynamic``: u_ff from the identified inverse of 004 Eq. 2,
+  u_ff = u0 + (F*'' + b(x) F*' + c(x) (F* - F_a0(x))) / d(x)   (``pam_bench.models.inverse``)
+- ``static``:  u_ff = (F* - F0(x)) / k(x)   (isometric surface, no dynamics)
+- ``pid``:     u_ff = 0
+- PID on e = F* - F_measured (N -> V): u_pid = K_p e + K_i int(e) + K_d D, with the derivative
+  filtered, D' = (e' - D) / T_f (exact ZOH of the first-order filter), and anti-windup by
+  conditional integration (the integral stops while the output is clamped and the error would
+  push it further).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import math
+
+from pam_bench.models.errors import ModelError
+from pam_bench.models.inverse import InverseModel
+from pam_bench.models.params import field
+
+__all__ = ['ServoMode', 'SignalKind', 'Signal', 'split_torque', 'Pid', 'TorqueServoParams',
+           'ChannelOutput', 'TorqueServoController']
+
+
+class ServoMode(enum.Enum):
+    """Feed-forward of each muscle channel."""
+
+    DYNAMIC = 'dynamic_inverse_pid'
+    STATIC = 'static_inverse_pid'
+    PID = 'pid'
+
+
+class SignalKind(enum.Enum):
+    """Set-point waveforms of the 004 tests."""
+
+    CONSTANT = 'constant'
+    SINE = 'sine'
+    SQUARE = 'square'
+
+
+@dataclasses.dataclass(frozen=True)
+class Signal:
+    """s(t) = offset + amplitude w(t); w = sin(omega t) or sign(sin(2 pi t / period)).
+
+    ``value_and_rates`` returns (s, s', s''); the square wave's rates are 0 (its jumps are
+    left to the PID, as on the real bench)."""
+
+    kind: SignalKind
+    amplitude: float
+    omega_rad_s: float = 1.0
+    offset: float = 0.0
+    period_s: float = 3.0
+
+    def value_and_rates(self, t_s: float) -> tuple[float, float, float]:
+        a, w = self.amplitude, self.omega_rad_s
+        if self.kind == SignalKind.SINE:
+            return (self.offset + a * math.sin(w * t_s), a * w * math.cos(w * t_s),
+                    -a * w * w * math.sin(w * t_s))
+        if self.kind == SignalKind.SQUARE:
+            phase = (t_s % self.period_s) / self.period_s
+            return self.offset + (a if phase < 0.5 else -a), 0.0, 0.0
+        return self.offset, 0.0, 0.0
+
+
+def split_torque(torque_nm: float, rate: float, accel: float, radius_m: float,
+                 pretension_n: float, min_force_n: float
+                 ) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """((F1*, F1*', F1*''), (F2*, F2*', F2*'')) for M*, M*', M*'' (see the module docstring)."""
+    half = 1.0 / (2.0 * radius_m)
+    need = min_force_n + abs(torque_nm) * half
+    if need > pretension_n:
+        sgn = 1.0 if torque_nm >= 0.0 else -1.0
+        base = (need, sgn * rate * half, sgn * accel * half)
+    else:
+        base = (pretension_n, 0.0, 0.0)
+    m = (torque_nm * half, rate * half, accel * half)
+    return (tuple(b + v for b, v in zip(base, m, strict=True)),
+            tuple(b - v for b, v in zip(base, m, strict=True)))
+
+
+class Pid:
+    """PID with filtered derivative and conditional-integration anti-windup (module docstring).
+
+    Args:
+        kp: V/N. ki: V/(N s). kd: V s/N. filter_s: derivative filter time constant T_f, s.
+        out_min, out_max: clamp of the controller's total output, V (used for anti-windup).
+    """
+
+    def __init__(self, kp: float, ki: float, kd: float, filter_s: float, out_min: float,
+                 out_max: float) -> None:
+        if filter_s <= 0.0:
+            raise ModelError('PID derivative filter time constant must be > 0')
+        self.kp, self.ki, self.kd, self.tf = kp, ki, kd, filter_s
+        self.out_min, self.out_max = out_min, out_max
+        self.integral = 0.0
+        self.deriv = 0.0
+        self.prev_e: float | None = None
+
+    def reset(self) -> None:
+        self.integral, self.deriv, self.prev_e = 0.0, 0.0, None
+
+    def step(self, error: float, dt_s: float, feedforward: float = 0.0) -> float:
+        """PID part of the output for this error (N) over dt_s (s), V."""
+        if dt_s > 0.0 and self.prev_e is not None:
+            raw = (error - self.prev_e) / dt_s
+            a = math.exp(-dt_s / self.tf)
+            self.deriv = a * self.deriv + (1.0 - a) * raw
+        self.prev_e = error
+        trial = self.integral + error * dt_s
+        out = self.kp * error + self.ki * trial + self.kd * self.deriv
+        total = feedforward + out
+        windup = ((total > self.out_max and error > 0.0)
+                  or (total < self.out_min and error < 0.0))
+        if not windup:
+            self.integral = trial
+        return self.kp * error + self.ki * self.integral + self.kd * self.deriv
+
+
+@dataclasses.dataclass
+class TorqueServoParams:
+    """Parameters of ``TorqueServoController``."""
+
+    pitch_diameter_m: float = field(0.06366, 'm', 'pulley pitch diameter (004)', 0.001, 10.0)
+    rest_contraction_m: float = field(0.04, 'm', 'contraction x0 of both muscles at theta = 0',
+                                      0.0, 0.15)
+    max_torque_nm: float = field(25.46, 'N m', 'largest torque set point (004)', 0.0, 1e4)
+    pretension_n: float = field(300.0, 'N', 'base force F_p of both muscles', 0.0, 5000.0)
+    min_force_n: float = field(50.0, 'N', 'least force set point of a muscle F_min',
+                               0.0, 5000.0)
+    kp_v_per_n: float = field(0.004, 'V/N', 'PID proportional gain', 0.0, 10.0)
+    ki_v_per_n_s: float = field(0.1, 'V/(N s)', 'PID integral gain', 0.0, 100.0)
+    kd_v_s_per_n: float = field(1.0e-4, 'V s/N', 'PID derivative gain', 0.0, 10.0)
+    derivative_filter_s: float = field(0.01, 's', 'PID derivative filter T_f', 1e-5, 10.0)
+    voltage_min_v: float = field(0.0, 'V', 'lowest valve voltage', 0.0, 10.0)
+    voltage_max_v: float = field(6.0, 'V', 'highest valve voltage (0.6 MPa)', 0.0, 10.0)
+
+
+@dataclasses.dataclass(frozen=True)
+class ChannelOutput:
+    """One muscle channel after a control step: N, m, V."""
+
+    force_setpoint_n: float
+    contraction_m: float
+    u_feedforward_v: float
+    u_pid_v: float
+    voltage_v: float
+
+
+class TorqueServoController:
+    """Force split, inverse model and PID for one or two muscles (module docstring).
+
+    With ``muscles = 1`` the set point is muscle 1's force (N) and x1 = x0 + r theta; this is
+    the single-muscle force check of 004 section 3.1.
+    """
+
+    def __init__(self, params: TorqueServoParams, mode: ServoMode,
+                 inverse: InverseModel | None, muscles: int = 2) -> None:
+        if mode != ServoMode.PID and inverse is None:
+            raise ModelError(f'{mode.value} needs an inverse model file')
+        if muscles not in (1, 2):
+            raise ModelError('muscles must be 1 or 2')
+        self.p, self.mode, self.inverse, self.muscles = params, mode, inverse, muscles
+        self.r = params.pitch_diameter_m / 2.0
+        self.pids = [Pid(params.kp_v_per_n, params.ki_v_per_n_s, params.kd_v_s_per_n,
+                         params.derivative_filter_s, params.voltage_min_v,
+                         params.voltage_max_v) for _ in range(muscles)]
+
+    def clamp_torque(self, torque_nm: float) -> tuple[float, bool]:
+        """(M* within +-max_torque, whether it was clamped)."""
+        m = self.p.max_torque_nm
+        return min(max(torque_nm, -m), m), abs(torque_nm) > m
+
+    def reset(self) -> None:
+        for pid in self.pids:
+            pid.reset()
+
+    def _feedforward(self, f: tuple[float, float, float], x: float) -> float:
+        if self.mode == ServoMode.DYNAMIC:
+            return self.inverse.dynamic_voltage(f[0], f[1], f[2], x)
+        if self.mode == ServoMode.STATIC:
+            return self.inverse.static_voltage(f[0], x)
+        return 0.0
+
+    def step(self, dt_s: float, setpoint: tuple[float, float, float], angle_rad: float,
+             forces_n: tuple[float, ...]) -> list[ChannelOutput]:
+        """One control period.
+
+        Args:
+            dt_s: period, s.
+            setpoint: (M*, M*', M*'') in N m, N m/s, N m/s^2 (muscles = 2, already clamped),
+                or (F*, F*', F*'') in N... for muscles = 1.
+            angle_rad: measured pulley angle.
+            forces_n: measured forces, shape (muscles,).
+        """
+        if self.muscles == 2:
+            targets = split_torque(*setpoint, self.r, self.p.pretension_n, self.p.min_force_n)
+            xs = (self.p.rest_contraction_m + self.r * angle_rad,
+                  self.p.rest_contraction_m - self.r * angle_rad)
+        else:
+            targets = (setpoint,)
+            xs = (self.p.rest_contraction_m + self.r * angle_rad,)
+        out = []
+        for f, x, meas, pid in zip(targets, xs, forces_n, self.pids, strict=True):
+            ff = self._feedforward(f, x)
+            u_pid = pid.step(f[0] - meas, dt_s, ff)
+            u = min(max(ff + u_pid, self.p.voltage_min_v), self.p.voltage_max_v)
+            out.append(ChannelOutput(f[0], x, ff, u_pid, u))
+        return out

@@ -1,0 +1,198 @@
+"""torque_servo: 004's torque servo over topics (``TorqueServoController``).
+
+Reads only measured topics: ``load_cell_N/force`` and ``encoder/joint_state``; the set point
+comes from the parameters (sine, square or constant, as in the 004 tests) or, once one arrives,
+from ``torque_servo/setpoint`` (TorqueSetpoint; its rates are taken as zero). Writes
+``valve_N/command`` and ``torque_servo/state`` every control period. With ``muscles = 1`` it is
+the single-muscle force check (set point in N).
+
+Safety: a set point beyond +-max_torque is clamped (warned once per excursion); a NaN or inf set
+point is rejected (the last valid one is kept); a measured force that is not finite, or (without
+lock-step) a measured topic older than ``stale_timeout_s``, vents both valves (0 V) and says why
+in the state's ``status`` until fresh finite data arrive.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from diagnostic_msgs.msg import DiagnosticStatus
+from geometry_msgs.msg import WrenchStamped
+from pam_bench_interfaces.msg import TorqueServoState, TorqueSetpoint, ValveCommand
+from sensor_msgs.msg import JointState
+
+from pam_bench.models.inverse import InverseModel
+from pam_bench.models.torque_servo import (
+    ServoMode,
+    Signal,
+    SignalKind,
+    TorqueServoController,
+    TorqueServoParams,
+)
+from pam_bench.nodes.base import RELIABLE, BenchNode, ns_of, run_node, time_of
+
+__all__ = ['TorqueServoNode', 'main']
+
+
+class TorqueServoNode(BenchNode):
+    """Thin node over ``TorqueServoController``."""
+
+    def __init__(self, name: str = 'torque_servo', **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
+        d = self.declare_typed
+        self.muscles = d('muscles', 2, 'muscles driven: 2 (torque, N m) or 1 (force, N)', '-',
+                         1, 2)
+        mode = d('controller', ServoMode.DYNAMIC.value, 'dynamic_inverse_pid, '
+                 'static_inverse_pid or pid')
+        model_file = d('inverse_model_file', '', 'inverse_model.yaml from pam-bench extract '
+                       '(needed by the inverse-model controllers)')
+        kind = d('signal', SignalKind.SINE.value, 'set point waveform: sine, square, constant')
+        self.signal = Signal(
+            SignalKind(kind), d('amplitude', 5.0, 'set point amplitude (N m, or N with one '
+                                'muscle)', '', -1e4, 1e4),
+            d('omega_rad_s', 1.0, 'sine angular frequency', 'rad/s', 0.0, 1e3),
+            d('offset', 0.0, 'set point offset (N m, or N)', '', -1e4, 1e4),
+            d('period_s', 3.0, 'square-wave period', 's', 1e-3, 1e4))
+        self.control_period_s = d('control_period_s', 0.001, 'control period without '
+                                  'lock-step', 's', 1e-4, 1.0)
+        self.stale_timeout_s = d('stale_timeout_s', 0.05, 'vent when a measured topic is older '
+                                 'than this (without lock-step)', 's', 1e-3, 60.0)
+        params = self.declare_model('servo', TorqueServoParams)
+        inverse = InverseModel.load(model_file) if model_file else None
+        self.ctl = TorqueServoController(params, ServoMode(mode), inverse, self.muscles)
+        self.mode = ServoMode(mode)
+        chans = range(1, self.muscles + 1)
+        self.cell_topics = [f'load_cell_{i}/force' for i in chans]
+        self.enc_topic = 'encoder/joint_state'
+        self.forces = [0.0] * self.muscles
+        self.angle_rad = 0.0
+        self.stamps: dict[str, float] = {}
+        self.external: float | None = None
+        self.t0_ns: int | None = None
+        self.status = ''
+        self._clamped = False
+        self.valve_pubs = [self.create_publisher(ValveCommand, f'valve_{i}/command', RELIABLE)
+                           for i in chans]
+        self.state_pub = self.create_publisher(TorqueServoState, 'torque_servo/state', RELIABLE)
+        self.create_subscription(TorqueSetpoint, 'torque_servo/setpoint', self._on_setpoint,
+                                 RELIABLE)
+        if self.lockstep:
+            for tp in self.cell_topics:
+                self.sync_input(WrenchStamped, tp)
+            self.sync_input(JointState, self.enc_topic)
+            self.start_lockstep()
+        else:
+            for tp in [*self.cell_topics, self.enc_topic]:
+                self.create_subscription(
+                    JointState if tp == self.enc_topic else WrenchStamped, tp,
+                    lambda m, tp=tp: self._measured(tp, m), RELIABLE)
+            self._last_tick_ns: int | None = None
+            self.create_timer(self.control_period_s, self._on_timer)
+
+    # --- inputs ---------------------------------------------------------------------------
+    def _on_setpoint(self, msg: TorqueSetpoint) -> None:
+        if not self.finite(msg.torque):
+            self.reject('torque set point (last valid kept)', msg.torque)
+            return
+        self.external = float(msg.torque)
+
+    def _measured(self, topic: str, msg: Any) -> None:
+        self.stamps[topic] = ns_of(msg.header.stamp) * 1e-9
+        self._update(topic, msg)
+
+    def _update(self, topic: str, msg: Any) -> None:
+        if topic == self.enc_topic:
+            self.angle_rad = float(msg.position[0])
+        else:
+            self.forces[self.cell_topics.index(topic)] = float(msg.wrench.force.x)
+
+    # --- ticking --------------------------------------------------------------------------
+    def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
+        """Lock-step tick: the measurements of t_(k-1) -> both valve voltages at t_k."""
+        for topic, msg in inputs.items():
+            self._update(topic, msg)
+        self._tick(t_ns, dt_s, '')
+
+    def _on_timer(self) -> None:
+        t_ns = self.get_clock().now().nanoseconds
+        dt = 0.0 if self._last_tick_ns is None else (t_ns - self._last_tick_ns) * 1e-9
+        self._last_tick_ns = t_ns
+        stale = ''
+        for tp in [*self.cell_topics, self.enc_topic]:
+            age = t_ns * 1e-9 - self.stamps.get(tp, -math.inf)
+            if age > self.stale_timeout_s:
+                stale = f'measured topic {tp} stale ({age:.3f} s old): valves vented'
+                break
+        self._tick(t_ns, dt, stale)
+
+    def _setpoint(self, t_s: float) -> tuple[float, float, float]:
+        if self.external is not None:
+            s = (self.external, 0.0, 0.0)
+        else:
+            s = self.signal.value_and_rates(t_s)
+        if self.muscles == 2:
+            m, clamped = self.ctl.clamp_torque(s[0])
+            if clamped and not self._clamped:
+                self.diagnose(DiagnosticStatus.WARN, f'torque set point {s[0]:.3f} N m beyond '
+                              f'+-{self.ctl.p.max_torque_nm} N m: clamped')
+            self._clamped = clamped
+            s = (m, 0.0 if clamped else s[1], 0.0 if clamped else s[2])
+        return s
+
+    def _tick(self, t_ns: int, dt_s: float, fault: str) -> None:
+        if self.t0_ns is None:
+            self.t0_ns = t_ns
+        t = (t_ns - self.t0_ns) * 1e-9
+        if not fault and not self.finite(self.angle_rad, *self.forces):
+            fault = 'measured force or angle not finite: valves vented'
+        sp = self._setpoint(t)
+        st = TorqueServoState(controller=self.mode.value, angle=self.angle_rad)
+        if fault:
+            if fault != self.status:
+                self.diagnose(DiagnosticStatus.ERROR, fault)
+            self.ctl.reset()
+            volts = [0.0] * self.muscles
+            st.status = fault
+        else:
+            if self.status:
+                self.diagnose(DiagnosticStatus.OK, 'measurements fresh again: control resumed')
+            ch = self.ctl.step(dt_s, sp, self.angle_rad, tuple(self.forces))
+            volts = [c.voltage_v for c in ch]
+            pad = [0.0] * (2 - self.muscles)
+            st.force_setpoint = [c.force_setpoint_n for c in ch] + pad
+            st.contraction = [c.contraction_m for c in ch] + pad
+            st.u_feedforward = [c.u_feedforward_v for c in ch] + pad
+            st.u_pid = [c.u_pid_v for c in ch] + pad
+        self.status = fault
+        stamp = time_of(t_ns)
+        for pub, u in zip(self.valve_pubs, volts, strict=True):
+            msg = ValveCommand(voltage=float(u))
+            msg.header.stamp = stamp
+            pub.publish(msg)
+        f = self.forces + [0.0] * (2 - self.muscles)
+        st.torque_setpoint = float(sp[0])
+        st.torque_measured = (self.ctl.r * (f[0] - f[1]) if self.muscles == 2
+                              else float(f[0]))
+        st.force_measured = [float(v) for v in f]
+        st.voltage = [float(v) for v in volts] + [0.0] * (2 - self.muscles)
+        st.header.stamp = stamp
+        self.state_pub.publish(st)
+
+    def on_fault(self, reason: str) -> None:
+        """Vent both valves."""
+        stamp = time_of(self._last_ns or 0)
+        for pub in self.valve_pubs:
+            msg = ValveCommand(voltage=0.0)
+            msg.header.stamp = stamp
+            pub.publish(msg)
+
+
+def main(args: list[str] | None = None) -> None:
+    """Run the node."""
+    run_node(TorqueServoNode, args)
+
+
+if __name__ == '__main__':
+    main()
+

@@ -1,0 +1,128 @@
+"""The torque servo's bench in one process with numpy, exchange for exchange as the nodes.
+
+Two valves, two muscles, two load cells and the encoder on the pulley, whose angle the electric
+servo holds (004 section 3.2: "the electric servo holds the angle, the muscles make the
+torque"); with ``muscles = 1`` the single-muscle force check of 004 section 3.1. Per exchange
+step h (Jacobi, every device sees the others' outputs of the previous exchange, as the
+lock-step nodes do):
+
+    valve_i:   p_i      = valve_i.step(u_i, h, V_i)
+    muscle_i:  F_i, V_i = muscle_i.step(p_i, x_i)
+    cell_i:    F_m,i    = cell_i.measure(F_i)
+    holder:    x_1 = x0 + r theta + F_1 / k_b,  x_2 = x0 - r theta + F_2 / k_b   (belt stretch)
+    servo:     u_i      = controller(F_m,i, theta_m)                          (every exchange)
+
+Used for the controller comparison's reference, the tuning, and the closed-loop rows of the
+work-precision benchmark.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from pam_bench.models.loading_servo import LoadingServoParams
+from pam_bench.models.muscle import MuscleModel, MuscleParams
+from pam_bench.models.sensors import EncoderModel, LoadCellModel, LoadCellParams
+from pam_bench.models.torque_servo import (
+    ServoMode,
+    Signal,
+    TorqueServoController,
+    TorqueServoParams,
+)
+from pam_bench.models.valve import ValveModel, ValveParams
+
+__all__ = ['ServoRun', 'run_servo', 'tracking_metrics']
+
+
+@dataclasses.dataclass
+class ServoRun:
+    """Time series of a servo run, shapes (n,) or (n, muscles): s, N m or N, V."""
+
+    t_s: np.ndarray
+    setpoint: np.ndarray
+    measured: np.ndarray
+    setpoint_rate: np.ndarray
+    force_setpoint_n: np.ndarray
+    force_n: np.ndarray
+    voltage_v: np.ndarray
+    u_feedforward_v: np.ndarray
+    unit: str
+
+
+def run_servo(mode: ServoMode, signal: Signal, duration_s: float, angle_rad: float = 0.0,
+              h_s: float = 0.001, inverse: object = None, muscles: int = 2,
+              params: TorqueServoParams | None = None, valve: ValveParams | None = None,
+              muscle: MuscleParams | None = None, noise: bool = True, seed: int = 0
+              ) -> ServoRun:
+    """Run the closed loop for ``duration_s`` at exchange step ``h_s``."""
+    sp = params or TorqueServoParams()
+    ctl = TorqueServoController(sp, mode, inverse, muscles)
+    valves = [ValveModel(valve) for _ in range(muscles)]
+    ms = [MuscleModel(muscle) for _ in range(muscles)]
+    cells = [LoadCellModel(LoadCellParams(noise=noise), seed=seed + i) for i in range(muscles)]
+    enc = EncoderModel()
+    k_b = LoadingServoParams().belt_stiffness_n_per_m
+    r = ctl.r
+    sign = (1.0, -1.0)
+    x = [sp.rest_contraction_m + sign[i] * r * angle_rad for i in range(muscles)]
+    for m, xi in zip(ms, x, strict=True):
+        m.reset(xi, 0.0)
+    p = [0.0] * muscles
+    out = [m.step(0.0, xi) for m, xi in zip(ms, x, strict=True)]
+    f_meas = [0.0] * muscles
+    th_meas = enc.measure(angle_rad, h_s)[0]
+    u = [0.0] * muscles
+    n = int(round(duration_s / h_s))
+    rec = {k: [] for k in ('t', 'sp', 'meas', 'rate', 'fsp', 'f', 'u', 'ff')}
+    for k in range(n):
+        t = k * h_s
+        # controller on the measurements of the previous exchange
+        s, ds, dds = signal.value_and_rates(t)
+        if muscles == 2:
+            s, _ = ctl.clamp_torque(s)
+        ch = ctl.step(h_s, (s, ds, dds), th_meas, tuple(f_meas))
+        u_new = [c.voltage_v for c in ch]
+        meas = r * (f_meas[0] - f_meas[1]) if muscles == 2 else f_meas[0]
+        rec['t'].append(t)
+        rec['sp'].append(s)
+        rec['rate'].append(ds)
+        rec['meas'].append(meas)
+        rec['fsp'].append([c.force_setpoint_n for c in ch])
+        rec['f'].append(list(f_meas))
+        rec['u'].append(u_new)
+        rec['ff'].append([c.u_feedforward_v for c in ch])
+        # devices advance on the previous exchange's values
+        p_new = [v.step(ui, h_s, o.volume_m3) for v, ui, o in zip(valves, u, out, strict=True)]
+        out_new = [m.step(pi, xi) for m, pi, xi in zip(ms, p, x, strict=True)]
+        f_meas = [c.measure(o.force_n) for c, o in zip(cells, out, strict=True)]
+        th_meas = enc.measure(angle_rad, h_s)[0]
+        x = [sp.rest_contraction_m + sign[i] * r * angle_rad + out[i].force_n / k_b
+             for i in range(muscles)]
+        p, out, u = p_new, out_new, u_new
+    a = {k: np.asarray(v) for k, v in rec.items()}
+    return ServoRun(a['t'], a['sp'], a['meas'], a['rate'], a['fsp'], a['f'], a['u'], a['ff'],
+                    'N m' if muscles == 2 else 'N')
+
+
+def tracking_metrics(run: ServoRun, settle_s: float = 1.0, window_s: float = 0.1
+                     ) -> dict[str, float]:
+    """RMS and max |set point - measured| after ``settle_s``, and the largest error within
+    ``window_s`` of a reversal of the set point's derivative (or of a jump of a square wave),
+    in the run's unit."""
+    keep = run.t_s >= settle_s
+    e = np.abs(run.setpoint - run.measured)[keep]
+    t = run.t_s[keep]
+    rate = run.setpoint_rate[keep]
+    jumps = np.abs(np.diff(run.setpoint[keep])) > 1e-6 * max(np.ptp(run.setpoint), 1e-9) * 1e3
+    flips = np.nonzero(np.sign(rate[1:]) * np.sign(rate[:-1]) < 0)[0]
+    marks = np.concatenate([t[1:][flips], t[1:][jumps]]) if len(t) > 1 else np.array([])
+    near = np.zeros_like(t, dtype=bool)
+    for m in marks:
+        near |= np.abs(t - m) <= window_s
+    return {'rms_error': float(np.sqrt(np.mean(e ** 2))) if len(e) else float('nan'),
+            'max_error': float(e.max()) if len(e) else float('nan'),
+            'error_at_reversal': float(e[near].max()) if near.any() else float('nan'),
+            'error_elsewhere': float(e[~near].max()) if (~near).any() else float('nan'),
+            'unit': run.unit}

@@ -1,0 +1,109 @@
+"""Torque servo node: a short servo scene end to end, clamping, NaN, stale feedback vents."""
+
+from __future__ import annotations
+
+import dataclasses
+import pathlib
+import time
+
+import numpy as np
+import pytest
+from geometry_msgs.msg import WrenchStamped
+from pam_bench_interfaces.msg import TorqueServoState, TorqueSetpoint, ValveCommand
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import JointState
+
+from pam_bench.analysis.servo_bag import read_servo_states
+from pam_bench.nodes.torque_servo import TorqueServoNode
+from pam_bench.sim.runner import run_scene
+from pam_bench.sim.scene import load_scene
+from test.conftest import next_domain
+from test.nodes.harness import Harness
+
+
+def test_short_servo_scene_tracks_the_torque(tmp_path: pathlib.Path, ros_domain: int) -> None:
+    """servo_sin_t for 1.5 s through the ten separate-process nodes: both muscles pull, the
+    measured torque follows 5 sin t, the pair stays taut."""
+    scene = dataclasses.replace(load_scene('servo_sin_t'), duration_s=1.5)
+    res = run_scene(scene, str(tmp_path / 'bag'), domain_id=next_domain(), quiet=True)
+    assert res.code == 0, res
+    s = read_servo_states(tmp_path / 'bag')
+    assert len(s['t_s']) == 1500                        # one state per 1 ms control period
+    np.testing.assert_allclose(np.diff(s['t_s']), 1e-3, atol=1e-9)
+    late = s['t_s'] >= s['t_s'][0] + 0.5
+    err = s['torque_setpoint'][late] - s['torque_measured'][late]
+    assert np.sqrt(np.mean(err ** 2)) < 0.25             # N m, of a 5 N m sine
+    assert (s['force_measured'][late] > 20.0).all()      # both muscles taut
+    assert all(st == '' for st in s['status'])
+
+
+@pytest.fixture
+def harness(ros_domain: int):
+    h = Harness(lambda ctx: TorqueServoNode('torque_servo', context=ctx, parameter_overrides=[
+        Parameter('lockstep', value=False), Parameter('controller', value='pid'),
+        Parameter('control_period_s', value=0.005), Parameter('stale_timeout_s', value=0.25)]))
+    try:
+        for i in (1, 2):
+            h.publisher(WrenchStamped, f'load_cell_{i}/force')
+            h.listen(ValveCommand, f'valve_{i}/command')
+        h.publisher(JointState, 'encoder/joint_state')
+        h.publisher(TorqueSetpoint, 'torque_servo/setpoint')
+        h.listen(TorqueServoState, 'torque_servo/state')
+        h.node = h.make_node(h.context)
+        h.executor.add_node(h.node)
+        yield h
+    finally:
+        h.close()
+
+
+def feed(h: Harness, seconds: float, forces: tuple[float, float] | None = (300.0, 300.0),
+         setpoint: float | None = None) -> None:
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        now = h.tester.get_clock().now().nanoseconds
+        if forces is not None:
+            for i, f in enumerate(forces, start=1):
+                msg = WrenchStamped()
+                msg.wrench.force.x = f
+                h.send(f'load_cell_{i}/force', msg, now)
+        h.send('encoder/joint_state', JointState(name=['pulley'], position=[0.0]), now)
+        if setpoint is not None:
+            h.send('torque_servo/setpoint', TorqueSetpoint(torque=setpoint), now)
+        h.executor.spin_once(timeout_sec=0.002)
+
+
+def feed_until(h: Harness, cond, timeout_s: float = 10.0, **kw) -> None:
+    """Feed in slices of 0.1 s until ``cond()`` (discovery may take a moment)."""
+    end = time.monotonic() + timeout_s
+    while not cond():
+        assert time.monotonic() < end, 'condition not met in time'
+        feed(h, 0.1, **kw)
+
+
+def running(h: Harness) -> bool:
+    st = h.received['torque_servo/state']
+    return bool(st) and st[-1].status == '' and h.received['valve_1/command'][-1].voltage > 0
+
+
+def test_setpoint_clamped_and_nan_rejected(harness: Harness) -> None:
+    h = harness
+    feed_until(h, lambda: running(h), setpoint=40.0)
+    feed(h, 0.1, setpoint=40.0)
+    last = [st for st in h.received['torque_servo/state'] if st.status == ''][-1]
+    assert last.torque_setpoint == pytest.approx(25.46)          # clamped to the drive's range
+    assert any('clamped' in st.message for d in h.diagnostics for st in d.status)
+    feed(h, 0.2, setpoint=float('nan'))
+    assert [st for st in h.received['torque_servo/state'] if st.status == ''][-1] \
+        .torque_setpoint == pytest.approx(25.46)
+    assert h.node.rejected_count > 0
+
+
+def test_stale_force_vents_both_valves(harness: Harness) -> None:
+    h = harness
+    feed_until(h, lambda: running(h), setpoint=2.0)
+    feed(h, 0.8, forces=None)                                    # the load cells go quiet
+    last = h.received['torque_servo/state'][-1]
+    assert 'stale' in last.status and 'load_cell_1/force' in last.status
+    assert h.received['valve_1/command'][-1].voltage == 0.0
+    assert h.received['valve_2/command'][-1].voltage == 0.0
+    feed_until(h, lambda: running(h), setpoint=2.0)              # fresh data: control resumes
