@@ -103,3 +103,25 @@ def test_too_few_points_to_fit(tmp_path: pathlib.Path, capsys: pytest.CaptureFix
     assert cli(['extract', str(tmp_path / 'bag'), '--out', str(tmp_path / 'out')]) == 2
     assert 'too few points' in capsys.readouterr().err
     assert not (tmp_path / 'out').exists()
+
+
+def test_polynomials_in_mm_and_m_agree() -> None:
+    """The same smoothing in mm (summary.json) and in m (inverse_model.yaml): the centred and
+    scaled z makes the coefficients identical, and both evaluate to the same value."""
+    from pam_bench.analysis.extract import coefficient_polynomials
+    from pam_bench.analysis.inverse_export import smoothing_polynomial
+    from pam_bench.models.inverse import Poly
+    x_mm = np.arange(0.0, 85.0, 5.0)
+    y = 18.8 - 0.08 * x_mm + 3e-4 * x_mm ** 2 + 1e-7 * x_mm ** 5
+    fits = [{'x_mm': x, 'direction': 'up', 'u1_V': 5.0, 'b': v, 'c': 1.0, 'd': 1.0,
+             'F_a0_N': 1.0} for x, v in zip(x_mm, y, strict=True)]
+    in_mm = coefficient_polynomials(fits)['b']
+    in_m = smoothing_polynomial(x_mm * 1e-3, y)
+    np.testing.assert_allclose(in_mm['coefficients_low_to_high'],
+                               in_m['coefficients_low_to_high'], rtol=1e-9, atol=1e-12)
+    p = Poly.from_dict(in_m)
+    for x in (0.0, 12.5, 80.0):
+        z = (x - in_mm['x_mid_mm']) / in_mm['x_half_range_mm']
+        np.testing.assert_allclose(
+            p(x * 1e-3), np.polynomial.polynomial.polyval(z, in_mm['coefficients_low_to_high']),
+            rtol=1e-12)

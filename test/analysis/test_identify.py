@@ -28,6 +28,10 @@ def test_unit_response_matches_closed_form(b: float, c: float) -> None:
     (18.8, 986.0, 2.8e4),        # underdamped, like the simulated valve at x = 0
     (60.0, 900.0, 2.0e4),        # critically damped: b^2 = 4c exactly
     (90.0, 900.0, 2.0e4),        # overdamped
+    (60.0, 900.0 * (1 + 1e-12), 2.0e4),   # a hair under critical
+    (60.0, 900.0 * (1 - 1e-12), 2.0e4),   # a hair over critical
+    (2.0, 2500.0, 5.0e4),        # very underdamped (zeta = 0.02)
+    (400.0, 900.0, 2.0e4),       # very overdamped (zeta = 6.7)
 ])
 def test_fit_recovers_coefficients(b: float, c: float, d: float) -> None:
     f = synth(b, c, d, 300.0, 0.2, delay=2)

@@ -39,6 +39,18 @@ def test_position_mode_holds(scheme: str) -> None:
     np.testing.assert_allclose(st.measured_angle_rad * b.servo.r, 0.03, atol=1e-5)
 
 
+@pytest.mark.parametrize('scheme', ['zoh', 'rk4', 'euler'])
+def test_exchange_step_of_ten_seconds(scheme: str) -> None:
+    """One 10 s exchange: every scheme stays finite and the drive ends at its set value."""
+    b = SingleMuscleBench(load_cell=QUIET, servo=LoadingServoParams(scheme=scheme))
+    b.command_load(LoadMode.POSITION, 0.03)
+    b.command_valve(3.0)
+    for _ in range(3):
+        st = b.step(10.0)
+        assert np.isfinite([st.contraction_m, st.force_n, st.servo_torque_nm]).all()
+    np.testing.assert_allclose(st.measured_angle_rad * b.servo.r, 0.03, atol=1e-4)
+
+
 def test_schemes_agree() -> None:
     res = {}
     for scheme in ('zoh', 'rk4'):

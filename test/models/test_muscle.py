@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -28,6 +30,21 @@ def test_force_zero_at_and_beyond_max_contraction() -> None:
     m = MuscleModel(MuscleParams(hysteresis=False))
     for x in (m.p.gain_zero_contraction_m, m.p.gain_zero_contraction_m * 1.5, 1.0):
         assert m.step(1e6, x).force_n == 0.0
+
+
+@pytest.mark.parametrize('x_m', [-0.01, 0.0, 0.05, 0.149, 0.15, 0.3])
+@pytest.mark.parametrize('p_pa', [0.0, 1.0e6])
+def test_zero_and_maximum_pressure(p_pa: float, x_m: float) -> None:
+    """The valve's two ends (0 and 1 MPa) at every contraction: real, finite, never pushing."""
+    m = MuscleModel()
+    out = m.step(p_pa, x_m)
+    vals = [out.force_n, out.stiffness_n_per_m, out.friction_n, out.volume_m3]
+    assert all(isinstance(v, float) and math.isfinite(v) for v in vals)
+    assert out.force_n >= 0.0 and out.volume_m3 > 0.0
+    if p_pa == 0.0 and x_m >= 0.0:
+        assert out.force_n == 0.0
+    if x_m >= 0.15:
+        assert out.force_n == 0.0
 
 
 def test_threshold_no_force_below_threshold_pressure() -> None:

@@ -65,6 +65,14 @@ def test_stable_for_step_100x_time_constant() -> None:
     np.testing.assert_allclose(p, 3e5, rtol=1e-12)
 
 
+@pytest.mark.parametrize('order', [1, 2])
+def test_step_of_ten_seconds_lands_on_steady_state(order: int) -> None:
+    v = ValveModel(ValveParams(order=order))
+    p = v.step(4.0, 10.0, 1e-4)
+    assert math.isfinite(p)
+    np.testing.assert_allclose(p, 4e5, rtol=1e-9)
+
+
 @pytest.mark.parametrize('u', [float('nan'), float('inf'), -float('inf')])
 def test_non_finite_voltage_raises(u: float) -> None:
     with pytest.raises(ModelError):

@@ -7,8 +7,10 @@ import math
 import pytest
 from pam_bench_interfaces.msg import MuscleState, ValveCommand
 from rclpy.parameter import Parameter
+from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import FluidPressure
 
+from pam_bench.nodes.base import time_of
 from pam_bench.nodes.valve_sim import ATMOSPHERE_PA, ValveSim
 from test.nodes.harness import Harness
 
@@ -50,3 +52,19 @@ def test_bad_voltage_rejected_and_valve_vents(valve: Harness, bad: float) -> Non
     assert dict((kv.key, kv.value) for kv in status.values)['rejected_count'] == '1'
     assert valve.node.rejected_count == 1
     assert step(valve, 4, 3.0) == pytest.approx(3e5)      # a valid command is obeyed again
+
+
+def test_clock_jumping_backwards_is_ignored(valve: Harness) -> None:
+    """/clock going back (a reset of the sim clock) must not step the device again, publish
+    stale outputs or raise; the next forward tick steps normally."""
+    valve.tick(1 * MS)
+    valve.spin_until(lambda: len(valve.received['valve_1/pressure']) >= 1)
+    assert step(valve, 2, 5.0) == pytest.approx(5e5)
+    published = len(valve.received['valve_1/pressure'])
+    for t in (1 * MS, 0, 1 * MS):
+        valve.clock_pub.publish(Clock(clock=time_of(t)))
+        for _ in range(10):
+            valve.executor.spin_once(timeout_sec=0.01)
+    assert len(valve.received['valve_1/pressure']) == published
+    assert not any('failed' in s.message for d in valve.diagnostics for s in d.status)
+    assert step(valve, 3, 2.0) == pytest.approx(2e5)
