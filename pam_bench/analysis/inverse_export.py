@@ -20,6 +20,7 @@ __all__ = ['inverse_model_dict', 'smoothing_polynomial']
 
 
 def smoothing_polynomial(x_m: np.ndarray, y: np.ndarray) -> dict[str, Any]:
+    """Polynomial (degree up to 5) in z = (x - x_mid) / x_half fitted to y(x), x in m."""
     mid, half = float((x_m.max() + x_m.min()) / 2), float((x_m.max() - x_m.min()) / 2)
     z = (x_m - mid) / half if half else np.zeros_like(x_m)
     deg = min(5, len(x_m) - 1)
@@ -56,4 +57,5 @@ def inverse_model_dict(step: dict[str, Any] | None, isometric: Points | None,
     return {'pam_bench_inverse_model': 1, 'units': 'SI: x m, F N, u V, t s',
             'u_min_V': 0.0, 'u_max_V': u_max_v, 'dynamic': dyn,
             'static': {'equation': 'u = (F - F0) / k   (isometric midline)',
-                       'k_N_per_V': smoothing_polynomial(x_m, k), 'F0_N': smoothing_polynomial(x_m, f0)}}
+                       'k_N_per_V': smoothing_polynomial(x_m, k),
+                       'F0_N': smoothing_polynomial(x_m, f0)}}
