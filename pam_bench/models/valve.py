@@ -13,8 +13,11 @@ with volume, so the loop's natural frequency falls as w = w_ref * sqrt(V_ref / V
 ``volume_scaling``); this makes the identified b(x), c(x) of 004 Eq. 2 depend on x.
 
 Within a step u and V are held, so the dynamics are linear time-invariant and are integrated
-exactly with the ZOH matrix exponential (``pam_bench.models.lti``). The reported gauge pressure
-is clamped to [0, p_max] (the valve cannot go below atmosphere nor above its 1 MPa range).
+exactly with the ZOH matrix exponential (``pam_bench.models.lti``; ``scheme: zoh``, the
+default). ``rk4`` and ``euler`` take one explicit step per exchange instead; they exist for
+the work-precision benchmark (explicit Euler is unstable beyond h = 2 zeta / w). The reported
+gauge pressure is clamped to [0, p_max] (the valve cannot go below atmosphere nor above its
+1 MPa range).
 Units: u in V, p in Pa gauge, t in s, V in m^3.
 """
 
@@ -55,6 +58,7 @@ class ValveParams:
                                     'pressure is in transient', 1.0e-5, 10.0)
     settled_tolerance_pa: float = field(2000.0, 'Pa', 'the pressure counts as settled within '
                                         'this of its steady state', 0.0, 1.0e6)
+    scheme: str = field('zoh', '-', 'integration: zoh (exact), rk4 or euler (one step each)')
 
 
 class ValveModel:
@@ -107,10 +111,25 @@ class ValveModel:
             if self.p.order == 0:
                 self.state[:] = (target, 0.0)
             return self.pressure
-        key = (self.p.order, round(self.natural_frequency(chamber_volume_m3), 9))
         a, b = self.matrices(chamber_volume_m3)
-        ad, bd = self._cache.get(key, a, b, dt_s)
-        self.state = ad @ self.state + bd[:, 0] * target
+        if self.p.scheme == 'zoh':
+            key = (self.p.order, round(self.natural_frequency(chamber_volume_m3), 9))
+            ad, bd = self._cache.get(key, a, b, dt_s)
+            self.state = ad @ self.state + bd[:, 0] * target
+        elif self.p.scheme in ('rk4', 'euler'):
+            def f(s: np.ndarray) -> np.ndarray:
+                return a @ s + b[:, 0] * target
+            s, h = self.state, dt_s
+            if self.p.scheme == 'euler':
+                self.state = s + h * f(s)
+            else:
+                k1 = f(s)
+                k2 = f(s + 0.5 * h * k1)
+                k3 = f(s + 0.5 * h * k2)
+                k4 = f(s + h * k3)
+                self.state = s + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+        else:
+            raise ModelError(f'valve scheme {self.p.scheme!r}: use zoh, rk4 or euler')
         return self.pressure
 
     def max_step(self, voltage_v: float) -> float:

@@ -27,6 +27,7 @@ import numpy as np
 from pam_bench.models.loading_servo import LoadingServoParams, LoadMode
 from pam_bench.models.sensors import LoadCellParams
 from pam_bench.models.valve import ValveParams
+from pam_bench.sim import bench_sections
 from pam_bench.sim.bench import SingleMuscleBench
 from pam_bench.sim.calibration import calibration_figures
 from pam_bench.sim.pingpong import pingpong_rate
@@ -191,12 +192,13 @@ def run_benchmarks(quick: bool, root: pathlib.Path, scenes: list[str] | None = N
             report['scenes'].append(_scene_run(name, out))
         print('extraction against truth, identification speed ...', flush=True)
         report['extraction'] = _extraction(out, names, quick)
+        report.update(bench_sections.measure(quick, out))
     (root / 'bench.json').write_text(json.dumps(report, indent=2) + '\n', encoding='utf-8')
-    (root / 'BENCHMARKS.md').write_text(render(report), encoding='utf-8')
+    (root / 'BENCHMARKS.md').write_text(render(report, root), encoding='utf-8')
     return report
 
 
-def render(r: dict[str, Any]) -> str:
+def render(r: dict[str, Any], root: pathlib.Path | None = None) -> str:
     """BENCHMARKS.md from a report."""
     c, ls = r['calibration'], r['lockstep']
     lines = [
@@ -269,4 +271,6 @@ def render(r: dict[str, Any]) -> str:
         lines += ['', f"Step identification: {idf['records']} records (1 s at 1 kHz, 0.2 N "
                   f"noise) fitted in {idf['fits_s']:.2f} s on {idf['workers']} cores; the whole "
                   f"extraction of that bag {idf['extract_s']:.2f} s."]
+    if 'work_precision' in r:
+        lines += bench_sections.render(r, root or pathlib.Path('.'))
     return '\n'.join(lines) + '\n'
