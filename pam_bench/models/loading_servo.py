@@ -92,6 +92,8 @@ class LoadingServoParams:
                                     'drive moves', 1.0e-5, 10.0)
     settled_speed_m_s: float = field(2.0e-4, 'm/s', 'the drive counts as settled below this '
                                      'belt speed', 0.0, 10.0)
+    settled_force_n: float = field(2.0, 'N', 'in force mode the drive counts as settled only '
+                                   'within this of its set value (load cell)', 0.0, 1.0e4)
     dynamics: bool = field(True, '-', 'simulate the drive mechanics; false: ideal set value')
     scheme: str = field('zoh', '-', 'integration scheme: zoh (exact), rk4 or euler')
     internal_step_s: float = field(1.0e-3, 's', 'longest internal integration step',
@@ -132,6 +134,7 @@ class LoadingServoModel:
         self.setpoint = 0.0
         self.state = np.zeros(3)   # phi (rad), phi' (rad/s), integral of the error
         self.torque = 0.0
+        self.force_error_n = 0.0       # set value - last load-cell reading (force mode), N
         self.saturated = False
         self.contraction = 0.0
         self.angle = 0.0
@@ -212,6 +215,8 @@ class LoadingServoModel:
         """
         vals = (dt_s, force_n, stiffness_n_per_m, evaluated_contraction_m, measured_force_n,
                 measured_angle_rad)
+        self.force_error_n = (self.setpoint - measured_force_n
+                              if self.mode == LoadMode.FORCE else 0.0)
         if not all(math.isfinite(v) for v in vals) or dt_s < 0.0:
             raise ModelError(f'loading servo inputs not finite or negative step: {vals!r}')
         k_m = max(stiffness_n_per_m, 0.0)
@@ -245,10 +250,15 @@ class LoadingServoModel:
 
     def max_step(self) -> float:
         """Longest next exchange step the drive asks for, s (0: any): short while the belt
-        moves, so the one-step coupling lag stays small where the muscle is soft or slack."""
+        moves or (force mode) while the load cell is off the set value, so the one-step
+        coupling lag stays small where the muscle is soft, slack or slipping."""
         if not self.p.dynamics or self.mode == LoadMode.OFF:
             return 0.0
         if abs(self.state[1]) * self.r > self.p.settled_speed_m_s or self.saturated:
+            return self.p.transient_step_s
+        # a muscle creeping through its friction looks stiff to the one-step linearisation:
+        # the belt hardly moves but the force is not there yet
+        if abs(self.force_error_n) > self.p.settled_force_n:
             return self.p.transient_step_s
         return 0.0
 

@@ -75,6 +75,13 @@ def measure(quick: bool, out: pathlib.Path) -> dict[str, Any]:
     res['fidelity'] = fidelity_table(inverse)
     print('exchange step of the ROS run ...', flush=True)
     res['ros_exchange_step'] = _ros_sweep(out, quick)
+    print('torque servo: controllers compared ...', flush=True)
+    from pam_bench.sim.servo_compare import compare_servo
+    few = ['servo_sin_t', 'servo_sin_3t', 'force_verify_20mm', 'force_verify_50mm']
+    res['servo'] = compare_servo(out / 'servo_numpy', 'numpy', few if quick else None)
+    if not quick:
+        res['servo'] += compare_servo(out / 'servo_ros', 'ros', ['servo_sin_t',
+                                                                 'force_verify_20mm'])
     return res
 
 
@@ -150,4 +157,18 @@ def render(r: dict[str, Any], root: pathlib.Path) -> list[str]:
         lines.append(f"| {row['scene']} | {row['exchange_step_s'] * 1e3:g} ms | "
                      f"{row['wall_s']:.1f} | {row['real_time_factor']:.2f}x | "
                      f"{row['max_error']:.3f} {row['unit']} | {fs} |")
+    lines += ['', '## Torque servo: controllers compared', '',
+              '`pam-bench servo-compare`: each scene with the identified dynamic inverse + PID, '
+              'the static inverse + PID and the PID alone (same gains). Errors after the first '
+              'second; "at reversal" is the largest error within 0.1 s of a reversal of the set '
+              "point's derivative (or of a square-wave jump), \"elsewhere\" the largest away "
+              'from them. `numpy` runs the same models and controller exchange for exchange in '
+              'one process; `ros` runs the separate-process nodes.', '',
+              '| scene | controller | engine | RMS error | max | at reversal | elsewhere | '
+              'real-time factor |', '|---|---|---|---|---|---|---|---|']
+    for row in r.get('servo', []):
+        lines.append(f"| {row['scene']} | {row['controller']} | {row['engine']} | "
+                     f"{row['rms_error']:.3f} {row['unit']} | {row['max_error']:.3f} | "
+                     f"{row['error_at_reversal']:.3f} | {row['error_elsewhere']:.3f} | "
+                     f"{row['real_time_factor']:.2f}x |")
     return lines

@@ -47,3 +47,15 @@ def test_metrics_find_the_reversals() -> None:
     m = tracking_metrics(run)
     assert m['error_at_reversal'] == pytest.approx(0.5)
     assert m['error_elsewhere'] == pytest.approx(0.01)
+
+
+def test_servo_compare_numpy_writes_metrics(tmp_path: pathlib.Path) -> None:
+    import json
+
+    from pam_bench.sim.servo_compare import compare_servo
+    rows = compare_servo(tmp_path, 'numpy', ['force_verify_20mm'], duration_s=2.0)
+    assert [r['controller'] for r in rows] == [m.value for m in ServoMode]
+    data = json.loads((tmp_path / 'metrics.json').read_text())
+    assert {'scene', 'controller', 'rms_error', 'max_error', 'error_at_reversal',
+            'unit'} <= set(data[0])
+    assert data[0]['unit'] == 'N' and (tmp_path / 'force_verify_20mm.png').stat().st_size > 0

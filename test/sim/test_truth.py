@@ -55,3 +55,18 @@ def test_truth_against_itself_is_exact(truth: dict) -> None:
     assert all(r['rel_error'] == 0.0 for r in cmp['isometric_gain'])
     assert all(r[f'{c}_rel_error'] == 0.0 for r in cmp['step_fits'] for c in 'bcd')
     assert all(math.isfinite(r['b_rel_error']) for r in cmp['step_reference_fits'])
+
+
+def test_truth_cli_against_an_extraction(tmp_path, capsys) -> None:
+    """`pam-bench truth SCENE --against DIR --json` compares an extraction with the truth."""
+    import json
+
+    from pam_bench.cli import main as cli
+    out = tmp_path / 'summary.json'
+    out.write_text(json.dumps(truth_summary('isometric_quick', reference=False)))
+    assert cli(['truth', 'isometric_quick', '--no-reference', '--json', '--against',
+                str(tmp_path)]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data['isometric']['gain_N_per_V']['x_mm_at_max'] == 0.0
+    assert all(r['rel_error'] == 0.0 for r in data['comparison']['isometric_gain'])
+    assert cli(['truth', 'isometric_quick', '--against', str(tmp_path / 'none')]) == 2
