@@ -160,10 +160,11 @@ def render(r: dict[str, Any], root: pathlib.Path) -> list[str]:
     lines += ['', '## Torque servo: controllers compared', '',
               '`pam-bench servo-compare`: each scene with the identified dynamic inverse + PID, '
               'the static inverse + PID and the PID alone (same gains). Errors after the first '
-              'second; "at reversal" is the largest error within 0.1 s of a reversal of the set '
-              "point's derivative (or of a square-wave jump), \"elsewhere\" the largest away "
-              'from them. `numpy` runs the same models and controller exchange for exchange in '
-              'one process; `ros` runs the separate-process nodes.', '',
+              'second; "at reversal" is the largest error from 0.05 s before a reversal of the '
+              "set point's derivative (or a square-wave jump) to a quarter of the spacing "
+              'between reversals after it, "elsewhere" the largest outside those windows. '
+              '`numpy` runs the same models and controller exchange for exchange in one '
+              'process; `ros` runs the separate-process nodes.', '',
               '| scene | controller | engine | RMS error | max | at reversal | elsewhere | '
               'real-time factor |', '|---|---|---|---|---|---|---|---|']
     for row in r.get('servo', []):

@@ -106,23 +106,28 @@ def run_servo(mode: ServoMode, signal: Signal, duration_s: float, angle_rad: flo
                     'N m' if muscles == 2 else 'N')
 
 
-def tracking_metrics(run: ServoRun, settle_s: float = 1.0, window_s: float = 0.1
+def tracking_metrics(run: ServoRun, settle_s: float = 1.0, window_s: float | None = None
                      ) -> dict[str, float]:
-    """RMS and max |set point - measured| after ``settle_s``, and the largest error within
-    ``window_s`` of a reversal of the set point's derivative (or of a jump of a square wave),
-    in the run's unit."""
+    """RMS and max |set point - measured| after ``settle_s``; the largest error in the window
+    that follows a reversal of the set point's derivative (or a jump of a square wave) and the
+    largest elsewhere, in the run's unit. The window runs from 0.05 s before each reversal to
+    a quarter of the spacing between reversals after it (``window_s`` overrides the latter):
+    friction shows there, the error building up after the muscles change direction."""
     keep = run.t_s >= settle_s
     e = np.abs(run.setpoint - run.measured)[keep]
     t = run.t_s[keep]
     rate = run.setpoint_rate[keep]
-    jumps = np.abs(np.diff(run.setpoint[keep])) > 1e-6 * max(np.ptp(run.setpoint), 1e-9) * 1e3
+    jumps = np.abs(np.diff(run.setpoint[keep])) > 0.1 * max(float(np.ptp(run.setpoint)), 1e-9)
     flips = np.nonzero(np.sign(rate[1:]) * np.sign(rate[:-1]) < 0)[0]
     marks = np.concatenate([t[1:][flips], t[1:][jumps]]) if len(t) > 1 else np.array([])
+    marks = np.sort(marks)
+    if window_s is None:
+        window_s = 0.25 * float(np.median(np.diff(marks))) if len(marks) > 1 else 0.1
     near = np.zeros_like(t, dtype=bool)
     for m in marks:
-        near |= np.abs(t - m) <= window_s
+        near |= (t >= m - 0.05) & (t <= m + window_s)
     return {'rms_error': float(np.sqrt(np.mean(e ** 2))) if len(e) else float('nan'),
             'max_error': float(e.max()) if len(e) else float('nan'),
             'error_at_reversal': float(e[near].max()) if near.any() else float('nan'),
             'error_elsewhere': float(e[~near].max()) if (~near).any() else float('nan'),
-            'unit': run.unit}
+            'reversal_window_s': window_s, 'unit': run.unit}

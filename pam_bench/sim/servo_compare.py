@@ -4,7 +4,8 @@ Engines: ``ros`` runs each scene through the separate-process nodes and reads th
 state from the bag; ``numpy`` runs the same models and the same controller exchange for
 exchange in one process (``pam_bench.sim.servo_bench``), seconds instead of minutes. Metrics
 (``servo_bench.tracking_metrics``): RMS and max error after the first second, and the largest
-error within 0.1 s of a reversal of the set point's derivative (or a square-wave jump).
+error in the window after each reversal of the set point's derivative (or square-wave jump)
+against the largest elsewhere.
 """
 
 from __future__ import annotations
