@@ -95,7 +95,7 @@ def drive_rows(steps: list[float]) -> list[dict[str, Any]]:
         srv = LoadingServoModel(LoadingServoParams(scheme=scheme))
         srv.command(LoadMode.POSITION, 1e-4)
         x, th, out = 0.0, 0.0, []
-        every = int(round(0.02 / h))
+        every = max(1, int(round(0.1 / h)))     # sample every 0.1 s (a multiple of h)
         t0 = time.perf_counter()
         for k in range(int(round(0.5 / h))):
             f = max(500.0 - 2e4 * x, 0.0)
