@@ -3,4 +3,4 @@
 from __future__ import annotations
 
 __all__ = ['bagread', 'bagwrite', 'extract', 'force_models', 'identify', 'inverse_export',
-           'plots', 'report', 'servo_bag', 'static', 'types']
+           'plots', 'report', 'servo_bag', 'smoothing', 'static', 'types']

@@ -25,6 +25,7 @@ from pam_bench.analysis.force_models import fit_force_models
 from pam_bench.analysis.identify import fit_step
 from pam_bench.analysis.inverse_export import inverse_model_dict
 from pam_bench.analysis.report import report_markdown
+from pam_bench.analysis.smoothing import centred_polyfit
 from pam_bench.analysis.static import gain_summary
 
 __all__ = ['extract', 'step_summary', 'coefficient_polynomials', 'ExtractError']
@@ -75,17 +76,12 @@ def coefficient_polynomials(fits: list[dict[str, Any]]) -> dict[str, Any]:
     xs = np.array(sorted(by_x))
     polys: dict[str, Any] = {}
     if len(xs) >= 2:
-        mid, half = float((xs.max() + xs.min()) / 2), float((xs.max() - xs.min()) / 2)
-        z = (xs - mid) / half
-        deg = min(5, len(xs) - 1)
         for key in ('b', 'c', 'd', 'F_a0_N'):
-            y = np.array([by_x[x][key] for x in xs])
-            coef = np.polynomial.polynomial.polyfit(z, y, deg)
-            res = y - np.polynomial.polynomial.polyval(z, coef)
+            p = centred_polyfit(xs, np.array([by_x[x][key] for x in xs]))
             polys[key.replace('_N', '')] = {
-                'coefficients_low_to_high': coef.tolist(), 'degree': deg,
-                'x_mid_mm': mid, 'x_half_range_mm': half, 'x_mm': xs.tolist(),
-                'residuals': res.tolist(), 'rms_residual': float(np.sqrt(np.mean(res ** 2)))}
+                'coefficients_low_to_high': p.coefficients.tolist(), 'degree': p.degree,
+                'x_mid_mm': p.x_mid, 'x_half_range_mm': p.x_half, 'x_mm': xs.tolist(),
+                'residuals': p.residuals.tolist(), 'rms_residual': p.rms_residual}
     return polys
 
 

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from pam_bench.analysis.bagread import Points
+from pam_bench.analysis.smoothing import centred_polyfit
 from pam_bench.analysis.static import isometric_lines
 
 __all__ = ['inverse_model_dict', 'smoothing_polynomial']
@@ -21,13 +22,9 @@ __all__ = ['inverse_model_dict', 'smoothing_polynomial']
 
 def smoothing_polynomial(x_m: np.ndarray, y: np.ndarray) -> dict[str, Any]:
     """Polynomial (degree up to 5) in z = (x - x_mid) / x_half fitted to y(x), x in m."""
-    mid, half = float((x_m.max() + x_m.min()) / 2), float((x_m.max() - x_m.min()) / 2)
-    z = (x_m - mid) / half if half else np.zeros_like(x_m)
-    deg = min(5, len(x_m) - 1)
-    coef = np.polynomial.polynomial.polyfit(z, y, deg)
-    res = y - np.polynomial.polynomial.polyval(z, coef)
-    return {'coefficients_low_to_high': [float(c) for c in coef], 'x_mid_m': mid,
-            'x_half_range_m': half, 'rms_residual': float(np.sqrt(np.mean(res ** 2)))}
+    p = centred_polyfit(x_m, y)
+    return {'coefficients_low_to_high': [float(c) for c in p.coefficients], 'x_mid_m': p.x_mid,
+            'x_half_range_m': p.x_half, 'rms_residual': p.rms_residual}
 
 
 def inverse_model_dict(step: dict[str, Any] | None, isometric: Points | None,

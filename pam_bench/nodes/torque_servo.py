@@ -61,7 +61,6 @@ class TorqueServoNode(BenchNode):
         params = self.declare_model('servo', TorqueServoParams)
         inverse = InverseModel.load(model_file) if model_file else None
         self.ctl = TorqueServoController(params, ServoMode(mode), inverse, self.muscles)
-        self.mode = ServoMode(mode)
         chans = range(1, self.muscles + 1)
         self.cell_topics = [f'load_cell_{i}/force' for i in chans]
         self.enc_topic = 'encoder/joint_state'
@@ -147,7 +146,7 @@ class TorqueServoNode(BenchNode):
         if not fault and not self.finite(self.angle_rad, *self.forces):
             fault = 'measured force or angle not finite: valves vented'
         sp = self._setpoint(t)
-        st = TorqueServoState(controller=self.mode.value, angle=self.angle_rad)
+        st = TorqueServoState(controller=self.ctl.mode.value, angle=self.angle_rad)
         if fault:
             if fault != self.status:
                 self.diagnose(DiagnosticStatus.ERROR, fault)

@@ -66,11 +66,16 @@ STEP_TOPIC_SOURCES = {
 
 
 def step_topics(nodes: list[str]) -> list[str]:
-    """The step topics some node of a scene publishes (the recorder waits for each)."""
+    """The step topics some node of a scene publishes (the recorder waits for each); a
+    command topic (``/DEVICE/command``) is published only to a device the scene has."""
     have = {*nodes, 'sim_clock'}
-    # valve_2/command only exists with two muscles
-    return [t for t, src in STEP_TOPIC_SOURCES.items() if set(src) & have
-            and not (t.startswith('/valve_2/command') and 'valve_2' not in have)]
+
+    def present(topic: str, sources: tuple[str, ...]) -> bool:
+        name = topic.split(':')[0]
+        device_ok = not name.endswith('/command') or name.split('/')[1] in have
+        return bool(set(sources) & have) and device_ok
+
+    return [t for t, src in STEP_TOPIC_SOURCES.items() if present(t, src)]
 
 
 # the single-muscle characterisation bench

@@ -16,6 +16,7 @@ Rows (each: model, scheme, step h, max error, relative error, wall time per simu
 
 from __future__ import annotations
 
+import math
 import time
 from typing import Any
 
@@ -149,7 +150,6 @@ def fastest_within(rows: list[dict[str, Any]], tol: float = 1e-3) -> dict[str, A
 def zoh_exactness() -> float:
     """Largest relative error of the valve's exact ZOH against the closed form of a 2nd-order
     step (three damping regimes, 1 ms steps over 1 s)."""
-    import math
     worst = 0.0
     for zeta in (0.3, 1.0, 3.0):
         v = ValveModel(ValveParams(damping_ratio=zeta, volume_scaling=False))

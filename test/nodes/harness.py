@@ -44,9 +44,13 @@ class Harness:
         self.received[topic] = []
         self.tester.create_subscription(msg_type, topic, self.received[topic].append, RELIABLE)
 
-    def start(self) -> None:
+    def add_node(self) -> None:
+        """Create the node under test and spin it with the tester (wall clock: no tick)."""
         self.node = self.make_node(self.context)
         self.executor.add_node(self.node)
+
+    def start(self) -> None:
+        self.add_node()
         self.tick(0)
 
     def send(self, topic: str, msg: Any, t_ns: int) -> None:

@@ -41,8 +41,7 @@ def harness_factory(ros_domain: int):
         h.listen(ProtocolStatus, 'protocol/status')
         h.listen(ValveCommand, 'valve_1/command')
         h.listen(LoadCommand, 'loading_servo/command')
-        h.node = h.make_node(h.context)
-        h.executor.add_node(h.node)
+        h.add_node()
         return h
     try:
         yield build

@@ -49,8 +49,7 @@ def harness(ros_domain: int):
         h.publisher(JointState, 'encoder/joint_state')
         h.publisher(TorqueSetpoint, 'torque_servo/setpoint')
         h.listen(TorqueServoState, 'torque_servo/state')
-        h.node = h.make_node(h.context)
-        h.executor.add_node(h.node)
+        h.add_node()
         yield h
     finally:
         h.close()
