@@ -179,6 +179,33 @@ class MuscleModel:
             return MuscleOutput(0.0, 0.0, ff, self.volume(contraction_m))
         return MuscleOutput(f, k_bb + kf, ff, self.volume(contraction_m))
 
+    def step_compliant(self, pressure_pa: float, contraction_m: float, ref_force_n: float,
+                       compliance_m_per_n: float) -> tuple[MuscleOutput, float]:
+        """Move to pressure p at an end held with compliance c (m/N) from (x_k, F_k).
+
+        The end sits at x = x_k + c (F - F_k) (belt and drive yielding to the change of force
+        since the holder last saw F_k). One Newton step on the muscle's tangent at x_k, from a
+        trial evaluation whose friction state is discarded:
+        F = (F(p, x_k) + K c F_k) / (1 + K c), then the muscle moves to x = x_k + c (F - F_k).
+        With c = 0 this is ``step(p, x_k)``. Returns the output and the contraction x (m) it
+        was evaluated at.
+
+        Args:
+            pressure_pa: gauge pressure p, Pa.
+            contraction_m: x_k where the holder last put the end, m.
+            ref_force_n: F_k the holder last saw, N.
+            compliance_m_per_n: c >= 0, m/N.
+        """
+        if compliance_m_per_n <= 0.0:
+            return self.step(pressure_pa, contraction_m), contraction_m
+        z, sticking = self.friction.z.copy(), self.friction.sticking.copy()
+        trial = self.step(pressure_pa, contraction_m)
+        self.friction.z, self.friction.sticking = z, sticking
+        kc = trial.stiffness_n_per_m * compliance_m_per_n
+        f = (trial.force_n + kc * ref_force_n) / (1.0 + kc)
+        x = contraction_m + compliance_m_per_n * (f - ref_force_n)
+        return self.step(pressure_pa, x), x
+
     def static_force(self, pressure_pa: float, contraction_m: float) -> float:
         """max(0, F_bb): the friction-free force, N."""
         return max(self.backbone(pressure_pa, contraction_m), 0.0)

@@ -97,12 +97,50 @@ class Point:
 
 @dataclasses.dataclass(frozen=True)
 class Commands:
-    """What to send now, and the point taken at this tick (if any)."""
+    """What to send now, the point taken at this tick (if any), a step record completed at
+    this tick (if any) and the pressure sample period to ask the valve for (s, 0: none)."""
 
     voltage_v: float
     load_mode: LoadMode
     load_value: float
     point: Point | None
+    record: Point | None = None
+    sample_period_s: float = 0.0
+
+
+@dataclasses.dataclass
+class _Record:
+    """A step record being filled: force sample i belongs to t_step + i T."""
+
+    reading: Reading
+    t_step: float
+    point: Point | None = None              # the reading, taken at the end of the window
+    values: dict[int, float] = dataclasses.field(default_factory=dict)
+    latest: float = -float('inf')           # latest sample stamp seen, s
+
+    @property
+    def n(self) -> int:
+        return int(round(self.reading.record_s / self.reading.sample_period_s))
+
+    def add(self, t_s: float, force_n: float) -> None:
+        period = self.reading.sample_period_s
+        i = int(round((t_s - self.t_step) / period))
+        if 0 <= i < self.n and abs(t_s - self.t_step - i * period) <= 0.5 * period:
+            self.values.setdefault(i, force_n)
+        self.latest = max(self.latest, t_s)
+
+    @property
+    def complete(self) -> bool:
+        last = self.t_step + (self.n - 0.5) * self.reading.sample_period_s
+        return len(self.values) == self.n or self.latest >= last
+
+    def samples(self) -> tuple[float, ...]:
+        """Every sample; a missing one (a real bench may drop one) holds the one before."""
+        out, held = [], self.values.get(min(self.values), 0.0) if self.values else 0.0
+        for i in range(self.n):
+            held = self.values.get(i, held)
+            out.append(held)
+        return tuple(out)
 
 
 def sweep(start: float, stop: float, step: float) -> np.ndarray:
@@ -235,10 +273,18 @@ class Sequencer:
     with SETTLE at the first reading's set values. Safety: the run aborts, venting the valve,
     when the load cell reaches its range, or when at a reading the loading servo is off its set
     value by more than the tolerance.
+
+    Record samples are the load-cell readings passed to ``tick`` with their stamps; sample i is
+    the one stamped t_step + i T. Samples may arrive after the window (a chained bench delivers
+    an exchange's samples at the next tick): the schedule goes on at the end of the window and
+    the record is handed out (``Commands.record``) once its last sample is in. With
+    ``record_exchange_s`` > 0 the sequencer asks for exchange steps of that length during a
+    record and for valve samples every T (``Commands.sample_period_s``); with 0 it asks for a
+    step per sample.
     """
 
     def __init__(self, name: str, readings: list[Reading], settle_s: float,
-                 limits: Limits | None = None) -> None:
+                 limits: Limits | None = None, record_exchange_s: float = 0.0) -> None:
         if not readings:
             raise ParameterError(f'protocol {name!r} has no readings')
         self.name = name
@@ -251,8 +297,9 @@ class Sequencer:
         self.t_start = 0.0
         self.reason = ''
         self.points_done = 0
-        self.samples: list[float] = []
-        self.t_next_sample = 0.0
+        self.record_exchange_s = record_exchange_s
+        self.rec: _Record | None = None          # the record of the current window
+        self.pending: _Record | None = None      # a record past its window, samples to come
         self._total = settle_s + sum(r.lead_s + r.dwell_s + r.record_s for r in readings)
         self._done_s = 0.0               # scheduled time of the readings already taken
 
@@ -263,8 +310,9 @@ class Sequencer:
 
     @property
     def running(self) -> bool:
-        """True while the protocol is in progress."""
-        return self.phase in (Phase.SETTLE, Phase.LEAD, Phase.DWELL, Phase.RECORD)
+        """True while the protocol is in progress (or a record still waits for samples)."""
+        return (self.phase in (Phase.SETTLE, Phase.LEAD, Phase.DWELL, Phase.RECORD)
+                or (self.phase == Phase.DONE and self.pending is not None))
 
     def remaining_s(self, t_s: float) -> float:
         """Scheduled sim time still to run, s."""
@@ -278,17 +326,21 @@ class Sequencer:
         """Begin with the settle phase at the first reading's set values."""
         self.phase, self.t_phase, self.t_start, self.index = Phase.SETTLE, t_s, t_s, 0
         self.points_done = 0
+        self.rec = self.pending = None
         self.reason = ''
 
     def stop(self, phase: Phase, reason: str) -> None:
         """End early (ABORTED or CANCELLED) with a reason."""
         if self.running or self.phase == Phase.IDLE:
             self.phase, self.reason = phase, reason
+            self.rec = self.pending = None
 
     def next_event_s(self, t_s: float) -> float:
         """Sim time of the next phase change or record sample (inf when idle or ended)."""
         if not self.running:
             return float('inf')
+        if self.phase == Phase.DONE:                # waiting for the last record's samples
+            return t_s + (self.record_exchange_s or 1e-3)
         if self.phase == Phase.SETTLE:
             return self.t_phase + self.settle_s
         r = self.readings[self.index]
@@ -296,7 +348,8 @@ class Sequencer:
             return self.t_phase + r.lead_s
         if self.phase == Phase.DWELL:
             return self.t_phase + r.dwell_s
-        return min(self.t_next_sample, self.t_phase + r.record_s)
+        step = self.record_exchange_s or r.sample_period_s
+        return min(t_s + step, self.t_phase + r.record_s)
 
     def _voltage(self, r: Reading, t_s: float) -> float:
         if self.phase == Phase.RECORD or r.pre_voltage_v is None:
@@ -321,12 +374,25 @@ class Sequencer:
                         f'(measured {meas.contraction_m * 1e3:.2f} mm)')
         return ''
 
-    def tick(self, t_s: float, meas: Measurement) -> Commands:
-        """Advance to ``t_s`` given the latest measurement; return what to command."""
+    def tick(self, t_s: float, meas: Measurement,
+             samples: list[tuple[float, float]] | None = None) -> Commands:
+        """Advance to ``t_s`` given the latest measurement and the load-cell samples (stamp s,
+        force N) received since the last tick (None: the latest force, stamped ``t_s``);
+        return what to command."""
         eps = 1e-9
         point = None
+        record = None
+        if samples is None:
+            samples = [(t_s, meas.force_n)]
         if self.running and abs(meas.force_n) >= 0.999 * self.limits.force_range_n:
             self.stop(Phase.ABORTED, f'load cell out of range: {meas.force_n:.1f} N')
+        for rec in (self.pending, self.rec):
+            if rec is not None:
+                for ts, f in samples:
+                    rec.add(ts, f)
+        if self.pending is not None and self.pending.complete:
+            record = dataclasses.replace(self.pending.point, samples=self.pending.samples())
+            self.pending = None
         if self.phase == Phase.SETTLE and t_s - self.t_phase >= self.settle_s - eps:
             self.phase, self.t_phase = Phase.DWELL, t_s
             if self.readings[0].lead_s > 0:
@@ -340,38 +406,45 @@ class Sequencer:
             if t_s - self.t_phase >= r.dwell_s - eps:
                 if r.record_s > 0.0:
                     self.phase, self.t_phase = Phase.RECORD, t_s
-                    self.samples = []
-                    self.t_next_sample = t_s
+                    self.rec = _Record(r, t_s)
+                    for ts, f in samples:           # the sample at t_step may be in already
+                        self.rec.add(ts, f)
                 else:
                     point = self._take(r, t_s, meas)
         if self.phase == Phase.RECORD:
             r = self.readings[self.index]
-            if t_s >= self.t_next_sample - eps and \
-                    t_s - self.t_phase < r.record_s - eps:
-                self.samples.append(meas.force_n)
-                self.t_next_sample = self.t_phase + len(self.samples) * r.sample_period_s
             if t_s - self.t_phase >= r.record_s - eps:
-                point = self._take(r, t_s, meas, tuple(self.samples), self.t_phase)
-        if self.running:
+                rec, self.rec = self.rec, None
+                rec.point = point = self._take(r, t_s, meas, t_step=rec.t_step)
+                if point is not None:
+                    if rec.complete:
+                        record = dataclasses.replace(rec.point, samples=rec.samples())
+                    else:
+                        self.pending = rec
+        sample_period = 0.0
+        if self.phase == Phase.RECORD and self.record_exchange_s > 0.0:
+            sample_period = self.readings[self.index].sample_period_s
+        if self.running and self.phase != Phase.DONE:
             r = self.readings[self.index]
             if self.phase == Phase.SETTLE:
                 first = self.readings[0]
                 u0 = first.ramp_from_v if first.ramp_from_v is not None else (
                     first.pre_voltage_v if first.pre_voltage_v is not None else first.voltage_v)
-                return Commands(u0, first.load_mode, first.load_value, point)
-            return Commands(self._voltage(r, t_s), r.load_mode, r.load_value, point)
+                return Commands(u0, first.load_mode, first.load_value, point, record)
+            return Commands(self._voltage(r, t_s), r.load_mode, r.load_value, point, record,
+                            sample_period)
         last = self.readings[min(self.index, len(self.readings) - 1)]
         if self.phase == Phase.DONE:
-            return Commands(0.0, last.load_mode, last.load_value, point)
-        return Commands(0.0, LoadMode.OFF, 0.0, point)          # vent, torque off
+            return Commands(0.0, last.load_mode, last.load_value, point, record)
+        return Commands(0.0, LoadMode.OFF, 0.0, point, record)          # vent, torque off
 
-    def _take(self, r: Reading, t_s: float, meas: Measurement,
-              samples: tuple[float, ...] = (), t_step: float = 0.0) -> Point | None:
+    def _take(self, r: Reading, t_s: float, meas: Measurement, t_step: float = 0.0
+              ) -> Point | None:
         problem = self._check(r, meas)
         if problem:
             self.stop(Phase.ABORTED, problem)
             return None
-        point = Point(r, t_s, r.voltage_v, meas, samples, t_step)
+        point = Point(r, t_s, r.voltage_v, meas, (), t_step)
         self.points_done += 1
         self.index += 1
         self.t_phase = t_s

@@ -9,6 +9,12 @@ deterministic whatever order DDS delivers messages in. At t_0 a participant only
 ready (its inputs have publishers); step 1 uses the initial values. With its acknowledgement
 a participant may ask for a shorter next step (``max_next_step_s``), so that events such as a
 reading or a 1 kHz record land exactly on the exchange grid.
+
+Two options per input. ``same_step``: the participant steps to t_k with the message stamped t_k
+itself (Gauss-Seidel along an open chain such as valve -> muscle -> load cell; the producer
+must not depend on this participant within the same step). ``samples``: the input is the list
+of every message stamped in the interval (previous, required], in stamp order: a producer may
+publish sub-step samples between grid points, and the last one always sits on the grid.
 """
 
 from __future__ import annotations
@@ -27,6 +33,7 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.serialization import deserialize_message
 from rosgraph_msgs.msg import Clock
 
 from pam_bench.models.params import ParamInfo, describe, from_mapping, param_infos
@@ -72,6 +79,10 @@ class BenchNode(Node):
         self.lockstep = self.declare_typed('lockstep', True,
                                            'step on /clock ticks in lock-step with sim_clock')
         self._sync: dict[str, dict[int, Any]] = {}
+        self._same_step: set[str] = set()
+        self._samples: set[str] = set()
+        self._decode: dict[str, type] = {}
+        self._prev_prev_ns: int | None = None
         self._last_ns: int | None = None
         self._pending_ns: int | None = None
         self._step_index = 0
@@ -141,22 +152,32 @@ class BenchNode(Node):
 
     # --- lock-step ---------------------------------------------------------------------
     def sync_input(self, msg_type: type, topic: str, callback: Callable[[Any], None] | None
-                   = None, raw: bool = False) -> None:
+                   = None, raw: bool = False, same_step: bool = False,
+                   samples: bool = False) -> None:
         """Subscribe to a synchronous input: buffered by stamp, required at every step.
 
         With ``raw`` the message stays CDR bytes and its stamp is read from the header, which
-        every stamped message (and Clock) starts with.
+        every stamped message (and Clock) starts with. ``same_step`` and ``samples``: see the
+        module docstring.
         """
         buf: dict[int, Any] = {}
         self._sync[topic] = buf
+        if same_step:
+            self._same_step.add(topic)
+        if samples:
+            self._samples.add(topic)
+        if not raw:
+            self._decode[topic] = msg_type
 
-        def on_msg(msg: Any) -> None:
-            buf[stamp_of_cdr(msg) if raw else ns_of(msg.header.stamp)] = msg
+        def on_msg(data: bytes) -> None:
+            # kept as CDR bytes and decoded only when a step uses it: sub-step samples that a
+            # participant does not need cost a take, not a deserialisation
+            buf[stamp_of_cdr(data)] = data
             if callback is not None:
-                callback(msg)
+                callback(deserialize_message(data, msg_type) if not raw else data)
             self._try_step()
 
-        self.create_subscription(msg_type, topic, on_msg, RELIABLE, raw=raw)
+        self.create_subscription(msg_type, topic, on_msg, RELIABLE, raw=True)
 
     def start_lockstep(self) -> None:
         """Subscribe to /clock and create the ack publisher (call after all sync_input)."""
@@ -185,16 +206,30 @@ class BenchNode(Node):
             return
         prev = self._last_ns
         inputs: dict[str, Any] = {}
-        if self._step_index >= 1:
-            for topic, buf in self._sync.items():
-                msg = buf.get(prev)
-                if msg is None:
-                    return
-                inputs[topic] = msg
-        for buf in self._sync.values():
-            for k in [k for k in buf if k < prev]:
+        for topic, buf in self._sync.items():
+            if topic in self._same_step:
+                lo, hi = prev, t
+            elif self._step_index >= 1:
+                lo, hi = (self._prev_prev_ns if self._prev_prev_ns is not None else -1), prev
+            else:
+                continue                  # step 1 runs on the initial values
+            msg = buf.get(hi)
+            if msg is None:
+                return
+            inputs[topic] = ([buf[k] for k in sorted(k for k in buf if lo < k <= hi)]
+                             if topic in self._samples else msg)
+        for topic, cls in self._decode.items():
+            if topic in inputs:
+                val = inputs[topic]
+                inputs[topic] = ([deserialize_message(v, cls) for v in val]
+                                 if isinstance(val, list) else deserialize_message(val, cls))
+        for topic, buf in self._sync.items():
+            # the next step needs messages after t (same-step inputs) or from prev on (lagged)
+            same = topic in self._same_step
+            for k in [k for k in buf if (k <= t if same else k < prev)]:
                 del buf[k]
         self._pending_ns = None
+        self._prev_prev_ns = prev
         self._last_ns = t
         self._step_index += 1
         try:

@@ -2,6 +2,8 @@
 
 Input ``sim/muscle_N/state`` (true tension); output ``load_cell_N/force`` (WrenchStamped,
 force.x in N, 16-bit quantised, seeded noise, saturating at +-2 kN with a diagnostic).
+With ``chained`` it measures the muscle state of the same exchange, every sample of it, and
+publishes one reading per sample with the sample's stamp (see ``nodes.base``).
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from geometry_msgs.msg import WrenchStamped
 from pam_bench_interfaces.msg import MuscleState
 
 from pam_bench.models.sensors import LoadCellModel, LoadCellParams
-from pam_bench.nodes.base import RELIABLE, BenchNode, run_node, time_of
+from pam_bench.nodes.base import RELIABLE, BenchNode, ns_of, run_node, time_of
 
 __all__ = ['LoadCellSim', 'main']
 
@@ -28,6 +30,8 @@ class LoadCellSim(BenchNode):
         super().__init__(name, **kwargs)
         self.channel = self.declare_typed('channel', 1, 'muscle channel N', '-', 1, 2)
         seed = self.declare_typed('seed', 0, 'seed of the noise generator', '-', 0, 2**31 - 1)
+        self.chained = self.declare_typed('chained', False, 'measure the muscle of the same '
+                                          'exchange (Gauss-Seidel chain muscle -> load cell)')
         params = self.declare_model('load_cell', LoadCellParams)
         self.model = LoadCellModel(params, seed=seed + zlib.crc32(name.encode()))
         self.topic = f'sim/muscle_{self.channel}/state'
@@ -35,24 +39,31 @@ class LoadCellSim(BenchNode):
         self._was_saturated = False
         self.pub = self.create_publisher(WrenchStamped, f'load_cell_{self.channel}/force',
                                          RELIABLE)
-        self.sync_input(MuscleState, self.topic)
+        self.sync_input(MuscleState, self.topic, same_step=self.chained, samples=self.chained)
         self.start_lockstep()
 
     def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
-        """Measure the last true tension."""
-        if inputs:
-            self.force_n = inputs[self.topic].force
-        f = self.model.measure(self.force_n)
-        if self.model.saturated != self._was_saturated:
-            self._was_saturated = self.model.saturated
-            level = DiagnosticStatus.WARN if self.model.saturated else DiagnosticStatus.OK
-            state = 'saturated' if self.model.saturated else 'in range'
-            self.diagnose(level, f'load cell {state}', force_n=self.force_n)
-        msg = WrenchStamped()
-        msg.header.stamp = time_of(t_ns)
-        msg.header.frame_id = f'load_cell_{self.channel}'
-        msg.wrench.force.x = f
-        self.pub.publish(msg)
+        """Measure the last true tension (every sample of it when chained)."""
+        samples = [(t_ns, self.force_n)]
+        if self.topic in inputs:
+            msgs = inputs[self.topic]
+            if isinstance(msgs, list):
+                samples = [(ns_of(m.header.stamp), m.force) for m in msgs]
+            else:
+                samples = [(t_ns, msgs.force)]
+        for stamp, force in samples:
+            self.force_n = force
+            f = self.model.measure(force)
+            if self.model.saturated != self._was_saturated:
+                self._was_saturated = self.model.saturated
+                level = DiagnosticStatus.WARN if self.model.saturated else DiagnosticStatus.OK
+                state = 'saturated' if self.model.saturated else 'in range'
+                self.diagnose(level, f'load cell {state}', force_n=force)
+            msg = WrenchStamped()
+            msg.header.stamp = time_of(stamp)
+            msg.header.frame_id = f'load_cell_{self.channel}'
+            msg.wrench.force.x = f
+            self.pub.publish(msg)
 
 
 def main(args: list[str] | None = None) -> None:

@@ -2,8 +2,9 @@
 
 Messages stay CDR bytes end to end (raw subscriptions, rosbags writer); the log time of each
 message is its header stamp, i.e. sim time. Topics published at every step are recorded in
-lock-step: at its step to t_k the recorder writes /clock and every step topic stamped t_(k-1)
-(it cannot step before it holds them, so it never falls behind nor loses data). The clock's
+lock-step: at its step to t_k the recorder writes /clock and every step topic stamped t_(k-1),
+with any sub-step samples published between t_(k-2) and t_(k-1) (it cannot step before it holds
+them, so it never falls behind nor loses data). The clock's
 flush tick t_N + 1 ns makes it write the t_N data and then drop anything stamped later, so the
 recorded payloads of a scene are the same in every run. Event topics (points, status,
 diagnostics) are written as they come. The bag is closed valid at the end of the scene and on
@@ -64,7 +65,7 @@ class Recorder(BenchNode):
             if topic == '/clock':
                 continue
             self.step_order.append(topic)
-            self.sync_input(message_class(msgtype), topic, raw=True)
+            self.sync_input(message_class(msgtype), topic, raw=True, samples=True)
         for entry in event_topics:
             topic, msgtype = self._split(entry)
             self.create_subscription(message_class(msgtype), topic, self._event_writer(topic),
@@ -96,8 +97,8 @@ class Recorder(BenchNode):
         if '/clock' in self.connections:
             self._write('/clock', prev, serialize_message(Clock(clock=time_of(prev))))
         for topic in self.step_order:
-            if topic in inputs:
-                self._write(topic, prev, inputs[topic])
+            for data in inputs.get(topic, ()):
+                self._write(topic, stamp_of_cdr(data), data)
         if dt_s < 1e-6:
             self.end_ns = prev            # the clock's flush tick: nothing later is recorded
 

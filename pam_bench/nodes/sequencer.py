@@ -11,8 +11,11 @@ any time when idle) a ``protocol/run`` RunProtocol goal starts one, with optiona
 overrides. Cancelling the goal stops the run and vents the valve.
 
 Ticks: in lock-step (simulated bench) on every /clock tick, asking the clock for a step that
-lands on the next reading or record sample; with ``lockstep: false`` (real bench) on a timer of
-``tick_period_s``, aborting when a measured topic is older than ``stale_timeout_s``.
+lands on the next reading or record sample (or, with ``record_exchange_s``, on the record's
+exchange grid while the valve samples at 1 kHz), and for at most ``command_step_s`` right after
+a set value changes, so the devices resolve the start of every transient; with ``lockstep:
+false`` (real bench) on a timer of ``tick_period_s``, aborting when a measured topic is older
+than ``stale_timeout_s``.
 """
 
 from __future__ import annotations
@@ -91,6 +94,14 @@ class SequencerNode(BenchNode):
                                1e-4, 1.0)
         self.stale_timeout_s = d('stale_timeout_s', 0.5, 'abort when a measured topic is '
                                  'older than this (without lock-step)', 's', 1e-3, 60.0)
+        self.record_exchange_s = d('record_exchange_s', 0.0, 'exchange step asked for during '
+                                   'a step record; > 0 also asks the valve for pressure samples '
+                                   'at the record rate (chained benches); 0: one exchange per '
+                                   'sample', 's', 0.0, 1.0)
+        self.command_step_s = d('command_step_s', 0.02, 'longest exchange step asked for '
+                                'when a set value changes (the devices see the change one '
+                                'step later and can only then ask for short steps)', 's',
+                                1e-6, 10.0)
         self.pulley_radius_m = d('pitch_diameter_m', 0.06366, 'pulley pitch diameter for '
                                  'x = r theta', 'm', 1e-3, 10.0) / 2.0
         self.limits = Limits(
@@ -110,6 +121,7 @@ class SequencerNode(BenchNode):
         self.enc_topic = 'encoder/joint_state'
         self.p_topic = f'valve_{ch}/pressure'
         self.meas = Measurement(0.0, 0.0, 0.0)
+        self.samples: list[tuple[float, float]] = []      # load-cell (stamp s, N) since a tick
         self.stamps: dict[str, float] = {}
         self.valve_pub = self.create_publisher(ValveCommand, f'valve_{ch}/command', RELIABLE)
         self.load_pub = self.create_publisher(LoadCommand, 'loading_servo/command', RELIABLE)
@@ -117,6 +129,7 @@ class SequencerNode(BenchNode):
         self.record_pub = self.create_publisher(StepResponseRecord, 'protocol/step_response',
                                                 RELIABLE)
         self.status_pub = self.create_publisher(ProtocolStatus, 'protocol/status', RELIABLE)
+        self._last_command: tuple[float, int, float] | None = None
         self._last_status_t = -math.inf
         self._last_phase: Phase | None = None
         self._start_pending = False
@@ -126,7 +139,7 @@ class SequencerNode(BenchNode):
                                    goal_callback=self._on_goal,
                                    cancel_callback=lambda _: CancelResponse.ACCEPT)
         if self.lockstep:
-            self.sync_input(WrenchStamped, self.cell_topic)
+            self.sync_input(WrenchStamped, self.cell_topic, samples=True)
             self.sync_input(JointState, self.enc_topic)
             self.sync_input(FluidPressure, self.p_topic)
             self.start_lockstep()
@@ -151,11 +164,16 @@ class SequencerNode(BenchNode):
                 raise ParameterError('overrides_yaml must be a YAML mapping')
             cfg.update(extra)
         readings, settle = schedule_from_config(name, cfg, self.table)
-        return Sequencer(name, readings, settle, self.limits)
+        return Sequencer(name, readings, settle, self.limits, self.record_exchange_s)
 
     # --- inputs -------------------------------------------------------------------------
     def _update(self, topic: str, msg: Any) -> None:
+        if isinstance(msg, list):                   # load-cell samples of one exchange
+            for m in msg:
+                self._update(topic, m)
+            return
         if topic == self.cell_topic:
+            self.samples.append((ns_of(msg.header.stamp) * 1e-9, msg.wrench.force.x))
             self.meas = Measurement(msg.wrench.force.x, self.meas.contraction_m,
                                     self.meas.pressure_pa)
         elif topic == self.enc_topic:
@@ -203,18 +221,25 @@ class SequencerNode(BenchNode):
         stamp = time_of(t_ns)
         core = self.core
         if core is None:
+            self.samples = []
             self._publish_commands(stamp, 0.0, 0, 0.0)
             return
-        cmd = core.tick(t, self.meas)
-        self._publish_commands(stamp, cmd.voltage_v, int(cmd.load_mode), cmd.load_value)
+        samples, self.samples = self.samples, []
+        cmd = core.tick(t, self.meas, samples)
+        self._publish_commands(stamp, cmd.voltage_v, int(cmd.load_mode), cmd.load_value,
+                               cmd.sample_period_s)
         if cmd.point is not None:
             self.point_pub.publish(self._point_msg(cmd.point, stamp))
-            if cmd.point.samples:
-                self.record_pub.publish(self._record_msg(cmd.point))
+        if cmd.record is not None:
+            self.record_pub.publish(self._record_msg(cmd.record))
         if core.phase != self._last_phase or t - self._last_status_t >= self.status_period_s:
             self._publish_status(t, stamp)
         nxt = core.next_event_s(t)
         self.max_next_step_s = max(nxt - t, 1e-6) if math.isfinite(nxt) else 0.0
+        command = (cmd.voltage_v, int(cmd.load_mode), cmd.load_value)
+        if command != self._last_command:
+            self._last_command = command
+            self.max_next_step_s = min(self.max_next_step_s or math.inf, self.command_step_s)
         if not core.running and core.phase != Phase.IDLE:
             self._finish_goal()
             if self.stop_on_end and self.autostart:
@@ -222,8 +247,9 @@ class SequencerNode(BenchNode):
                                      f'{core.phase.value}' + (f': {core.reason}'
                                                               if core.reason else ''))
 
-    def _publish_commands(self, stamp: Any, u: float, mode: int, value: float) -> None:
-        v = ValveCommand(voltage=u)
+    def _publish_commands(self, stamp: Any, u: float, mode: int, value: float,
+                          sample_period_s: float = 0.0) -> None:
+        v = ValveCommand(voltage=u, sample_period=sample_period_s)
         v.header.stamp = stamp
         self.valve_pub.publish(v)
         lc = LoadCommand(mode=mode, channel=self.channel, setpoint=value)

@@ -3,7 +3,10 @@
 Subscribes ``valve_N/command`` (ValveCommand, V) and ``sim/muscle_N/state`` (chamber volume);
 publishes ``valve_N/pressure`` (FluidPressure, absolute Pa). A NaN, infinite or out-of-range
 voltage is rejected, counted on /diagnostics and the valve vents (u = 0 V) until a valid
-command arrives.
+command arrives. When the command asks for a ``sample_period`` T shorter than the exchange
+step h, the step is integrated in round(h / T) equal sub-steps and every sub-step's pressure is
+published, stamped at its own time (the last on the exchange grid); the muscle and the load
+cell of a chained scene follow each sample (1 kHz step records at 10 ms exchanges).
 """
 
 from __future__ import annotations
@@ -34,6 +37,7 @@ class ValveSim(BenchNode):
             'sync_command', True, 'require a command at every step (lock-step controllers)')
         self.model = ValveModel(self.declare_model('valve', ValveParams))
         self.voltage_v = 0.0
+        self.sample_period_s = 0.0
         self.volume_m3: float | None = None
         self.cmd_topic = f'valve_{self.channel}/command'
         self.muscle_topic = f'sim/muscle_{self.channel}/state'
@@ -53,7 +57,10 @@ class ValveSim(BenchNode):
         if not self.finite(u) or not 0.0 <= u <= self.model.p.voltage_max_v:
             self.reject(f'valve_{self.channel} voltage (valve vents)', u)
             self.voltage_v = 0.0
+            self.sample_period_s = 0.0
             return
+        t = msg.sample_period
+        self.sample_period_s = float(t) if self.finite(t) and 0.0 < t <= 1.0 else 0.0
         self.voltage_v = float(u)
 
     def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
@@ -62,12 +69,17 @@ class ValveSim(BenchNode):
             self.apply_command(inputs[self.cmd_topic])
         if self.muscle_topic in inputs:
             self.volume_m3 = inputs[self.muscle_topic].volume
-        p = self.model.step(self.voltage_v, dt_s, self.volume_m3)
+        n = 1
+        if self.sample_period_s > 0.0 and dt_s > 1.5 * self.sample_period_s:
+            n = round(dt_s / self.sample_period_s)
+        t0 = t_ns - round(dt_s * 1e9)
+        for j in range(1, n + 1):
+            p = self.model.step(self.voltage_v, dt_s / n, self.volume_m3)
+            msg = FluidPressure(fluid_pressure=p + ATMOSPHERE_PA, variance=0.0)
+            msg.header.stamp = time_of(t_ns if j == n else t0 + (t_ns - t0) * j // n)
+            msg.header.frame_id = f'valve_{self.channel}'
+            self.pub.publish(msg)
         self.max_next_step_s = self.model.max_step(self.voltage_v)
-        msg = FluidPressure(fluid_pressure=p + ATMOSPHERE_PA, variance=0.0)
-        msg.header.stamp = time_of(t_ns)
-        msg.header.frame_id = f'valve_{self.channel}'
-        self.pub.publish(msg)
 
     def on_fault(self, reason: str) -> None:
         """Vent."""

@@ -2,5 +2,6 @@
 
 from __future__ import annotations
 
-__all__ = ['bench', 'benchmark', 'calibration', 'pingpong', 'quasistatic', 'runner', 'scene',
-           'truth']
+__all__ = ['bench', 'bench_sections', 'benchmark', 'calibration', 'fidelity', 'pingpong',
+           'quasistatic', 'record_exchange', 'runner', 'scene', 'servo_bench', 'servo_compare',
+           'truth', 'work_precision']

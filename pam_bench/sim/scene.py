@@ -3,8 +3,12 @@
 A scene file (config/scenes/NAME.yaml) holds ``description``, ``exchange_step_s``,
 ``protocol``, ``nodes`` (names from ``NODE_TYPES``), optional ``duration_s``, optional
 ``parameters`` (per node, merged over config/bench.yaml) and optional ``protocol_overrides``
-(merged over the protocol's entry in config/protocols.yaml). ``node_parameters`` returns the
-parameters of every node of the run in the ROS 2 params-file layout.
+(merged over the protocol's entry in config/protocols.yaml). ``coupling`` (``jacobi``, the
+default, or ``chained``: the muscles and load cells step on the same exchange's pressure and
+force, see ``nodes.base``) and ``record_exchange_s`` (the exchange step of a step record whose
+1 kHz samples are published inside each exchange; needs ``chained``) set the exchange scheme.
+``node_parameters`` returns the parameters of every node of the run in the ROS 2 params-file
+layout.
 """
 
 from __future__ import annotations
@@ -115,6 +119,8 @@ class Scene:
     duration_s: float
     parameters: dict[str, dict[str, Any]]
     protocol_overrides: dict[str, Any] = dataclasses.field(default_factory=dict)
+    coupling: str = 'jacobi'
+    record_exchange_s: float = 0.0
 
     def node_parameters(self, out_dir: str, seed: int, realtime: bool) -> dict[str, Any]:
         """Parameters of every node: config/bench.yaml, then the scene, then this run."""
@@ -134,8 +140,12 @@ class Scene:
         out['sim_clock']['ros__parameters'].update(
             exchange_step_s=self.exchange_step_s, participants=participants,
             duration_s=self.duration_s, realtime=realtime, use_sim_time=False)
+        for name in self.nodes:
+            if name.startswith(('muscle_', 'load_cell_')):
+                out[name]['ros__parameters']['chained'] = self.coupling == 'chained'
         if 'sequencer' in out:
             out['sequencer']['ros__parameters']['protocol'] = self.protocol
+            out['sequencer']['ros__parameters']['record_exchange_s'] = self.record_exchange_s
             if self.protocol_overrides:
                 out['sequencer']['ros__parameters']['protocol_overrides_yaml'] = yaml.safe_dump(
                     self.protocol_overrides)
@@ -196,7 +206,16 @@ def load_scene(name: str) -> Scene:
     step = need('exchange_step_s', (int, float))
     if not 0 < step <= 10:
         raise ParameterError(f'scene {path.name}: exchange_step_s {step} out of (0, 10] s')
+    coupling = str(data.get('coupling', 'jacobi'))
+    if coupling not in ('jacobi', 'chained'):
+        raise ParameterError(f'scene {path.name}: coupling {coupling!r}: use jacobi or chained')
+    record_h = data.get('record_exchange_s', 0.0)
+    if not isinstance(record_h, (int, float)) or not 0.0 <= record_h <= 1.0:
+        raise ParameterError(f'scene {path.name}: record_exchange_s must be in [0, 1] s')
+    if record_h > 0.0 and coupling != 'chained':
+        raise ParameterError(f'scene {path.name}: record_exchange_s needs coupling: chained '
+                             '(the muscle and load cell must follow the valve samples)')
     return Scene(path.stem, str(data.get('description', '')), float(step),
                  str(data.get('protocol', '')), list(nodes), float(data.get('duration_s', 0.0)),
                  dict(data.get('parameters', {}) or {}),
-                 dict(data.get('protocol_overrides', {}) or {}))
+                 dict(data.get('protocol_overrides', {}) or {}), coupling, float(record_h))

@@ -104,23 +104,70 @@ def test_step_response_schedule() -> None:
     assert {r.pre_voltage_v for r in first[:20]} == {1.0}
 
 
-def test_step_response_records_1khz_on_exact_grid() -> None:
-    cfg = dict(STEP, x_m=[0.0, 0.0, 0.005], up={'u0_v': 1.0, 'step_v': 0.2, 'n': 2},
-               down={'u0_v': 5.0, 'step_v': -0.2, 'n': 1})
+def _records(cfg: dict, record_exchange_s: float, lag_ticks: int) -> tuple[list, list, list]:
+    """Run a step-response schedule; the load cell's samples (force = 10 t N, 1 kHz) reach the
+    sequencer ``lag_ticks`` ticks after their stamp (0: the tick's own reading)."""
     readings, settle = schedule_from_config('s', cfg)
-    seq = Sequencer('s', readings, settle)
+    seq = Sequencer('s', readings, settle, record_exchange_s=record_exchange_s)
     seq.start(0.0)
-    t, cmd, pts = 0.0, seq.tick(0.0, Measurement(0, 0, 0)), []
+    t, cmd = 0.0, seq.tick(0.0, Measurement(0, 0, 0))
+    pts, recs, periods, ticks = [], [], [], [0.0]
     while seq.running:
         t = round(min(t + 0.1, seq.next_event_s(t)), 9)    # coarse steps, events exact
-        cmd = seq.tick(t, Measurement(10 * t, 0.0, 0.0))
+        ticks.append(t)
+        samples = None
+        if lag_ticks:
+            lo, hi = ticks[-2 - lag_ticks] if len(ticks) > 1 + lag_ticks else -1.0, \
+                ticks[-1 - lag_ticks] if len(ticks) > lag_ticks else -1.0
+            grid = np.round(np.arange(round(lo * 1e3) + 1, round(hi * 1e3) + 1) * 1e-3, 9)
+            samples = [(float(ts), 10.0 * float(ts)) for ts in grid if ts > lo]
+        cmd = seq.tick(t, Measurement(10 * t, 0.0, 0.0), samples)
+        periods.append(cmd.sample_period_s)
         if cmd.point is not None:
             pts.append(cmd.point)
-    assert len(pts) == 3
-    for p in pts:
-        assert len(p.samples) == 1000
-        np.testing.assert_allclose(np.diff(p.samples), 10 * 0.001, atol=1e-9)
+        if cmd.record is not None:
+            recs.append(cmd.record)
+    return pts, recs, periods
+
+
+STEPS = dict(STEP, x_m=[0.0, 0.0, 0.005], up={'u0_v': 1.0, 'step_v': 0.2, 'n': 2},
+             down={'u0_v': 5.0, 'step_v': -0.2, 'n': 1})
+
+
+@pytest.mark.parametrize(('record_exchange_s', 'lag_ticks'), [(0.0, 0), (0.01, 1), (0.05, 2)])
+def test_step_response_records_1khz_on_exact_grid(record_exchange_s: float,
+                                                  lag_ticks: int) -> None:
+    pts, recs, periods = _records(STEPS, record_exchange_s, lag_ticks)
+    assert len(pts) == 3 and len(recs) == 3
+    for p, r in zip(pts, recs, strict=True):
+        assert r.reading == p.reading and not p.samples
+        assert len(r.samples) == 1000
+        # sample i is the reading stamped t_step + i ms, whenever it arrived
+        np.testing.assert_allclose(r.samples, 10 * (r.t_step_s + 1e-3 * np.arange(1000)),
+                                   atol=1e-6)
         np.testing.assert_allclose(p.t_s - p.t_step_s, 1.0, atol=1e-9)
+    assert max(periods) == (0.001 if record_exchange_s else 0.0)
+
+
+def test_record_missing_samples_hold_the_last() -> None:
+    readings, settle = schedule_from_config('s', dict(STEPS, x_m=[0.0, 0.0, 0.005],
+                                                      up={'u0_v': 1.0, 'step_v': 0.2, 'n': 1},
+                                                      down={'u0_v': 5.0, 'step_v': -0.2,
+                                                            'n': 0}))
+    seq = Sequencer('s', readings, settle, record_exchange_s=0.01)
+    seq.start(0.0)
+    t = 0.0
+    recs = []
+    while seq.running and t < 100:
+        t = round(min(t + 0.01, seq.next_event_s(t)), 9)
+        ms = np.round(np.arange(round(t * 1e3) - 9, round(t * 1e3) + 1) * 1e-3, 9)
+        samples = [(float(s), 1.0 if round(s * 1e3) % 7 else float('nan')) for s in ms]
+        samples = [(s, f) for s, f in samples if f == f]          # every 7th sample dropped
+        cmd = seq.tick(t, Measurement(1.0, 0.0, 0.0), samples)
+        if cmd.record is not None:
+            recs.append(cmd.record)
+    assert len(recs) == 1 and len(recs[0].samples) == 1000
+    assert all(v == 1.0 for v in recs[0].samples)
 
 
 def test_campaign_concatenates() -> None:
