@@ -148,6 +148,8 @@ class LoadingServoModel:
         mode = LoadMode(mode)
         if mode != self.mode:
             self.state[2] = 0.0
+        if mode == LoadMode.FORCE and (mode, setpoint) != (self.mode, self.setpoint):
+            self.force_error_n = math.inf     # unknown until the next reading: short steps
         self.mode, self.setpoint = mode, setpoint
 
     def reset(self, contraction_m: float = 0.0) -> None:

@@ -15,6 +15,12 @@ itself (Gauss-Seidel along an open chain such as valve -> muscle -> load cell; t
 must not depend on this participant within the same step). ``samples``: the input is the list
 of every message stamped in the interval (previous, required], in stamp order: a producer may
 publish sub-step samples between grid points, and the last one always sits on the grid.
+
+A message lost at start-up (a reader matched after the writer's first publish) would stall the
+lock-step: when a tick is not acknowledged within ``nudge_s`` the clock publishes it again, and
+a participant that already stepped to it publishes that step's outputs again (those of
+``create_step_publisher``) with its acknowledgement. Inputs are keyed by stamp, so a repeated
+message changes nothing.
 """
 
 from __future__ import annotations
@@ -89,6 +95,7 @@ class BenchNode(Node):
         self.rejected_count = 0
         self.stop_request: tuple[int, str] | None = None   # (exit code, reason) sent on acks
         self.max_next_step_s = 0.0        # longest next exchange step wanted (0: any)
+        self._sent: list[tuple[Callable[[Any], None], Any]] = []   # this step's outputs
         self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', RELIABLE)
         self._ack_pub = None
 
@@ -151,6 +158,21 @@ class BenchNode(Node):
         return all(isinstance(v, (int, float)) and math.isfinite(v) for v in values)
 
     # --- lock-step ---------------------------------------------------------------------
+    def create_step_publisher(self, msg_type: type, topic: str) -> Any:
+        """A publisher of a step output: what it publishes in a step is sent again when the
+        clock repeats that tick (module docstring)."""
+        pub = self.create_publisher(msg_type, topic, RELIABLE)
+        if not self.lockstep:
+            return pub
+        send = pub.publish
+
+        def publish(msg: Any) -> None:
+            self._sent.append((send, msg))
+            send(msg)
+
+        pub.publish = publish
+        return pub
+
     def sync_input(self, msg_type: type, topic: str, callback: Callable[[Any], None] | None
                    = None, raw: bool = False, same_step: bool = False,
                    samples: bool = False) -> None:
@@ -188,8 +210,10 @@ class BenchNode(Node):
     def _on_clock(self, msg: Clock) -> None:
         t = ns_of(msg.clock)
         if self._last_ns is not None and t <= self._last_ns:
-            if t == self._last_ns:
-                self._ack(t)              # the clock repeats t_0 until all are ready
+            if t == self._last_ns:        # the clock repeats t_0 until all are ready, and any
+                for send, out in self._sent:      # tick not acknowledged in time
+                    send(out)
+                self._ack(t)
             return
         if self._last_ns is None:
             if all(self.count_publishers(tp) > 0 for tp in self._sync):
@@ -229,6 +253,7 @@ class BenchNode(Node):
             for k in [k for k in buf if (k <= t if same else k < prev)]:
                 del buf[k]
         self._pending_ns = None
+        self._sent = []
         self._prev_prev_ns = prev
         self._last_ns = t
         self._step_index += 1

@@ -11,7 +11,7 @@ from typing import Any
 from sensor_msgs.msg import JointState
 
 from pam_bench.models.sensors import EncoderModel, EncoderParams
-from pam_bench.nodes.base import RELIABLE, BenchNode, run_node, time_of
+from pam_bench.nodes.base import BenchNode, run_node, time_of
 
 __all__ = ['EncoderSim', 'main']
 
@@ -26,7 +26,7 @@ class EncoderSim(BenchNode):
         self.model = EncoderModel(self.declare_model('encoder', EncoderParams))
         self.topic = 'sim/pulley/state'
         self.angle_rad = 0.0
-        self.pub = self.create_publisher(JointState, 'encoder/joint_state', RELIABLE)
+        self.pub = self.create_step_publisher(JointState, 'encoder/joint_state')
         self.sync_input(JointState, self.topic)
         self.start_lockstep()
 

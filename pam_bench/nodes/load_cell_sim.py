@@ -16,7 +16,7 @@ from geometry_msgs.msg import WrenchStamped
 from pam_bench_interfaces.msg import MuscleState
 
 from pam_bench.models.sensors import LoadCellModel, LoadCellParams
-from pam_bench.nodes.base import RELIABLE, BenchNode, ns_of, run_node, time_of
+from pam_bench.nodes.base import BenchNode, ns_of, run_node, time_of
 
 __all__ = ['LoadCellSim', 'main']
 
@@ -37,8 +37,7 @@ class LoadCellSim(BenchNode):
         self.topic = f'sim/muscle_{self.channel}/state'
         self.force_n = 0.0
         self._was_saturated = False
-        self.pub = self.create_publisher(WrenchStamped, f'load_cell_{self.channel}/force',
-                                         RELIABLE)
+        self.pub = self.create_step_publisher(WrenchStamped, f'load_cell_{self.channel}/force')
         self.sync_input(MuscleState, self.topic, same_step=self.chained, samples=self.chained)
         self.start_lockstep()
 

@@ -66,8 +66,8 @@ class LoadingServoSim(BenchNode):
         self.f_meas = 0.0
         self.th_meas = 0.0
         self._was_saturated = False
-        self.pulley_pub = self.create_publisher(JointState, 'sim/pulley/state', RELIABLE)
-        self.state_pub = self.create_publisher(JointState, 'loading_servo/state', RELIABLE)
+        self.pulley_pub = self.create_step_publisher(JointState, 'sim/pulley/state')
+        self.state_pub = self.create_step_publisher(JointState, 'loading_servo/state')
         if self.sync_command:
             self.sync_input(LoadCommand, self.cmd_topic)
         else:

@@ -17,7 +17,7 @@ from pam_bench_interfaces.msg import MuscleState
 from sensor_msgs.msg import FluidPressure, JointState
 
 from pam_bench.models.muscle import MuscleModel, MuscleParams
-from pam_bench.nodes.base import RELIABLE, BenchNode, ns_of, run_node, time_of
+from pam_bench.nodes.base import BenchNode, ns_of, run_node, time_of
 from pam_bench.nodes.valve_sim import ATMOSPHERE_PA
 
 __all__ = ['MuscleSim', 'main']
@@ -42,8 +42,7 @@ class MuscleSim(BenchNode):
         self.x_topic = 'sim/pulley/state'
         self.pressure_pa = 0.0
         self.contraction_m = 0.0
-        self.pub = self.create_publisher(MuscleState, f'sim/muscle_{self.channel}/state',
-                                         RELIABLE)
+        self.pub = self.create_step_publisher(MuscleState, f'sim/muscle_{self.channel}/state')
         self.force_n = 0.0
         self.sync_input(FluidPressure, self.p_topic, same_step=self.chained,
                         samples=self.chained)

@@ -8,7 +8,8 @@ and ``protocol/status``. The protocol logic is the pure
 
 Start: with ``autostart`` the protocol named by ``protocol`` begins at t_0; otherwise (and at
 any time when idle) a ``protocol/run`` RunProtocol goal starts one, with optional YAML
-overrides. Cancelling the goal stops the run and vents the valve.
+overrides. Cancelling the goal stops the run and vents the valve. A lock-step sequencer with
+``autostart`` (a scene) serves no goals and spins on its subscriptions only.
 
 Ticks: in lock-step (simulated bench) on every /clock tick, asking the clock for a step that
 lands on the next reading or record sample (or, with ``record_exchange_s``, on the record's
@@ -123,8 +124,8 @@ class SequencerNode(BenchNode):
         self.meas = Measurement(0.0, 0.0, 0.0)
         self.samples: list[tuple[float, float]] = []      # load-cell (stamp s, N) since a tick
         self.stamps: dict[str, float] = {}
-        self.valve_pub = self.create_publisher(ValveCommand, f'valve_{ch}/command', RELIABLE)
-        self.load_pub = self.create_publisher(LoadCommand, 'loading_servo/command', RELIABLE)
+        self.valve_pub = self.create_step_publisher(ValveCommand, f'valve_{ch}/command')
+        self.load_pub = self.create_step_publisher(LoadCommand, 'loading_servo/command')
         self.point_pub = self.create_publisher(CharacteristicPoint, 'protocol/point', RELIABLE)
         self.record_pub = self.create_publisher(StepResponseRecord, 'protocol/step_response',
                                                 RELIABLE)
@@ -135,9 +136,15 @@ class SequencerNode(BenchNode):
         self._start_pending = False
         self._goal: Any = None
         self._goal_done: Future | None = None
-        self.action = ActionServer(self, RunProtocol, 'protocol/run', self._execute,
-                                   goal_callback=self._on_goal,
-                                   cancel_callback=lambda _: CancelResponse.ACCEPT)
+        # a lock-step scene that starts its protocol by itself takes no goals: no action
+        # server, and the node spins on subscriptions only (nodes.base.lean_spin), which costs a
+        # fraction of rclpy's executor per message (1 kHz records arrive 1000 samples a second)
+        self.LEAN_SPIN = self.lockstep and self.autostart
+        self.action = None
+        if not self.LEAN_SPIN:
+            self.action = ActionServer(self, RunProtocol, 'protocol/run', self._execute,
+                                       goal_callback=self._on_goal,
+                                       cancel_callback=lambda _: CancelResponse.ACCEPT)
         if self.lockstep:
             self.sync_input(WrenchStamped, self.cell_topic, samples=True)
             self.sync_input(JointState, self.enc_topic)

@@ -48,6 +48,9 @@ class SimClock(Node):
                             's', 0.0, 60.0)
         self.progress_s = decl('progress_period_s', 2.0, 'wall time between progress lines',
                                's', 0.0, 3600.0)
+        self.nudge_s = decl('nudge_s', 1.0, 'publish a tick again when it is not acknowledged '
+                            'within this wall time (a message lost at start-up)', 's', 0.01,
+                            3600.0)
         self.timeout_s = decl('stall_timeout_s', 10.0, 'abort when a step is not acknowledged '
                               'within this wall time', 's', 0.1, 3600.0)
         self.h_ns = round(self.step_s * 1e9)
@@ -57,6 +60,7 @@ class SimClock(Node):
         self.stop_request: tuple[str, int] | None = None
         self.acks: set[str] = set()
         self.next_step_ns = 0             # shortest step requested for the next tick
+        self.nudged = False               # the current tick was published again
         self.ready = False
         self.done = False
         self.stop_reason = ''
@@ -82,14 +86,15 @@ class SimClock(Node):
             if self.t_run0 == 0.0 and now - self.ready_at >= self.grace_s:
                 self.t_run0 = now
                 self._advance()
-            elif self.t_run0 and not self.done and now - self.last_tick_wall > self.timeout_s:
-                self._stall()
+            elif self.t_run0 and not self.done:
+                self._check_progress(now)
             return
         if now - self.last_tick_wall >= 0.05:
             self._on_timer()
 
     def _publish(self) -> None:
         self.last_tick_wall = time.monotonic()
+        self.nudged = False
         self.pub.publish(Clock(clock=time_of(self.tick_ns)))
 
     def _on_timer(self) -> None:
@@ -109,8 +114,17 @@ class SimClock(Node):
                     self._finish(f'participants never ready: '
                                  f'{sorted(self.participants - self.acks)}', 2)
             return
-        if not self.done and now - self.last_tick_wall > self.timeout_s:
+        if not self.done:
+            self._check_progress(now)
+
+    def _check_progress(self, now: float) -> None:
+        """Nudge, then give up on, a tick that is not acknowledged."""
+        waited = now - self.last_tick_wall
+        if waited > self.timeout_s:
             self._stall()
+        elif waited > self.nudge_s and not self.nudged:
+            self.nudged = True
+            self.pub.publish(Clock(clock=time_of(self.tick_ns)))
 
     def _stall(self) -> None:
         """A participant did not acknowledge in time: publish why, end the run."""
@@ -126,7 +140,7 @@ class SimClock(Node):
 
     def _start(self) -> None:
         self.timer.cancel()
-        self.timer = self.create_timer(1.0, self._on_timer)
+        self.timer = self.create_timer(0.25, self._on_timer)
         self.t_run0 = time.monotonic()
         self._advance()
 

@@ -71,9 +71,9 @@ class TorqueServoNode(BenchNode):
         self.t0_ns: int | None = None
         self.status = ''
         self._clamped = False
-        self.valve_pubs = [self.create_publisher(ValveCommand, f'valve_{i}/command', RELIABLE)
+        self.valve_pubs = [self.create_step_publisher(ValveCommand, f'valve_{i}/command')
                            for i in chans]
-        self.state_pub = self.create_publisher(TorqueServoState, 'torque_servo/state', RELIABLE)
+        self.state_pub = self.create_step_publisher(TorqueServoState, 'torque_servo/state')
         self.create_subscription(TorqueSetpoint, 'torque_servo/setpoint', self._on_setpoint,
                                  RELIABLE)
         if self.lockstep:

@@ -41,8 +41,7 @@ class ValveSim(BenchNode):
         self.volume_m3: float | None = None
         self.cmd_topic = f'valve_{self.channel}/command'
         self.muscle_topic = f'sim/muscle_{self.channel}/state'
-        self.pub = self.create_publisher(FluidPressure, f'valve_{self.channel}/pressure',
-                                         RELIABLE)
+        self.pub = self.create_step_publisher(FluidPressure, f'valve_{self.channel}/pressure')
         if self.lockstep and self.sync_command:
             self.sync_input(ValveCommand, self.cmd_topic)
         else:

@@ -68,3 +68,40 @@ def test_clock_jumping_backwards_is_ignored(valve: Harness) -> None:
     assert len(valve.received['valve_1/pressure']) == published
     assert not any('failed' in s.message for d in valve.diagnostics for s in d.status)
     assert step(valve, 3, 2.0) == pytest.approx(2e5)
+
+
+def test_repeated_tick_sends_the_outputs_again(valve: Harness) -> None:
+    """The clock publishes a tick again when an acknowledgement is missing (a message lost at
+    start-up): the participant re-sends that step's outputs, identical, and acknowledges."""
+    valve.tick(1 * MS)
+    valve.spin_until(lambda: len(valve.received['valve_1/pressure']) >= 1)
+    assert step(valve, 2, 5.0) == pytest.approx(5e5)
+    first = valve.received['valve_1/pressure'][-1]
+    acks = valve.acks.count(2 * MS)
+    valve.clock_pub.publish(Clock(clock=time_of(2 * MS)))
+    valve.spin_until(lambda: valve.acks.count(2 * MS) > acks)
+    valve.spin_until(lambda: len(valve.received['valve_1/pressure']) >= 3)
+    again = valve.received['valve_1/pressure'][-1]
+    assert (again.header.stamp, again.fluid_pressure) == (first.header.stamp,
+                                                          first.fluid_pressure)
+    valve.send('valve_1/command', ValveCommand(voltage=2.0), 2 * MS)   # and the run goes on
+    valve.send('sim/muscle_1/state', MuscleState(volume=1.1e-4), 2 * MS)
+    valve.tick(3 * MS)
+    valve.spin_until(lambda: valve.received['valve_1/pressure'][-1].header.stamp
+                     == time_of(3 * MS))
+    assert valve.received['valve_1/pressure'][-1].fluid_pressure - ATMOSPHERE_PA \
+        == pytest.approx(2e5)
+
+
+def test_valve_publishes_sub_step_samples_when_asked(valve: Harness) -> None:
+    """A command with sample_period T < h: round(h / T) samples stamped t_(k-1) + j h / n."""
+    valve.tick(1 * MS)
+    valve.spin_until(lambda: len(valve.received['valve_1/pressure']) >= 1)
+    valve.send('valve_1/command', ValveCommand(voltage=4.0, sample_period=0.001), 1 * MS)
+    valve.send('sim/muscle_1/state', MuscleState(volume=1.1e-4), 1 * MS)
+    valve.tick(2 * MS)
+    valve.spin_until(lambda: len(valve.received['valve_1/pressure']) >= 11)
+    got = valve.received['valve_1/pressure'][1:]
+    stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in got]
+    assert stamps == [MS + j * 1_000_000 for j in range(1, 11)]
+    assert all(m.fluid_pressure - ATMOSPHERE_PA == pytest.approx(4e5) for m in got)
