@@ -41,6 +41,7 @@ from rclpy.task import Future
 from sensor_msgs.msg import FluidPressure, JointState
 
 from pam_bench.models.errors import ParameterError
+from pam_bench.models.loading_servo import LoadMode
 from pam_bench.models.protocols import (
     Limits,
     Measurement,
@@ -103,6 +104,10 @@ class SequencerNode(BenchNode):
                                 'when a set value changes (the devices see the change one '
                                 'step later and can only then ask for short steps)', 's',
                                 1e-6, 10.0)
+        self.force_mode_exchange_s = d('force_mode_exchange_s', 0.0, 'longest exchange step '
+                                       'asked for while the loading servo is in force mode '
+                                       '(0: no limit); a campaign mixes force- and position-mode '
+                                       'protocols', 's', 0.0, 10.0)
         self.pulley_radius_m = d('pitch_diameter_m', 0.06366, 'pulley pitch diameter for '
                                  'x = r theta', 'm', 1e-3, 10.0) / 2.0
         self.limits = Limits(
@@ -244,6 +249,9 @@ class SequencerNode(BenchNode):
         nxt = core.next_event_s(t)
         self.max_next_step_s = max(nxt - t, 1e-6) if math.isfinite(nxt) else 0.0
         command = (cmd.voltage_v, int(cmd.load_mode), cmd.load_value)
+        if self.force_mode_exchange_s > 0.0 and cmd.load_mode == LoadMode.FORCE:
+            self.max_next_step_s = min(self.max_next_step_s or math.inf,
+                                       self.force_mode_exchange_s)
         if command != self._last_command:
             self._last_command = command
             self.max_next_step_s = min(self.max_next_step_s or math.inf, self.command_step_s)
