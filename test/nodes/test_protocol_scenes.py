@@ -66,3 +66,30 @@ def test_step_response_records_at_1khz(tmp_path: pathlib.Path, ros_domain: int) 
     assert f.max() > f[-1] + 0.5                                # and overshot: 2nd order (004)
     pts = bag_messages(bag, '/protocol/point')
     assert len(pts) == 2
+
+
+def test_chained_records_match_one_exchange_per_sample(tmp_path: pathlib.Path) -> None:
+    """The same two steps recorded at 10 ms exchanges with valve sub-samples: ten times fewer
+    exchanges, every load-cell sample of the record in the bag 1 ms apart, and the records
+    within a few newtons of the 1 ms exchange's (the couplings differ by 1 ms hop delays)."""
+    runs = {}
+    for name in ('config_step.yaml', 'config_step_chained.yaml'):
+        bag = tmp_path / name
+        res = run_scene(load_scene(str(HERE / name)), str(bag), domain_id=next_domain(),
+                        quiet=True)
+        assert res.code == 0, res
+        runs[name] = (res, bag_messages(bag, '/protocol/step_response'), bag)
+    (res1, recs1, _), (res10, recs10, bag10) = runs.values()
+    assert res10.steps < res1.steps / 5
+    for a, b in zip(recs1, recs10, strict=True):
+        assert len(b.force) == 1000
+        assert b.header.stamp == a.header.stamp              # the step at the same sim time
+        fa, fb = np.array(a.force), np.array(b.force)
+        assert np.sqrt(np.mean((fa - fb) ** 2)) < 3.0
+        assert np.ptp(fb) > 5.0
+    cell = bag_messages(bag10, '/load_cell_1/force')
+    t0 = recs10[0].header.stamp.sec * 10**9 + recs10[0].header.stamp.nanosec
+    stamps = np.array([m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in cell])
+    window = stamps[(stamps >= t0) & (stamps < t0 + 10**9)]
+    np.testing.assert_array_equal(np.diff(window), 1_000_000)
+    assert len(window) == 1000
