@@ -20,11 +20,28 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from pam_bench.sim.scene import load_scene
     scene = load_scene(args.scene)
     out = pathlib.Path(args.out or f'bags/{scene.name}')
+    if args.resume and pathlib.Path(args.resume).resolve() == out.resolve():
+        print('error: --resume needs a new --out (the old bag is kept)', file=sys.stderr)
+        return 2
     if out.exists():
         if not args.overwrite and args.out:
             print(f'error: {out} exists (use --overwrite)', file=sys.stderr)
             return 2
         shutil.rmtree(out)
+    if args.resume:
+        from pam_bench.analysis.bagread import BagError
+        from pam_bench.sim.resume import resume_reading
+        try:
+            start, total = resume_reading(scene, args.resume)
+        except BagError as exc:
+            print(f'error: cannot resume from {args.resume}: {exc}', file=sys.stderr)
+            return 2
+        if start >= total:
+            print(f'{args.resume} holds every reading of {scene.protocol}: nothing to resume')
+            return 0
+        scene.parameters.setdefault('sequencer', {})['resume_from_reading'] = start
+        print(f'resuming {scene.protocol} at reading {start} of {total} (first incomplete '
+              f'series of {args.resume})')
     print(f'scene {scene.name}: {scene.description}\n  exchange step {scene.exchange_step_s} s, '
           f'nodes {", ".join(scene.nodes)}, bag {out}', flush=True)
     res = run_scene(scene, str(out), seed=args.seed, realtime=args.realtime,
@@ -139,6 +156,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument('--seed', type=int, default=0, help='seed of the sensor noise')
     p.add_argument('--realtime', action='store_true', help='pace sim time to the wall clock')
     p.add_argument('--one-process', action='store_true', help='compose all nodes in one process')
+    p.add_argument('--resume', metavar='BAG', help='bag of an interrupted run of this scene: '
+                   'start at the first series it did not complete (into a new --out)')
     p.set_defaults(func=_cmd_run)
     p = sub.add_parser('calibration', help='figures the simulated bench implies')
     p.add_argument('--json', action='store_true')

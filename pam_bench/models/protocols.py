@@ -19,7 +19,7 @@ from pam_bench.models.errors import ParameterError
 from pam_bench.models.loading_servo import LoadMode
 
 __all__ = ['Phase', 'Direction', 'Reading', 'Measurement', 'Limits', 'Point', 'Commands',
-           'Sequencer', 'sweep', 'schedule_from_config']
+           'Sequencer', 'sweep', 'schedule_from_config', 'resume_index']
 
 
 class Phase(enum.Enum):
@@ -264,6 +264,26 @@ def _ramp(name: str, get: Any) -> list[Reading]:
     return out
 
 
+def resume_index(readings: list[Reading], done: set[tuple[str, int, int]]) -> int:
+    """Index of the first reading of the first series not completed.
+
+    Args:
+        readings: the schedule.
+        done: (protocol, series, step) of the readings already taken (from a bag).
+
+    Returns:
+        The index to restart at: a series is taken again from its start unless every reading
+        of it is in ``done``; 0 when nothing was completed, len(readings) when all was.
+    """
+    start = 0
+    for i, r in enumerate(readings):
+        if i > 0 and (r.protocol, r.series) != (readings[i - 1].protocol, readings[i - 1].series):
+            start = i
+        if (r.protocol, r.series, r.step) not in done:
+            return start
+    return len(readings)
+
+
 class Sequencer:
     """State machine over a schedule. ``tick`` is called at every sim-time step.
 
@@ -280,13 +300,19 @@ class Sequencer:
     the record is handed out (``Commands.record``) once its last sample is in. With
     ``record_exchange_s`` > 0 the sequencer asks for exchange steps of that length during a
     record and for valve samples every T (``Commands.sample_period_s``); with 0 it asks for a
-    step per sample.
+    step per sample. ``start_index`` resumes a run at that reading (``resume_index``): the
+    settle phase then holds that reading's set values.
     """
 
     def __init__(self, name: str, readings: list[Reading], settle_s: float,
-                 limits: Limits | None = None, record_exchange_s: float = 0.0) -> None:
+                 limits: Limits | None = None, record_exchange_s: float = 0.0,
+                 start_index: int = 0) -> None:
         if not readings:
             raise ParameterError(f'protocol {name!r} has no readings')
+        if not 0 <= start_index < len(readings):
+            raise ParameterError(f'protocol {name!r}: cannot resume at reading {start_index} of '
+                                 f'{len(readings)}')
+        self.start_index = start_index
         self.name = name
         self.readings = readings
         self.settle_s = settle_s
@@ -300,7 +326,8 @@ class Sequencer:
         self.record_exchange_s = record_exchange_s
         self.rec: _Record | None = None          # the record of the current window
         self.pending: _Record | None = None      # a record past its window, samples to come
-        self._total = settle_s + sum(r.lead_s + r.dwell_s + r.record_s for r in readings)
+        self._total = settle_s + sum(r.lead_s + r.dwell_s + r.record_s
+                                     for r in readings[start_index:])
         self._done_s = 0.0               # scheduled time of the readings already taken
 
     @property
@@ -324,8 +351,8 @@ class Sequencer:
 
     def start(self, t_s: float) -> None:
         """Begin with the settle phase at the first reading's set values."""
-        self.phase, self.t_phase, self.t_start, self.index = Phase.SETTLE, t_s, t_s, 0
-        self.points_done = 0
+        self.phase, self.t_phase, self.t_start = Phase.SETTLE, t_s, t_s
+        self.index = self.points_done = self.start_index
         self.rec = self.pending = None
         self.reason = ''
 
@@ -395,7 +422,7 @@ class Sequencer:
             self.pending = None
         if self.phase == Phase.SETTLE and t_s - self.t_phase >= self.settle_s - eps:
             self.phase, self.t_phase = Phase.DWELL, t_s
-            if self.readings[0].lead_s > 0:
+            if self.readings[self.index].lead_s > 0 and self.index > self.start_index:
                 self.phase = Phase.LEAD
         if self.phase == Phase.LEAD:
             r = self.readings[self.index]
@@ -427,7 +454,7 @@ class Sequencer:
         if self.running and self.phase != Phase.DONE:
             r = self.readings[self.index]
             if self.phase == Phase.SETTLE:
-                first = self.readings[0]
+                first = self.readings[self.index]
                 u0 = first.ramp_from_v if first.ramp_from_v is not None else (
                     first.pre_voltage_v if first.pre_voltage_v is not None else first.voltage_v)
                 return Commands(u0, first.load_mode, first.load_value, point, record)

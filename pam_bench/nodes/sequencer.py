@@ -108,6 +108,10 @@ class SequencerNode(BenchNode):
                                        'asked for while the loading servo is in force mode '
                                        '(0: no limit); a campaign mixes force- and position-mode '
                                        'protocols', 's', 0.0, 10.0)
+        self.resume_from_reading = d('resume_from_reading', 0, 'start the autostart protocol at '
+                                     'this reading (pam-bench run --resume: the first one of '
+                                     'the first series a previous bag did not complete)', '-',
+                                     0, 10**7)
         self.pulley_radius_m = d('pitch_diameter_m', 0.06366, 'pulley pitch diameter for '
                                  'x = r theta', 'm', 1e-3, 10.0) / 2.0
         self.limits = Limits(
@@ -121,7 +125,8 @@ class SequencerNode(BenchNode):
                                    'a reading', 'm', 0.0, 1.0))
         with open(path, encoding='utf-8') as fh:
             self.table = yaml.safe_load(fh) or {}
-        self.core = self._make(self.protocol, overrides) if self.autostart else None
+        self.core = (self._make(self.protocol, overrides, self.resume_from_reading)
+                     if self.autostart else None)
         ch = self.channel
         self.cell_topic = f'load_cell_{ch}/force'
         self.enc_topic = 'encoder/joint_state'
@@ -165,7 +170,7 @@ class SequencerNode(BenchNode):
             self._start_pending = self.core is not None       # autostart at the first tick
             self.create_timer(self.tick_period_s, self._on_timer)
 
-    def _make(self, name: str, overrides_yaml: str) -> Sequencer:
+    def _make(self, name: str, overrides_yaml: str, start_index: int = 0) -> Sequencer:
         if name not in self.table:
             raise ParameterError(f'unknown protocol {name!r}; known: '
                                  f'{", ".join(sorted(self.table))}')
@@ -176,7 +181,8 @@ class SequencerNode(BenchNode):
                 raise ParameterError('overrides_yaml must be a YAML mapping')
             cfg.update(extra)
         readings, settle = schedule_from_config(name, cfg, self.table)
-        return Sequencer(name, readings, settle, self.limits, self.record_exchange_s)
+        return Sequencer(name, readings, settle, self.limits, self.record_exchange_s,
+                         start_index)
 
     # --- inputs -------------------------------------------------------------------------
     def _update(self, topic: str, msg: Any) -> None:

@@ -12,6 +12,7 @@ from pam_bench.models.protocols import (
     Measurement,
     Phase,
     Sequencer,
+    resume_index,
     schedule_from_config,
     sweep,
 )
@@ -21,6 +22,7 @@ FULL = {
     'isotonic': {'kind': 'isotonic', 'force_n': [50, 950, 50], 'voltage_v': [0, 6, 0.1]},
     'isobaric': {'kind': 'isobaric', 'voltage_v': [0, 6, 1], 'force_n': [50, 950, 10]},
 }
+QUICK_ISO = {'kind': 'isometric', 'x_m': [0.0, 0.080, 0.040], 'voltage_v': [0, 6, 1]}
 
 
 @pytest.mark.parametrize('name, points', [('isometric', 2806), ('isotonic', 2318),
@@ -181,3 +183,37 @@ def test_campaign_concatenates() -> None:
 def test_missing_key_named() -> None:
     with pytest.raises(ParameterError, match="'x_m'"):
         schedule_from_config('bad', {'kind': 'isometric', 'voltage_v': [0, 6, 1]})
+
+
+def test_resume_index_restarts_the_first_incomplete_series() -> None:
+    table = {'a': FULL['isometric'], 'b': FULL['isotonic'], 'c': {'kind': 'campaign',
+                                                                  'protocols': ['a', 'b']}}
+    readings, _ = schedule_from_config('c', table['c'], table)
+    keys = [(r.protocol, r.series, r.step) for r in readings]
+    assert resume_index(readings, set()) == 0
+    assert resume_index(readings, set(keys)) == len(readings)
+    # cut in the middle of isometric series 5: restart at its first reading
+    cut = keys.index(('a', 5, 0)) + 40
+    assert resume_index(readings, set(keys[:cut])) == keys.index(('a', 5, 0))
+    # isometric complete, isotonic not started: restart at the campaign's second protocol
+    n_a = sum(1 for k in keys if k[0] == 'a')
+    assert resume_index(readings, set(keys[:n_a])) == n_a
+
+
+def test_sequencer_resumed_settles_at_the_restart_reading() -> None:
+    readings, settle = schedule_from_config('iso', QUICK_ISO)
+    k = next(i for i, r in enumerate(readings) if r.series == 1)
+    seq = Sequencer('iso', readings, settle, start_index=k)
+    seq.start(0.0)
+    cmd = seq.tick(0.0, Measurement(0, 0, 0))
+    assert cmd.load_value == readings[k].load_value and cmd.voltage_v == readings[k].voltage_v
+    t, pts = 0.0, []
+    while seq.running:
+        t = round(seq.next_event_s(t), 9)
+        c = seq.tick(t, Measurement(10.0, readings[seq.index].load_value, 0.0))
+        if c.point is not None:
+            pts.append(c.point)
+    assert [p.reading for p in pts] == readings[k:]
+    assert seq.total_s == pytest.approx(settle + 3.0 * (len(readings) - k))
+    with pytest.raises(ParameterError):
+        Sequencer('iso', readings, settle, start_index=len(readings))

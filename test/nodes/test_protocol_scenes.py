@@ -93,3 +93,26 @@ def test_chained_records_match_one_exchange_per_sample(tmp_path: pathlib.Path) -
     window = stamps[(stamps >= t0) & (stamps < t0 + 10**9)]
     np.testing.assert_array_equal(np.diff(window), 1_000_000)
     assert len(window) == 1000
+def test_resume_after_an_interrupted_run(tmp_path: pathlib.Path) -> None:
+    """A run cut short (the clock stops at 60 s of a 129 s protocol) leaves a valid bag; the
+    resumed run starts at the first series the bag did not complete and takes the rest."""
+    import dataclasses
+
+    from pam_bench.sim.resume import resume_reading
+    scene = load_scene('isometric_quick')
+    first = tmp_path / 'first'
+    res = run_scene(dataclasses.replace(scene, duration_s=60.0), str(first),
+                    domain_id=next_domain(), quiet=True)
+    assert res.code == 0, res
+    taken = bag_messages(first, '/protocol/point')
+    start, total = resume_reading(scene, first)
+    assert 0 < len(taken) < total and start <= len(taken)
+    assert start % 14 == 0                       # a series of isometric_quick has 14 readings
+    resumed = dataclasses.replace(scene, parameters={'sequencer': {'resume_from_reading':
+                                                                   start}})
+    second = tmp_path / 'second'
+    res = run_scene(resumed, str(second), domain_id=next_domain(), quiet=True)
+    assert res.code == 0, res
+    rest = bag_messages(second, '/protocol/point')
+    assert len(rest) == total - start
+    assert (rest[0].series, rest[0].step) == (start // 14, 0)

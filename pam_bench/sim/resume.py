@@ -1,0 +1,35 @@
+"""Resume a scene's protocol after an interrupted run: where to restart, from its bag."""
+
+from __future__ import annotations
+
+import pathlib
+
+import yaml
+
+from pam_bench.analysis.bagread import read_bags
+from pam_bench.models.protocols import resume_index, schedule_from_config
+from pam_bench.sim.scene import Scene, config_dir
+
+__all__ = ['resume_reading']
+
+
+def resume_reading(scene: Scene, bag: str | pathlib.Path) -> tuple[int, int]:
+    """The reading to restart the scene's protocol at, and the number of readings.
+
+    The points in ``bag`` (a run of the same scene, complete or cut short; its last bag closes
+    valid whatever stopped it) mark the readings taken; the run restarts at the first reading
+    of the first series that is not complete.
+
+    Raises:
+        analysis.bagread.BagError: the bag cannot be read or holds no points.
+        ParameterError: the scene's protocol is unknown or malformed.
+    """
+    with open(config_dir() / 'protocols.yaml', encoding='utf-8') as fh:
+        table = yaml.safe_load(fh) or {}
+    cfg = dict(table.get(scene.protocol, {}))
+    cfg.update(scene.protocol_overrides)
+    readings, _ = schedule_from_config(scene.protocol, cfg, table)
+    data = read_bags([bag])
+    done = {(name, int(s), int(k)) for name, pts in data.points.items()
+            for s, k in zip(pts.series, pts.step, strict=True)}
+    return resume_index(readings, done), len(readings)
