@@ -32,7 +32,15 @@ from pam_bench.models.errors import ModelError
 from pam_bench.models.lti import ZohCache
 from pam_bench.models.params import field
 
-__all__ = ['ValveParams', 'ValveModel']
+__all__ = ['sub_steps', 'ValveParams', 'ValveModel']
+
+
+def sub_steps(dt_s: float, sample_period_s: float) -> int:
+    """Sub-steps of an exchange step ``dt_s`` that report the pressure every
+    ``sample_period_s`` (0: once per step): round(dt / T) when dt > 1.5 T, else 1."""
+    if sample_period_s > 0.0 and dt_s > 1.5 * sample_period_s:
+        return round(dt_s / sample_period_s)
+    return 1
 
 
 @dataclasses.dataclass

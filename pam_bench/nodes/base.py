@@ -173,9 +173,8 @@ class BenchNode(Node):
         pub.publish = publish
         return pub
 
-    def sync_input(self, msg_type: type, topic: str, callback: Callable[[Any], None] | None
-                   = None, raw: bool = False, same_step: bool = False,
-                   samples: bool = False) -> None:
+    def sync_input(self, msg_type: type, topic: str, raw: bool = False,
+                   same_step: bool = False, samples: bool = False) -> None:
         """Subscribe to a synchronous input: buffered by stamp, required at every step.
 
         With ``raw`` the message stays CDR bytes and its stamp is read from the header, which
@@ -195,8 +194,6 @@ class BenchNode(Node):
             # kept as CDR bytes and decoded only when a step uses it: sub-step samples that a
             # participant does not need cost a take, not a deserialisation
             buf[stamp_of_cdr(data)] = data
-            if callback is not None:
-                callback(deserialize_message(data, msg_type) if not raw else data)
             self._try_step()
 
         self.create_subscription(msg_type, topic, on_msg, RELIABLE, raw=True)

@@ -17,7 +17,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from pam_bench_interfaces.msg import MuscleState, ValveCommand
 from sensor_msgs.msg import FluidPressure
 
-from pam_bench.models.valve import ValveModel, ValveParams
+from pam_bench.models.valve import ValveModel, ValveParams, sub_steps
 from pam_bench.nodes.base import RELIABLE, BenchNode, run_node, time_of
 
 __all__ = ['ValveSim', 'ATMOSPHERE_PA', 'main']
@@ -68,9 +68,7 @@ class ValveSim(BenchNode):
             self.apply_command(inputs[self.cmd_topic])
         if self.muscle_topic in inputs:
             self.volume_m3 = inputs[self.muscle_topic].volume
-        n = 1
-        if self.sample_period_s > 0.0 and dt_s > 1.5 * self.sample_period_s:
-            n = round(dt_s / self.sample_period_s)
+        n = sub_steps(dt_s, self.sample_period_s)
         t0 = t_ns - round(dt_s * 1e9)
         for j in range(1, n + 1):
             p = self.model.step(self.voltage_v, dt_s / n, self.volume_m3)

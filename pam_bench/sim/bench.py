@@ -33,7 +33,7 @@ import dataclasses
 from pam_bench.models.loading_servo import LoadingServoModel, LoadingServoParams, LoadMode
 from pam_bench.models.muscle import MuscleModel, MuscleParams
 from pam_bench.models.sensors import EncoderModel, EncoderParams, LoadCellModel, LoadCellParams
-from pam_bench.models.valve import ValveModel, ValveParams
+from pam_bench.models.valve import ValveModel, ValveParams, sub_steps
 
 __all__ = ['BenchState', 'SingleMuscleBench']
 
@@ -97,9 +97,7 @@ class SingleMuscleBench:
             f_meas_new = self.cell.measure(self.out.force_n)
             self.samples = [(self.t + h_s, f_meas_new)]
         else:
-            n = 1
-            if sample_period_s > 0.0 and h_s > 1.5 * sample_period_s:
-                n = max(1, round(h_s / sample_period_s))
+            n = sub_steps(h_s, sample_period_s)
             self.samples = []
             c = self.compliance if n > 1 else 0.0
             x_eval = self.x
