@@ -25,10 +25,13 @@ def isometric_gains(p: Points) -> tuple[np.ndarray, np.ndarray]:
 
     With both sweeps present the gain is the slope of the hysteresis midline
     (F_up(u) + F_down(u)) / 2 over the readings where both branches pull (F > 1 % of the
-    series' largest force), leaving out the top 30 % of that voltage range: there the braid
-    friction is still changing side after the turn of the sweep, so the branches are not yet
-    parallel. Where the friction has fully slipped it adds +-(f0 + mu F) to the two branches
-    and cancels in the midline. With one sweep only: the slope of that sweep where it pulls.
+    series' largest force), leaving out the top 30 % of that voltage range and every voltage
+    at or above the down sweep's largest force: there the braid friction is still changing
+    side after the turn of the sweep, so the branches are not yet parallel (near full
+    contraction the backbone gain is so small that the down sweep first rises while the
+    friction turns round, over up to 40 % of the range at x = 110 mm). Where the friction has
+    fully slipped it adds +-(f0 + mu F) to the two branches and cancels in the midline. With
+    one sweep only: the slope of that sweep where it pulls.
     """
     x, k, _ = isometric_lines(p)
     return x, k
@@ -60,7 +63,8 @@ def midline_fit(u: np.ndarray, f: np.ndarray, direction: np.ndarray
     if len(both) >= 4:
         uu = np.array(both)
         mid = np.array([(up[v] + down[v]) / 2.0 for v in both])
-        keep = uu <= uu[0] + 0.7 * (uu[-1] - uu[0])
+        u_turned = uu[int(np.argmax([down[v] for v in both]))]
+        keep = (uu <= uu[0] + 0.7 * (uu[-1] - uu[0])) & (uu < u_turned)
         if keep.sum() >= 3:
             k, f0 = np.polyfit(uu[keep], mid[keep], 1)
             return float(k), float(f0)
