@@ -3,4 +3,4 @@
 from __future__ import annotations
 
 __all__ = ['errors', 'friction', 'inverse', 'loading_servo', 'lti', 'muscle', 'params',
-           'protocols', 'sensors', 'valve']
+           'protocols', 'schedules', 'sensors', 'valve']

@@ -48,8 +48,8 @@ from pam_bench.models.protocols import (
     Phase,
     Point,
     Sequencer,
-    schedule_from_config,
 )
+from pam_bench.models.schedules import schedule_from_config
 from pam_bench.nodes.base import RELIABLE, BenchNode, ns_of, run_node, time_of
 from pam_bench.nodes.valve_sim import ATMOSPHERE_PA
 

@@ -26,7 +26,7 @@ from scipy.optimize import brentq
 
 from pam_bench.models.loading_servo import LoadingServoParams, LoadMode
 from pam_bench.models.muscle import MuscleModel, MuscleParams
-from pam_bench.models.protocols import Reading
+from pam_bench.models.schedules import Reading
 from pam_bench.models.valve import ValveModel, ValveParams
 
 __all__ = ['QuasiStaticBench', 'SettledReading', 'settle_schedule']

@@ -7,7 +7,7 @@ import pathlib
 import yaml
 
 from pam_bench.analysis.bagread import read_bags
-from pam_bench.models.protocols import resume_index, schedule_from_config
+from pam_bench.models.schedules import resume_index, schedule_from_config
 from pam_bench.sim.scene import Scene, config_dir
 
 __all__ = ['resume_reading']

@@ -32,7 +32,7 @@ from pam_bench.analysis.static import gain_summary
 from pam_bench.models.loading_servo import LoadingServoParams
 from pam_bench.models.muscle import MuscleParams
 from pam_bench.models.params import from_mapping
-from pam_bench.models.protocols import Reading, schedule_from_config
+from pam_bench.models.schedules import Reading, schedule_from_config
 from pam_bench.models.valve import ValveParams
 from pam_bench.sim.quasistatic import QuasiStaticBench, SettledReading
 from pam_bench.sim.scene import config_dir, load_scene

@@ -7,7 +7,7 @@ import pathlib
 import numpy as np
 import pytest
 
-from pam_bench.models.protocols import Direction
+from pam_bench.models.schedules import Direction
 from pam_bench.sim.runner import run_scene
 from pam_bench.sim.scene import load_scene
 from test.conftest import next_domain
