@@ -19,13 +19,20 @@ from pam_bench.analysis.bagread import read_bags  # noqa: E402
 from pam_bench.analysis.servo_bag import read_servo_states  # noqa: E402
 from pam_bench.models.inverse import InverseModel  # noqa: E402
 from pam_bench.sim.fidelity import fidelity_table  # noqa: E402
+from pam_bench.sim.reference_check import FULL_SCALE_N, check_recorded_series  # noqa: E402
 from pam_bench.sim.runner import run_scene  # noqa: E402
 from pam_bench.sim.scene import config_dir, load_scene  # noqa: E402
 from pam_bench.sim.work_precision import work_precision  # noqa: E402
 
-__all__ = ['measure', 'render']
+__all__ = ['measure', 'recorded_against_reference', 'render']
 
-FULL_SCALE_N = 2000.0
+# series of each scene's bag checked against the 1 ms numpy reference (protocol, held SI)
+REFERENCE_CASES = {
+    'isometric': [('isometric', 0.0), ('isometric', 0.04)],
+    'isometric_quick': [('isometric_quick', 0.0), ('isometric_quick', 0.04)],
+    'isotonic_quick': [('isotonic_quick', 500.0), ('isotonic_quick', 200.0)],
+    'isobaric_quick': [('isobaric_quick', 4.0)],
+}
 
 
 def _ros_sweep(out: pathlib.Path, quick: bool) -> dict[str, Any]:
@@ -83,6 +90,19 @@ def measure(quick: bool, out: pathlib.Path) -> dict[str, Any]:
         res['servo'] += compare_servo(out / 'servo_ros', 'ros', ['servo_sin_t',
                                                                  'force_verify_20mm'])
     return res
+
+
+def recorded_against_reference(out: pathlib.Path, names: list[str], quick: bool
+                               ) -> list[dict[str, Any]]:
+    """Settled readings of the scene bags in ``out`` (separate-process nodes, the scenes'
+    exchange steps, sensor noise on) against the same series on the numpy bench at 1 ms."""
+    rows: list[dict[str, Any]] = []
+    for name in names:
+        cases = REFERENCE_CASES.get(name, [])[:1 if quick else None]
+        if cases and (out / name).exists():
+            rows += [{'scene': name, **row} for row in check_recorded_series(out / name, name,
+                                                                             cases)]
+    return rows
 
 
 def _plot_work_precision(rows: list[dict[str, Any]], root: pathlib.Path) -> str:
@@ -157,6 +177,22 @@ def render(r: dict[str, Any], root: pathlib.Path) -> list[str]:
         lines.append(f"| {row['scene']} | {row['exchange_step_s'] * 1e3:g} ms | "
                      f"{row['wall_s']:.1f} | {row['real_time_factor']:.2f}x | "
                      f"{row['max_error']:.3f} {row['unit']} | {fs} |")
+    if r.get('recorded_vs_reference'):
+        lines += ['', '## Recorded readings against the 1 ms exchange', '',
+                  "Series of the scene runs above (separate-process nodes at the scenes' "
+                  'exchange steps, load-cell noise 0.2 N and encoder counts of 3 um included) '
+                  'against the same series on the numpy bench at a fixed 1 ms exchange (the '
+                  "scene's parameters, noise-free sensors). The reference starts each series "
+                  'from rest, the run from where the previous series left the muscle, so the '
+                  "series' first reading is also given apart.", '',
+                  '| scene | series | readings | max difference | % FS | at | after the first '
+                  'reading | RMS |', '|---|---|---|---|---|---|---|---|']
+        for row in r['recorded_vs_reference']:
+            fs = '' if row['max_error_pct_fs'] is None else f"{row['max_error_pct_fs']:.3f}"
+            lines.append(f"| {row['scene']} | {row['protocol']} at {row['held']:g} | "
+                         f"{row['readings']} | {row['max_error']:.3f} {row['unit']} | {fs} | "
+                         f"{row['at_set_value']:g} {row['at_direction']} | "
+                         f"{row['max_error_after_first']:.3f} | {row['rms_error']:.3f} |")
     lines += ['', '## Torque servo: controllers compared', '',
               '`pam-bench servo-compare`: each scene with the identified dynamic inverse + PID, '
               'the static inverse + PID and the PID alone (same gains). Errors after the first '

@@ -24,51 +24,15 @@ from typing import Any
 
 import numpy as np
 
-from pam_bench.models.loading_servo import LoadingServoParams, LoadMode
-from pam_bench.models.sensors import LoadCellParams
-from pam_bench.models.valve import ValveParams
 from pam_bench.sim import bench_sections
-from pam_bench.sim.bench import SingleMuscleBench
 from pam_bench.sim.calibration import calibration_figures
 from pam_bench.sim.pingpong import pingpong_rate
 from pam_bench.sim.record_exchange import record_exchange_table
+from pam_bench.sim.reference_check import FULL_SCALE_N, series_readings
 from pam_bench.sim.runner import run_scene
 from pam_bench.sim.scene import load_scene
 
 __all__ = ['run_benchmarks', 'exchange_step_error']
-
-QUIET = LoadCellParams(noise=False)
-FULL_SCALE_N = 2000.0
-
-
-def _sweep(kind: str, value: float, swept: list[float], h: float, adaptive: bool,
-           transient_s: float | None = None) -> tuple[np.ndarray, float, float]:
-    """Readings of one series on the numpy bench: (readings, exchanges per reading, wall s)."""
-    vp = ValveParams(transient_step_s=transient_s) if transient_s else None
-    sp = LoadingServoParams(transient_step_s=transient_s) if transient_s else None
-    b = SingleMuscleBench(load_cell=QUIET, valve=vp, servo=sp, coupling='chained')
-    if kind == 'isometric':
-        b.command_load(LoadMode.POSITION, value)
-    elif kind == 'isotonic':
-        b.command_load(LoadMode.FORCE, value)
-    else:
-        b.command_valve(value)
-        b.command_load(LoadMode.FORCE, swept[0])
-    b.run(3.0, h, adaptive)
-    b.steps = 0
-    out = []
-    t0 = time.perf_counter()
-    for v in swept:
-        if kind == 'isobaric':
-            b.command_load(LoadMode.FORCE, v)
-        else:
-            b.command_valve(v)
-        st = b.run(3.0, h, adaptive)
-        out.append(st.measured_force_n if kind == 'isometric'
-                   else st.measured_angle_rad * b.servo.r)
-    steps = b.steps if adaptive else len(swept) * round(3.0 / h)
-    return np.array(out), steps / len(swept), time.perf_counter() - t0
-
 
 def exchange_step_error(quick: bool) -> list[dict[str, Any]]:
     """Error of settled readings against a fixed 1 ms exchange, per protocol kind and step
@@ -83,9 +47,9 @@ def exchange_step_error(quick: bool) -> list[dict[str, Any]]:
              ('isotonic', 50.0, volts), ('isobaric', 4.0, forces)]
     rows = []
     for kind, value, swept in cases:
-        ref, _, wall_ref = _sweep(kind, value, swept, 0.001, False)
+        ref, _, wall_ref = series_readings(kind, value, swept, 0.001, False)
         for h, adaptive, tr in ((0.01, False, None), (0.5, True, 0.02), (0.5, True, 0.01)):
-            out, spr, wall = _sweep(kind, value, swept, h, adaptive, tr)
+            out, spr, wall = series_readings(kind, value, swept, h, adaptive, tr)
             err = np.abs(out - ref)
             unit = 'N' if kind == 'isometric' else 'mm'
             scale = 1.0 if kind == 'isometric' else 1e3
@@ -214,10 +178,25 @@ def run_benchmarks(quick: bool, root: pathlib.Path, scenes: list[str] | None = N
             report['scenes'].append(_scene_run(name, out))
         print('extraction against truth, identification speed ...', flush=True)
         report['extraction'] = _extraction(out, names, quick)
+        print('recorded readings against the 1 ms reference (numpy bench) ...', flush=True)
+        report['recorded_vs_reference'] = bench_sections.recorded_against_reference(
+            out, names, quick)
         report.update(bench_sections.measure(quick, out))
     (root / 'bench.json').write_text(json.dumps(report, indent=2) + '\n', encoding='utf-8')
-    (root / 'BENCHMARKS.md').write_text(render(report, root), encoding='utf-8')
+    md = root / 'BENCHMARKS.md'
+    kept = _long_runs(md.read_text(encoding='utf-8')) if md.exists() else ''
+    md.write_text(render(report, root) + kept, encoding='utf-8')
     return report
+
+
+def _long_runs(markdown: str) -> str:
+    """The '## Long runs' section of an earlier BENCHMARKS.md (runs too long for `pam-bench
+    bench`, written by hand from separate `pam-bench run` campaigns), kept across reruns."""
+    start = markdown.find('\n## Long runs')
+    if start < 0:
+        return ''
+    end = markdown.find('\n## ', start + 1)
+    return '\n' + markdown[start:end if end > 0 else None].strip('\n') + '\n'
 
 
 def render(r: dict[str, Any], root: pathlib.Path | None = None) -> str:
