@@ -25,6 +25,10 @@ measured sensor value propagated the same way, so the steady state is the one th
 the encoder reads:
   force    (004: PID on the strain-gauge force), e = F* - F:
            tau = r [F* + K_p e + K_i I + K_d K x'],  I' = F* - (F + e_F)
+           while the last reading is within the band |F* - F_m| <= F_band, else I' = 0
+           (integral separation, decided once per exchange as a digital drive decides per
+           sample: a slack muscle or the overshoot on taking up the slack at full speed must
+           not wind the integral up, or the drive runs away and cycles)
   position (PID on the pulley), gear angle phi tracks x* / r, the integral removes play and
            belt stretch as the encoder sees them:
            tau = r [F + K_px (r phi - x*) + K_dx r phi' + K_ix I],
@@ -101,6 +105,9 @@ class LoadingServoParams:
     force_kp: float = field(5.0, '-', 'force loop proportional gain K_p', 0.0, 1.0e4)
     force_ki_per_s: float = field(12.0, '1/s', 'force loop integral gain K_i', 0.0, 1.0e6)
     force_kd_s: float = field(1.8, 's', 'force loop derivative gain K_d', 0.0, 1.0e4)
+    force_integral_band_n: float = field(25.0, 'N', 'force loop integrates only while the '
+                                         'load cell is within this of the set value', 0.0,
+                                         1.0e6)
     position_kp_n_per_m: float = field(2.0e6, 'N/m', 'position loop gain K_px', 0.0, 1.0e10)
     position_ki_n_per_m_s: float = field(1.0e7, 'N/(m s)', 'position loop integral K_ix',
                                          0.0, 1.0e12)
@@ -182,7 +189,8 @@ class LoadingServoModel:
         if self.mode == LoadMode.FORCE:
             t_phi, t_w, t_i = r * p.force_kp * kf, r * p.force_kd_s * kf, r * p.force_ki_per_s
             t_1 = r * ((1.0 + p.force_kp) * sp - p.force_kp * f0)
-            i_phi, i_1 = kf, sp - (f_meas - self._prev_force) - f0
+            if abs(sp - f_meas) <= p.force_integral_band_n:
+                i_phi, i_1 = kf, sp - (f_meas - self._prev_force) - f0
         elif self.mode == LoadMode.POSITION:
             t_phi = r * (-kf + p.position_kp_n_per_m * r)
             t_w, t_i = r * p.position_kd_n_s_per_m * r, r * p.position_ki_n_per_m_s

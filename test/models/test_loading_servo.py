@@ -30,6 +30,26 @@ def test_force_mode_reaches_set_value(h: float, u: float, f_set: float) -> None:
     np.testing.assert_allclose(st.measured_force_n, f_set, atol=1.0)
 
 
+@pytest.mark.parametrize('band_n, settles', [(25.0, True), (1.0e6, False)])
+def test_taking_up_the_slack_at_full_speed_settles(band_n: float, settles: bool) -> None:
+    """Vent a muscle held at 50 N from 6 V (x about 107 mm): the drive crosses 107 mm of
+    slack at its speed limit and overshoots on the stiff vented muscle. With the integral
+    band it settles within 3 s; integrating through the slack and the overshoot (no band)
+    winds the integral up and the drive cycles between slack and overload (the abort of a
+    full campaign run between isobaric and isotonic)."""
+    b = SingleMuscleBench(load_cell=QUIET, coupling='chained',
+                          servo=LoadingServoParams(force_integral_band_n=band_n))
+    b.command_valve(6.0)
+    b.command_load(LoadMode.FORCE, 50.0)
+    b.run(6.0, 0.01)
+    assert b.x > 0.1
+    b.command_valve(0.0)
+    b.run(3.0, 0.01)
+    late = [b.step(0.01).measured_force_n for _ in range(300)]
+    assert np.all(np.isfinite(late))
+    assert (np.ptp(late) < 10.0 and abs(late[-1] - 50.0) < 1.0) == settles
+
+
 @pytest.mark.parametrize('scheme', ['zoh', 'rk4'])
 def test_position_mode_holds(scheme: str) -> None:
     b = SingleMuscleBench(load_cell=QUIET, servo=LoadingServoParams(scheme=scheme))
