@@ -12,52 +12,81 @@ slides with z_i = s -+ f_i / k_i.
 
 The update is an exact algebraic projection onto |phi_i| <= f_i: it uses no velocity and no
 sign(v), so it cannot chatter at a velocity reversal, and the result depends only on the path
-of s, not on the step size (rate independence).
+of s, not on the step size (rate independence). ``trial`` evaluates a move without keeping it
+(the implicit sub-step of ``pam_bench.models.coupling`` tries several); ``commit`` keeps one.
+The element bank is short (three elements by default) and evaluated thousands of times per
+simulated second, so it works on Python floats rather than numpy arrays.
 """
 
 from __future__ import annotations
 
-import numpy as np
+__all__ = ['MaxwellSlip', 'FrictionTrial']
 
-__all__ = ['MaxwellSlip']
+FrictionTrial = tuple[float, float, tuple[float, ...], tuple[bool, ...]]
+"""(friction force N, stiffness dF_f/ds of the sticking elements N/m, z_i m, sticking_i)."""
 
 
 class MaxwellSlip:
     """Maxwell-slip element bank.
 
     Args:
-        stiffness_n_per_m: k_i, shape (n,).
-        break_force_n: f0_i, shape (n,).
-        break_force_ratio: mu_i, break force per newton of load, shape (n,).
+        stiffness_n_per_m: k_i, length n.
+        break_force_n: f0_i, length n.
+        break_force_ratio: mu_i, break force per newton of load, length n.
     """
 
     def __init__(self, stiffness_n_per_m: list[float], break_force_n: list[float],
                  break_force_ratio: list[float]) -> None:
-        self.k = np.asarray(stiffness_n_per_m, dtype=float)
-        self.f0 = np.asarray(break_force_n, dtype=float)
-        self.mu = np.asarray(break_force_ratio, dtype=float)
-        if not (self.k.shape == self.f0.shape == self.mu.shape):
+        self.k = tuple(float(v) for v in stiffness_n_per_m)
+        self.f0 = tuple(float(v) for v in break_force_n)
+        self.mu = tuple(float(v) for v in break_force_ratio)
+        if not (len(self.k) == len(self.f0) == len(self.mu)):
             raise ValueError('friction element lists must have equal lengths')
-        self.z = np.zeros_like(self.k)
-        self.sticking = np.ones(self.k.shape, dtype=bool)
+        if any(k <= 0.0 for k in self.k):
+            raise ValueError('friction element stiffnesses must be > 0 N/m')
+        self._elements = tuple(zip(self.k, self.f0, self.mu, strict=True))
+        self.z: tuple[float, ...] = (0.0,) * len(self.k)
+        self.sticking: tuple[bool, ...] = (True,) * len(self.k)
 
     def reset(self, s_m: float = 0.0) -> None:
         """All elements relaxed (zero force) at slip coordinate ``s_m``."""
-        self.z[:] = s_m
-        self.sticking[:] = True
+        self.z = (float(s_m),) * len(self.k)
+        self.sticking = (True,) * len(self.k)
+
+    def trial(self, s_m: float, load_n: float) -> FrictionTrial:
+        """The move to slip coordinate ``s_m`` (m) under the load ``load_n`` (N), not kept."""
+        load = load_n if load_n > 0.0 else 0.0
+        force = 0.0
+        k_stick = 0.0
+        zs = []
+        st = []
+        for (k, f0, mu), z in zip(self._elements, self.z, strict=True):
+            lim = (f0 + mu * load) / k          # m of pre-slide
+            d = s_m - z
+            if d >= lim:
+                z = s_m - lim
+                st.append(False)
+            elif d <= -lim:
+                z = s_m + lim
+                st.append(False)
+            else:
+                k_stick += k
+                st.append(True)
+            zs.append(z)
+            force += k * (s_m - z)
+        return force, k_stick, tuple(zs), tuple(st)
+
+    def commit(self, trial: FrictionTrial) -> None:
+        """Keep the element state of a ``trial``."""
+        self.z, self.sticking = trial[2], trial[3]
 
     def force(self, s_m: float, load_n: float) -> float:
         """Advance to slip coordinate ``s_m`` (m) under the load ``load_n`` (N); return F_f, N."""
-        if self.k.size == 0:
-            return 0.0
-        limit = (self.f0 + self.mu * max(load_n, 0.0)) / self.k   # m of pre-slide
-        d = s_m - self.z
-        over = np.abs(d) >= limit
-        self.z = np.where(over, s_m - np.sign(d) * limit, self.z)
-        self.sticking = ~over
-        return float(np.dot(self.k, s_m - self.z))
+        t = self.trial(s_m, load_n)
+        self.commit(t)
+        return t[0]
 
     @property
     def sticking_stiffness(self) -> float:
         """dF_f/ds of the elements currently sticking, N/m."""
-        return float(self.k[self.sticking].sum())
+        return sum(k for k, s in zip(self.k, self.sticking, strict=True) if s)

@@ -6,43 +6,47 @@ force on the muscle is i * 1.27 / r = 2792 N.
 
 Mechanics (angles at the gear output, rad; forces N; torques N m):
 
-    J phi'' = r F(x) - tau - c phi'                            (gear output, reflected inertia J)
-    theta   = phi + beta(F),  beta = (b_l / 2) clip(F / F_bl, -1, 1)   (pulley inside the play)
-    x       = r theta + F / k_b                                 (muscle end, belt stretch)
+    J w' = r F - tau - c w,   phi' = w                         (gear output, reflected inertia J)
+    theta = phi + beta(F),  beta = (b_l / 2) clip(F / F_bl, -1, 1)   (pulley inside the play)
+    x     = r theta + F / k_b                                    (muscle end, belt stretch)
 
 The muscle always pulls, so the pulley rests on the contraction side of the play; the clip
 with the small force F_bl makes the change of side continuous (no chatter at F = 0).
 
-Coupling with the muscle node over one exchange step: the muscle publishes F_k, its stiffness
-K_k = -dF/dx and the contraction x_e it was evaluated at; inside the step
-F(x) = max(0, F_k - K_k (x - x_e)). That makes the coupling implicit in the stiffness, stable for
-exchange steps far longer than sqrt(J / (K r^2)).
-
-Drive controller (torque tau at the output, clamped to +-tau_max = min(i T_rated, F_max r)).
-Proportional and derivative parts act on the force or position the drive would sample at 1 kHz
-between exchanges (the linearisation above, noise-free); the integral acts on the last
-measured sensor value propagated the same way, so the steady state is the one the load cell or
-the encoder reads:
+Drive controller (torque tau at the output, |tau| <= tau_max = min(i T_rated, F_max r)):
   force    (004: PID on the strain-gauge force), e = F* - F:
-           tau = r [F* + K_p e + K_i I + K_d K x'],  I' = F* - (F + e_F)
-           while the last reading is within the band |F* - F_m| <= F_band, else I' = 0
-           (integral separation, decided once per exchange as a digital drive decides per
-           sample: a slack muscle or the overshoot on taking up the slack at full speed must
-           not wind the integral up, or the drive runs away and cycles)
-  position (PID on the pulley), gear angle phi tracks x* / r, the integral removes play and
-           belt stretch as the encoder sees them:
-           tau = r [F + K_px (r phi - x*) + K_dx r phi' + K_ix I],
-           I' = r (phi + beta + e_th) - x*
+           tau = r [F* + K_p e + K_i I + K_d e'],  I' = e while |e| <= F_band, else I' = 0
+           (integral separation: a slack muscle, or the overshoot on taking up the slack at
+           full speed, must not wind the integral up, or the drive runs away and cycles)
+  position (PID on the pulley encoder, with the load it measures compensated):
+           tau = r [F + K_px (r phi - x*) + K_dx r w + K_ix I],  I' = r theta_m - x*
+           (theta_m: the angle rounded to the 16-bit encoder count)
   off:     tau = 0
-where e_F = F_m - F_prev and e_th = theta_m - theta_prev are the errors of the last readings
-(noise, quantisation) against the true values at the instant each was taken.
+Limits: conditional integration (I frozen while tau is at its limit), |K I| <= 25 % of F_max
+(anti-windup), |w| <= w_max (motor 3000 rpm / i), hard end stops of the belt travel
+x_min <= x <= x_max (inelastic: the pulley stops there).
 
-With F and tau inside their limits the step is affine in s = (phi, phi', I, 1) and is integrated
-exactly, s(t + h) = expm(M h) s(t) (``scheme: zoh``, default). Where a limit is reached the step
-is redone with classical RK4 (or explicit Euler) on internal steps short enough for stability.
-The drive limits the output speed to w_max (motor 3000 rpm / i) and the integral to
-|gain * I| <= 25 % of F_max (anti-windup). The belt travel ends at hard stops x_min, x_max
-(inelastic: the pulley stops there).
+Sub-step law (``prepare``, ``contraction``, ``commit``). The muscle force F depends on where
+the drive puts the muscle end, and the drive's torque depends on F, so the two are solved
+together, sub-step by sub-step, by ``pam_bench.models.coupling``: over a sub-step d the drive
+is integrated with backward (implicit) Euler, implicit in the force F_+ at the end of the
+sub-step. That makes the end position an explicit, continuous, non-decreasing function
+x_+ = X(F_+) of that force (``contraction``), with
+
+    force:    I_+ = I + d e_+,   tau_+ = r [F* + K_p e_+ + K_i I_+ + K_d (e_+ - e_0) / d]
+    position: I_+ = I + d (r theta_m,+ - x*),  the K_px, K_dx and K_ix terms implicit in w_+
+    w_+ (1 + d c / J) = w + (d / J) (r F_+ - tau_+),  phi_+ = phi + d w_+,
+    x_+ = r (phi_+ + beta(F_+)) + F_+ / k_b
+
+then the limits (tau clipped with the integral frozen, w clipped, x held at an end stop). The
+muscle solves F_+ = F_muscle(p_+, X(F_+)) and the drive keeps the sub-step with that F_+
+(``commit``). Backward Euler is L-stable, so the stiff modes of the force loop (the derivative
+term against a sticking braid, about 7000 1/s) stay damped at any sub-step, and the error is
+first order in d (BENCHMARKS.md, work-precision of the drive).
+
+``dynamics: false`` replaces the drive by an ideal holder: position mode x = x* + F / k_b,
+force and off mode a force source that yields ``IDEAL_FORCE_COMPLIANCE_M_PER_N`` per newton
+off its set value (F* = 0 when off), so the force settles on F* within a few sub-steps.
 """
 
 from __future__ import annotations
@@ -51,13 +55,13 @@ import dataclasses
 import enum
 import math
 
-import numpy as np
-from scipy.linalg import expm
-
 from pam_bench.models.errors import ModelError
 from pam_bench.models.params import field
 
-__all__ = ['LoadMode', 'LoadingServoParams', 'LoadingServoModel', 'ServoOutput']
+__all__ = ['LoadMode', 'LoadingServoParams', 'LoadingServoModel', 'ServoOutput',
+           'IdealHold', 'IDEAL_FORCE_COMPLIANCE_M_PER_N', 'LAW_PARAMETERS']
+
+IDEAL_FORCE_COMPLIANCE_M_PER_N = 1.0e-3
 
 
 class LoadMode(enum.IntEnum):
@@ -92,32 +96,28 @@ class LoadingServoParams:
                                 0.0, 10.0)
     speed_limit_rad_s: float = field(4.49, 'rad/s', 'output speed limit w_max (3000 rpm / i)',
                                      1.0e-3, 1.0e4)
-    transient_step_s: float = field(0.02, 's', 'longest exchange step asked for while the '
-                                    'drive moves', 1.0e-5, 10.0)
-    settled_speed_m_s: float = field(2.0e-4, 'm/s', 'the drive counts as settled below this '
-                                     'belt speed', 0.0, 10.0)
-    settled_force_n: float = field(2.0, 'N', 'in force mode the drive counts as settled only '
-                                   'within this of its set value (load cell)', 0.0, 1.0e4)
-    dynamics: bool = field(True, '-', 'simulate the drive mechanics; false: ideal set value')
-    scheme: str = field('zoh', '-', 'integration scheme: zoh (exact), rk4 or euler')
-    internal_step_s: float = field(1.0e-3, 's', 'longest internal integration step',
-                                   1.0e-6, 1.0)
+    dynamics: bool = field(True, '-', 'simulate the drive mechanics; false: ideal holder')
     force_kp: float = field(5.0, '-', 'force loop proportional gain K_p', 0.0, 1.0e4)
     force_ki_per_s: float = field(12.0, '1/s', 'force loop integral gain K_i', 0.0, 1.0e6)
     force_kd_s: float = field(1.8, 's', 'force loop derivative gain K_d', 0.0, 1.0e4)
     force_integral_band_n: float = field(25.0, 'N', 'force loop integrates only while the '
-                                         'load cell is within this of the set value', 0.0,
-                                         1.0e6)
+                                         'force is within this of the set value', 0.0, 1.0e6)
     position_kp_n_per_m: float = field(2.0e6, 'N/m', 'position loop gain K_px', 0.0, 1.0e10)
     position_ki_n_per_m_s: float = field(1.0e7, 'N/(m s)', 'position loop integral K_ix',
                                          0.0, 1.0e12)
     position_kd_n_s_per_m: float = field(3.0e4, 'N s/m', 'position loop derivative K_dx',
                                          0.0, 1.0e9)
+    encoder_bits_per_rev: int = field(16, 'bit', 'counts per revolution of the encoder the '
+                                      'position loop reads (004: 16)', 1, 52)
+
+
+# the parameters the sub-step law needs, in the order ``law`` and ``from_law`` use
+LAW_PARAMETERS = tuple(f.name for f in dataclasses.fields(LoadingServoParams))
 
 
 @dataclasses.dataclass
 class ServoOutput:
-    """Result of one exchange step."""
+    """State of the drive after a sub-step: rad, rad/s, m, N m, saturated."""
 
     pulley_angle_rad: float
     pulley_rate_rad_s: float
@@ -127,224 +127,262 @@ class ServoOutput:
 
 
 class LoadingServoModel:
-    """Loading servo drive and belt mechanics; ``step`` advances one exchange step."""
+    """Loading servo drive and belt mechanics as a sub-step law (module docstring)."""
+
+    STATE = ('angle_rad', 'rate_rad_s', 'integral', 'force_n', 'encoder_rad', 'contraction_m')
 
     def __init__(self, params: LoadingServoParams | None = None) -> None:
         self.p = params or LoadingServoParams()
-        if self.p.scheme not in ('zoh', 'rk4', 'euler'):
-            raise ModelError(f'loading servo scheme {self.p.scheme!r}: use zoh, rk4 or euler')
-        self.r = self.p.pitch_diameter_m / 2.0
-        self.tau_max = min(self.p.rated_torque_nm * self.p.gear_ratio,
-                           self.p.force_limit_n * self.r)
-        self.half_play = math.radians(self.p.backlash_arcmin / 60.0) / 2.0
+        p = self.p
+        self.r = p.pitch_diameter_m / 2.0
+        self.tau_max = min(p.rated_torque_nm * p.gear_ratio, p.force_limit_n * self.r)
+        self.half_play = math.radians(p.backlash_arcmin / 60.0) / 2.0
+        self.count_rad = 2.0 * math.pi / 2 ** p.encoder_bits_per_rev
         self.mode = LoadMode.OFF
         self.setpoint = 0.0
-        self.state = np.zeros(3)   # phi (rad), phi' (rad/s), integral of the error
+        self.phi = 0.0            # gear output angle, rad
+        self.w = 0.0              # its rate, rad/s
+        self.integral = 0.0       # controller integral (N s or m s)
+        self.force_n = 0.0        # muscle force of the last sub-step, N
+        self.encoder_rad = 0.0    # encoder reading of the last sub-step, rad
+        self.contraction_m = 0.0  # muscle end of the last sub-step, m
         self.torque = 0.0
-        self.force_error_n = 0.0       # set value - last load-cell reading (force mode), N
         self.saturated = False
-        self.contraction = 0.0
-        self.angle = 0.0
-        self._prev_force = 0.0
-        self._prev_angle = 0.0
+        self._prep: tuple = ()
 
+    # --- commands and state -------------------------------------------------------------
     def command(self, mode: LoadMode, setpoint: float) -> None:
         """New mode and set value (N or m); the integral is reset on a mode change."""
         if not math.isfinite(setpoint):
             raise ModelError(f'loading servo set value {setpoint!r} is not finite')
         mode = LoadMode(mode)
         if mode != self.mode:
-            self.state[2] = 0.0
-        if mode == LoadMode.FORCE and (mode, setpoint) != (self.mode, self.setpoint):
-            self.force_error_n = math.inf     # unknown until the next reading: short steps
-        self.mode, self.setpoint = mode, setpoint
+            self.integral = 0.0
+        self.mode, self.setpoint = mode, float(setpoint)
 
     def reset(self, contraction_m: float = 0.0) -> None:
         """Drive at rest with the muscle end at ``contraction_m`` and no load."""
-        self.state[:] = (contraction_m / self.r, 0.0, 0.0)
-        self.contraction = contraction_m
-        self.angle = contraction_m / self.r
+        self.phi = contraction_m / self.r
+        self.w = self.integral = self.force_n = 0.0
+        self.encoder_rad = self._quantised(self.phi)
+        self.contraction_m = contraction_m
 
-    def _play(self, force_n: float) -> float:
-        return self.half_play * min(max(force_n / self.p.backlash_force_n, -1.0), 1.0)
+    @property
+    def angle(self) -> float:
+        """Pulley angle theta = phi + beta(F), rad."""
+        return self.phi + self._play(self.force_n)
 
-    def _linear_system(self, f_k: float, k_m: float, x_e: float, f_meas: float,
-                       th_meas: float) -> tuple[np.ndarray, float, float, float]:
-        """Affine dynamics s' = M s over one step, s = (phi, phi', I, 1).
+    def law(self) -> tuple[list[float], list[float]]:
+        """(parameters in ``LAW_PARAMETERS`` order, state in ``STATE`` order): what a copy
+        needs to follow the same sub-steps (``from_law``)."""
+        params = [float(getattr(self.p, n)) for n in LAW_PARAMETERS]
+        return params, [self.phi, self.w, self.integral, self.force_n, self.encoder_rad,
+                        self.contraction_m]
 
-        Returns:
-            (M, a_x, c0, f0): M shape (4, 4); x = a_x phi + c0; F = f0 - K a_x phi.
-        """
-        p, r = self.p, self.r
-        kb = p.belt_stiffness_n_per_m
-        den = 1.0 + k_m / kb
-        a_x = r / den
-        c0 = (r * self._play(f_k) + (f_k + k_m * x_e) / kb) / den
-        f0 = f_k - k_m * (c0 - x_e)
-        kf = k_m * a_x                       # -dF/dphi
-        # tau = t_phi phi + t_w phi' + t_i I + t_1
-        t_phi = t_w = t_i = t_1 = 0.0
-        i_phi = i_1 = 0.0                    # I' = i_phi phi + i_1
-        sp = self.setpoint
-        if self.mode == LoadMode.FORCE:
-            t_phi, t_w, t_i = r * p.force_kp * kf, r * p.force_kd_s * kf, r * p.force_ki_per_s
-            t_1 = r * ((1.0 + p.force_kp) * sp - p.force_kp * f0)
-            if abs(sp - f_meas) <= p.force_integral_band_n:
-                i_phi, i_1 = kf, sp - (f_meas - self._prev_force) - f0
-        elif self.mode == LoadMode.POSITION:
-            t_phi = r * (-kf + p.position_kp_n_per_m * r)
-            t_w, t_i = r * p.position_kd_n_s_per_m * r, r * p.position_ki_n_per_m_s
-            t_1 = r * (f0 - p.position_kp_n_per_m * sp)
-            i_phi, i_1 = r, r * (self._play(f_k) + th_meas - self._prev_angle) - sp
-        j, c = p.inertia_kg_m2, p.damping_nm_s_per_rad
-        m = np.zeros((4, 4))
-        m[0, 1] = 1.0
-        m[1, 0] = (-r * kf - t_phi) / j
-        m[1, 1] = (-c - t_w) / j
-        m[1, 2] = -t_i / j
-        m[1, 3] = (r * f0 - t_1) / j
-        m[2, 0], m[2, 3] = i_phi, i_1
-        self._tau_row = np.array([t_phi, t_w, t_i, t_1])
-        return m, a_x, c0, f0
-
-    def step(self, dt_s: float, force_n: float, stiffness_n_per_m: float,
-             evaluated_contraction_m: float, measured_force_n: float,
-             measured_angle_rad: float) -> ServoOutput:
-        """Advance by ``dt_s`` with the muscle linearised where it was last evaluated.
-
-        Args:
-            dt_s: exchange step, s.
-            force_n: muscle tension F_k, N.
-            stiffness_n_per_m: K_k = -dF/dx, N/m.
-            evaluated_contraction_m: x_e at which the muscle computed F_k, m.
-            measured_force_n: last load-cell reading, N.
-            measured_angle_rad: last encoder reading, rad.
+    @classmethod
+    def from_law(cls, params: list[float], state: list[float], mode: int, setpoint: float,
+                 cache: dict | None = None) -> LoadingServoModel:
+        """A drive in the state a ``law`` describes (``cache`` reuses the parameter set).
 
         Raises:
-            ModelError: an input is not finite, or the state diverged.
+            ModelError: the vectors do not have the lengths of ``LAW_PARAMETERS``/``STATE``.
         """
-        vals = (dt_s, force_n, stiffness_n_per_m, evaluated_contraction_m, measured_force_n,
-                measured_angle_rad)
-        self.force_error_n = (self.setpoint - measured_force_n
-                              if self.mode == LoadMode.FORCE else 0.0)
-        if not all(math.isfinite(v) for v in vals) or dt_s < 0.0:
-            raise ModelError(f'loading servo inputs not finite or negative step: {vals!r}')
-        k_m = max(stiffness_n_per_m, 0.0)
-        if not self.p.dynamics:
-            return self._ideal(force_n, k_m, evaluated_contraction_m)
-        m, a_x, c0, f0 = self._linear_system(force_n, k_m, evaluated_contraction_m,
-                                             measured_force_n, measured_angle_rad)
-        s0 = np.append(self.state, 1.0)
-        s = None
-        if self.p.scheme == 'zoh' and dt_s > 0.0:
-            s = expm(m * dt_s) @ s0
-            if not (self._inside_limits(s0, f0, a_x, k_m)
-                    and self._inside_limits(s, f0, a_x, k_m)):
-                s = None
-        if s is None:
-            s = self._substeps(s0, m, dt_s, f0, a_x, k_m)
-        if not np.all(np.isfinite(s)):
-            raise ModelError('loading servo state diverged')
-        self.state = s[:3].copy()
-        self._end_stops(a_x, c0)
-        s[:3] = self.state
-        tau = float(self._tau_row @ s)
-        self.saturated = abs(tau) > self.tau_max * (1.0 + 1e-9)
-        self.torque = min(max(tau, -self.tau_max), self.tau_max)
-        x = a_x * s[0] + c0
-        f_end = max(f0 - k_m * a_x * s[0], 0.0)
-        self._prev_force, self._prev_angle = force_n, self.angle
-        self.contraction = x
-        self.angle = float(s[0]) + self._play(f_end)
-        return ServoOutput(self.angle, float(s[1]), x, self.torque, self.saturated)
+        if len(params) != len(LAW_PARAMETERS) or len(state) != len(cls.STATE):
+            raise ModelError(f'drive law has {len(params)} parameters and {len(state)} state '
+                             f'values; expected {len(LAW_PARAMETERS)} and {len(cls.STATE)}')
+        key = tuple(params)
+        m = cache.get(key) if cache is not None else None
+        if m is None:
+            kw = {}
+            for f, v in zip(dataclasses.fields(LoadingServoParams), params, strict=True):
+                kind = {'bool': bool, 'int': int}.get(str(f.type), float)
+                kw[f.name] = kind(v)
+            m = cls(LoadingServoParams(**kw))
+            if cache is not None:
+                cache.clear()
+                cache[key] = m
+        m.mode, m.setpoint = LoadMode(mode), float(setpoint)
+        (m.phi, m.w, m.integral, m.force_n, m.encoder_rad, m.contraction_m) = state
+        return m
 
-    def max_step(self) -> float:
-        """Longest next exchange step the drive asks for, s (0: any): short while the belt
-        moves or (force mode) while the load cell is off the set value, so the one-step
-        coupling lag stays small where the muscle is soft, slack or slipping."""
-        if not self.p.dynamics or self.mode == LoadMode.OFF:
-            return 0.0
-        if abs(self.state[1]) * self.r > self.p.settled_speed_m_s or self.saturated:
-            return self.p.transient_step_s
-        # a muscle creeping through its friction looks stiff to the one-step linearisation:
-        # the belt hardly moves but the force is not there yet
-        if abs(self.force_error_n) > self.p.settled_force_n:
-            return self.p.transient_step_s
-        return 0.0
+    # --- the sub-step law ---------------------------------------------------------------
+    def prepare(self, d: float) -> None:
+        """Coefficients of the sub-step of length ``d`` (s) from the kept state.
 
-    def _end_stops(self, a_x: float, c0: float) -> None:
-        x = a_x * self.state[0] + c0
-        lo, hi = self.p.travel_min_m, self.p.travel_max_m
-        if x < lo or x > hi:
-            self.state[0] = ((lo if x < lo else hi) - c0) / a_x
-            self.state[1] = 0.0
-
-    def _inside_limits(self, s: np.ndarray, f0: float, a_x: float, k_m: float) -> bool:
-        tau = float(self._tau_row @ s)
-        return (abs(tau) <= self.tau_max and f0 - k_m * a_x * s[0] >= -1.0e-9
-                and abs(s[1]) <= self.p.speed_limit_rad_s
-                and abs(s[2]) <= self._integral_limit())
-
-    def _integral_limit(self) -> float:
-        gain = {LoadMode.FORCE: self.p.force_ki_per_s,
-                LoadMode.POSITION: self.p.position_ki_n_per_m_s}.get(self.mode, 0.0)
-        return 0.25 * self.p.force_limit_n / gain if gain > 0.0 else math.inf
-
-    def _substeps(self, s0: np.ndarray, m: np.ndarray, dt_s: float, f0: float, a_x: float,
-                  k_m: float) -> np.ndarray:
-        """Nonlinear integration (force clamp at 0, torque limit, no wind-up when saturated)."""
+        Raises:
+            ModelError: ``d`` is not finite and positive.
+        """
+        if not (d > 0.0 and math.isfinite(d)):
+            raise ModelError(f'loading servo sub-step {d!r} s is not finite and positive')
         p, r = self.p, self.r
-        tau_row = self._tau_row
-        lam = float(np.abs(np.linalg.eigvals(m[:3, :3])).max())   # fastest rate, 1/s
-        h_max = min(p.internal_step_s, 0.5 / lam if lam > 0.0 else p.internal_step_s)
-        w_max, i_max = p.speed_limit_rad_s, self._integral_limit()
-        n = max(1, math.ceil(dt_s / h_max - 1e-9))
-        h = dt_s / n
+        j, c = p.inertia_kg_m2, p.damping_nm_s_per_rad
+        den = 1.0 + d * c / j
+        sp = self.setpoint
+        if not p.dynamics:
+            self._prep = (d,)
+            return
+        if self.mode == LoadMode.FORCE:
+            e0 = sp - self.force_n
+            ki = p.force_ki_per_s
+            gain = p.force_kp + p.force_kd_s / d
+            integrate = abs(e0) <= p.force_integral_band_n
+            if integrate:
+                gain += ki * d
+            # tau_+ = t0 + t1 F_+, I_+ = i0 + i1 F_+ (unclamped)
+            t0 = r * (sp * (1.0 + gain) + ki * self.integral - p.force_kd_s * e0 / d)
+            t1 = -r * gain
+            i0, i1 = (self.integral + d * sp, -d) if integrate else (self.integral, 0.0)
+            i_lim = 0.25 * p.force_limit_n / ki if ki > 0.0 else math.inf
+            self._prep = (d, den, t0, t1, i0, i1, i_lim, ki, None)
+        elif self.mode == LoadMode.POSITION:
+            kp, kd, ki = p.position_kp_n_per_m, p.position_kd_n_s_per_m, p.position_ki_n_per_m_s
+            i_lim = 0.25 * p.force_limit_n / ki if ki > 0.0 else math.inf
+            # I_+ = I + d (r theta_m,+ - x*), the encoder reading theta_+ with the rounding of
+            # the last count: theta_m,+ = theta_m,0 + d w_+, so I_+ = I_c + d^2 r w_+
+            i_c = self.integral + d * (r * self.encoder_rad - sp)
+            w_new = ((j * self.w / d - r * kp * (r * self.phi - sp) - r * ki * i_c)
+                     / (j / d + c + r * r * kd + r * r * kp * d + r * r * ki * d * d))
+            i_new = min(max(i_c + d * d * r * w_new, -i_lim), i_lim)
+            t0 = r * (kp * (r * (self.phi + d * w_new) - sp) + kd * r * w_new + ki * i_new)
+            self._prep = (d, den, t0, r, i_new, 0.0, math.inf, 0.0, w_new)
+        else:
+            self._prep = (d, den, 0.0, 0.0, 0.0, 0.0, math.inf, 0.0, None)
 
-        def deriv(s: np.ndarray) -> np.ndarray:
-            lin = m @ s
-            tau = float(tau_row @ s)
-            f_lin = f0 - k_m * a_x * s[0]
-            if abs(tau) <= self.tau_max and f_lin >= 0.0 and abs(s[1]) < w_max \
-                    and abs(s[2]) < i_max:
-                return lin
-            tau_c = min(max(tau, -self.tau_max), self.tau_max)
-            acc = (r * max(f_lin, 0.0) - tau_c - p.damping_nm_s_per_rad * s[1]) \
-                / p.inertia_kg_m2
-            out = lin.copy()
-            if abs(s[1]) >= w_max and acc * s[1] > 0.0:
-                acc = 0.0                         # the drive holds its speed limit
-            out[1] = acc
-            if abs(tau) > self.tau_max or (abs(s[2]) >= i_max and out[2] * s[2] > 0.0):
-                out[2] = 0.0                      # conditional integration: no wind-up
-            return out
+    def _play(self, force_n: float) -> float:
+        a = force_n / self.p.backlash_force_n
+        return self.half_play * (1.0 if a > 1.0 else (-1.0 if a < -1.0 else a))
 
-        s = s0.copy()
-        s[1] = min(max(s[1], -w_max), w_max)
-        s[2] = min(max(s[2], -i_max), i_max)
-        for _ in range(n):
-            if p.scheme == 'euler':
-                s = s + h * deriv(s)
-            else:
-                k1 = deriv(s)
-                k2 = deriv(s + 0.5 * h * k1)
-                k3 = deriv(s + 0.5 * h * k2)
-                k4 = deriv(s + h * k3)
-                s = s + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        return s
+    def _quantised(self, angle_rad: float) -> float:
+        return round(angle_rad / self.count_rad) * self.count_rad
 
-    def _ideal(self, force_n: float, k_m: float, x_e: float) -> ServoOutput:
-        """No mechanics: position mode puts x at the set value; force mode moves x to the
-        linearised equilibrium F(x) = F*; off keeps x."""
-        x = self.contraction
+    def _end(self, f: float) -> tuple[float, float, float, float, bool]:
+        """(phi_+, w_+, I_+, tau_+, saturated) of the prepared sub-step for the force f."""
+        d, den, t0, t1, i0, i1, i_lim, ki, w_pos = self._prep
+        p, r, j = self.p, self.r, self.p.inertia_kg_m2
+        tau = t0 + t1 * f
+        sat = abs(tau) > self.tau_max
+        if sat:
+            tau = self.tau_max if tau > 0.0 else -self.tau_max
+            i_new = self.integral
+            w = (self.w + d / j * (r * f - tau)) / den
+        else:
+            i_new = i0 + i1 * f
+            if i_new > i_lim or i_new < -i_lim:       # anti-windup: the clamped integral acts
+                i_new = i_lim if i_new > 0.0 else -i_lim
+                tau += ki * r * (i_new - i0 - i1 * f)
+            w = w_pos if w_pos is not None else (self.w + d / j * (r * f - tau)) / den
+        wm = p.speed_limit_rad_s
+        if w > wm:
+            w = wm
+        elif w < -wm:
+            w = -wm
+        return self.phi + d * w, w, i_new, tau, sat
+
+    def contraction(self, force_n: float) -> float:
+        """X(F): where the prepared sub-step puts the muscle end if the muscle pulls with
+        ``force_n`` (N) at its end, m. Continuous and non-decreasing in the force."""
+        p = self.p
+        if not p.dynamics:
+            return self._ideal(force_n)
+        phi = self._end(force_n)[0]
+        x = self.r * (phi + self._play(force_n)) + force_n / p.belt_stiffness_n_per_m
+        return min(max(x, p.travel_min_m), p.travel_max_m)
+
+    def compliance(self, force_n: float) -> float:
+        """dX/dF of the prepared sub-step at ``force_n`` (the piece the force falls on), m/N."""
+        p = self.p
+        if not p.dynamics:
+            return (1.0 / p.belt_stiffness_n_per_m if self.mode == LoadMode.POSITION
+                    else IDEAL_FORCE_COMPLIANCE_M_PER_N)
+        x = self.r * (self._end(force_n)[0] + self._play(force_n)) \
+            + force_n / p.belt_stiffness_n_per_m
+        if x <= p.travel_min_m or x >= p.travel_max_m:
+            return 0.0
+        d, den, t0, t1 = self._prep[:4]
+        _, w, _, _, sat = self._end(force_n)
+        if abs(w) >= p.speed_limit_rad_s:
+            dw = 0.0
+        elif sat:
+            dw = d / p.inertia_kg_m2 * self.r / den
+        elif self._prep[8] is not None:            # position: the load is compensated
+            dw = 0.0
+        else:
+            dw = d / p.inertia_kg_m2 * (self.r - t1) / den
+        play = (self.half_play / p.backlash_force_n
+                if abs(force_n) < p.backlash_force_n else 0.0)
+        return self.r * (d * dw + play) + 1.0 / p.belt_stiffness_n_per_m
+
+    def _ideal(self, force_n: float) -> float:
+        p = self.p
         if self.mode == LoadMode.POSITION:
-            x = self.setpoint
-        elif self.mode == LoadMode.FORCE and k_m > 0.0:
-            x = x_e + (force_n - self.setpoint) / k_m
-        self.contraction = x
-        self.angle = x / self.r
-        self.state[:] = (self.angle, 0.0, 0.0)
-        self.torque = self.r * (self.setpoint if self.mode == LoadMode.FORCE else force_n)
-        self.saturated = abs(self.torque) > self.tau_max
-        self.torque = min(max(self.torque, -self.tau_max), self.tau_max)
-        return ServoOutput(self.angle, 0.0, x, self.torque, self.saturated)
+            x = self.setpoint + force_n / p.belt_stiffness_n_per_m
+        else:
+            target = self.setpoint if self.mode == LoadMode.FORCE else 0.0
+            x = self.contraction_m + IDEAL_FORCE_COMPLIANCE_M_PER_N * (force_n - target)
+        return min(max(x, p.travel_min_m), p.travel_max_m)
+
+    def commit(self, force_n: float) -> ServoOutput:
+        """Keep the prepared sub-step with the muscle force ``force_n`` (N) at its end."""
+        p = self.p
+        if not p.dynamics:
+            x = self._ideal(force_n)
+            self.phi = (x - force_n / p.belt_stiffness_n_per_m) / self.r
+            self.w = 0.0
+            self.torque = self.r * force_n
+            self.saturated = abs(self.torque) > self.tau_max
+            if self.saturated:
+                self.torque = math.copysign(self.tau_max, self.torque)
+        else:
+            phi, w, i_new, tau, sat = self._end(force_n)
+            x = self.r * (phi + self._play(force_n)) + force_n / p.belt_stiffness_n_per_m
+            if x < p.travel_min_m or x > p.travel_max_m:
+                x = p.travel_min_m if x < p.travel_min_m else p.travel_max_m
+                phi = (x - force_n / p.belt_stiffness_n_per_m) / self.r - self._play(force_n)
+                w = 0.0
+            self.phi, self.w, self.integral = phi, w, i_new
+            self.torque, self.saturated = tau, sat
+        self.force_n = force_n
+        self.contraction_m = x
+        self.encoder_rad = self._quantised(self.angle)
+        return ServoOutput(self.angle, self.w, x, self.torque, self.saturated)
+
+    def replay(self, steps_s: list[float], forces_n: list[float]) -> ServoOutput:
+        """Follow the sub-steps a coupled solve took: lengths (s) and end forces (N).
+
+        Raises:
+            ModelError: the lists are empty or of different lengths, or a value is not finite.
+        """
+        if not steps_s or len(steps_s) != len(forces_n):
+            raise ModelError(f'drive replay needs as many forces as sub-steps, got '
+                             f'{len(forces_n)} forces for {len(steps_s)} sub-steps')
+        out = None
+        for d, f in zip(steps_s, forces_n, strict=True):
+            if not math.isfinite(f):
+                raise ModelError(f'muscle force {f!r} is not finite')
+            self.prepare(d)
+            out = self.commit(f)
+        return out
+
+
+class IdealHold:
+    """A holder that keeps the muscle end at x = x_0 + F / k_b (an angle held ideally: 004
+    section 3.2 holds the pulley of the torque servo with the electric drive). Same sub-step
+    interface as ``LoadingServoModel``."""
+
+    def __init__(self, contraction_m: float, belt_stiffness_n_per_m: float) -> None:
+        self.x0 = contraction_m
+        self.k_b = belt_stiffness_n_per_m
+
+    def prepare(self, d: float) -> None:
+        """Nothing to prepare (no dynamics)."""
+
+    def contraction(self, force_n: float) -> float:
+        """x_0 + F / k_b, m."""
+        return self.x0 + force_n / self.k_b
+
+    def compliance(self, force_n: float) -> float:
+        """1 / k_b, m/N."""
+        return 1.0 / self.k_b
+
+    def commit(self, force_n: float) -> None:
+        """Nothing to keep."""

@@ -38,10 +38,13 @@ import dataclasses
 import math
 
 from pam_bench.models.errors import ModelError
-from pam_bench.models.friction import MaxwellSlip
+from pam_bench.models.friction import FrictionTrial, MaxwellSlip
 from pam_bench.models.params import field
 
-__all__ = ['MuscleParams', 'MuscleModel', 'MuscleOutput']
+__all__ = ['MuscleParams', 'MuscleModel', 'MuscleOutput', 'MuscleTrial']
+
+MuscleTrial = tuple[float, float, float, FrictionTrial | None]
+"""(force N, stiffness -dF/dx N/m, friction N, friction trial or None without hysteresis)."""
 
 
 @dataclasses.dataclass
@@ -156,6 +159,47 @@ class MuscleModel:
         return self._thread_m ** 3 * s2 * c / (4.0 * math.pi * self._turns ** 2)
 
     # --- evaluation ---------------------------------------------------------------------
+    def trial(self, pressure_pa: float, contraction_m: float) -> MuscleTrial:
+        """Evaluate the muscle at (p, x) from the kept friction state, without keeping the move.
+
+        Returns:
+            (F N, stiffness -dF/dx N/m, friction N, friction trial for ``commit``); F >= 0.
+        """
+        p = self.p
+        r = 1.0 - contraction_m / p.gain_zero_contraction_m
+        dp = pressure_pa - p.threshold_pressure_pa
+        if dp < 0.0:
+            dp = 0.0
+        if r > 0.0:
+            rn = r ** (p.gain_exponent - 1.0)
+            f_bb = p.gain_n_per_pa * rn * r * dp
+            k_bb = p.gain_n_per_pa * p.gain_exponent * rn / p.gain_zero_contraction_m * dp
+        else:
+            f_bb = k_bb = 0.0
+        f_bb -= p.bladder_stiffness_n_per_m * contraction_m
+        k_bb += p.bladder_stiffness_n_per_m
+        if contraction_m < 0.0:
+            f_bb -= p.stretch_stiffness_n_per_m * contraction_m
+            k_bb += p.stretch_stiffness_n_per_m
+        fr = None
+        ff = kf = 0.0
+        if p.hysteresis:
+            tension = f_bb if f_bb > 0.0 else 0.0
+            ct = p.slip_compliance_m_per_n
+            fr = self.friction.trial(contraction_m + ct * tension, tension)
+            ff = fr[0]
+            # -dF/dx through s: ds/dx = 1 - c_t K_bb while the braid is under tension
+            kf = fr[1] * (1.0 - ct * k_bb if f_bb > 0.0 else 1.0)
+        f = f_bb - ff
+        if f <= 0.0:
+            return 0.0, 0.0, ff, fr
+        return f, k_bb + kf, ff, fr
+
+    def commit(self, trial: MuscleTrial) -> None:
+        """Keep the friction state of a ``trial``."""
+        if trial[3] is not None:
+            self.friction.commit(trial[3])
+
     def step(self, pressure_pa: float, contraction_m: float) -> MuscleOutput:
         """Move to (p, x), updating the friction state, and return the muscle output.
 
@@ -164,47 +208,9 @@ class MuscleModel:
         """
         if not (math.isfinite(pressure_pa) and math.isfinite(contraction_m)):
             raise ModelError(f'muscle input not finite: p={pressure_pa!r}, x={contraction_m!r}')
-        ff = 0.0
-        kf = 0.0
-        f_bb = self.backbone(pressure_pa, contraction_m)
-        k_bb = self.backbone_stiffness(pressure_pa, contraction_m)
-        if self.p.hysteresis:
-            tension = max(f_bb, 0.0)
-            ct = self.p.slip_compliance_m_per_n
-            ff = self.friction.force(contraction_m + ct * tension, tension)
-            # -dF/dx through s: ds/dx = 1 - c_t K_bb while the braid is under tension
-            kf = self.friction.sticking_stiffness * (1.0 - ct * k_bb if f_bb > 0.0 else 1.0)
-        f = f_bb - ff
-        if f <= 0.0:
-            return MuscleOutput(0.0, 0.0, ff, self.volume(contraction_m))
-        return MuscleOutput(f, k_bb + kf, ff, self.volume(contraction_m))
-
-    def step_compliant(self, pressure_pa: float, contraction_m: float, ref_force_n: float,
-                       compliance_m_per_n: float) -> tuple[MuscleOutput, float]:
-        """Move to pressure p at an end held with compliance c (m/N) from (x_k, F_k).
-
-        The end sits at x = x_k + c (F - F_k) (belt and drive yielding to the change of force
-        since the holder last saw F_k). One Newton step on the muscle's tangent at x_k, from a
-        trial evaluation whose friction state is discarded:
-        F = (F(p, x_k) + K c F_k) / (1 + K c), then the muscle moves to x = x_k + c (F - F_k).
-        With c = 0 this is ``step(p, x_k)``. Returns the output and the contraction x (m) it
-        was evaluated at.
-
-        Args:
-            pressure_pa: gauge pressure p, Pa.
-            contraction_m: x_k where the holder last put the end, m.
-            ref_force_n: F_k the holder last saw, N.
-            compliance_m_per_n: c >= 0, m/N.
-        """
-        if compliance_m_per_n <= 0.0:
-            return self.step(pressure_pa, contraction_m), contraction_m
-        z, sticking = self.friction.z.copy(), self.friction.sticking.copy()
-        trial = self.step(pressure_pa, contraction_m)
-        self.friction.z, self.friction.sticking = z, sticking
-        kc = trial.stiffness_n_per_m * compliance_m_per_n
-        f = (trial.force_n + kc * ref_force_n) / (1.0 + kc)
-        x = contraction_m + compliance_m_per_n * (f - ref_force_n)
-        return self.step(pressure_pa, x), x
+        t = self.trial(pressure_pa, contraction_m)
+        self.commit(t)
+        return MuscleOutput(t[0], t[1], t[2], self.volume(contraction_m))
 
     def static_force(self, pressure_pa: float, contraction_m: float) -> float:
         """max(0, F_bb): the friction-free force, N."""

@@ -14,7 +14,15 @@ from pam_bench.models.errors import ParameterError
 from pam_bench.models.loading_servo import LoadMode
 from pam_bench.models.schedules import Reading
 
-__all__ = ['Phase', 'Measurement', 'Limits', 'Point', 'Commands', 'Sequencer']
+__all__ = ['Phase', 'Measurement', 'Limits', 'Point', 'Commands', 'Sequencer',
+           'COMMAND_STEP_S', 'RECORD_EXCHANGE_S']
+
+# exchange steps a lock-step sequencer asks for (its node's defaults): at every new reading or
+# phase (the loading servo takes a new set value one exchange after it is sent), and at most
+# during a 1 kHz record (the valve holds the chamber volume of an exchange's start: at x = 0 a
+# whole-second exchange moves b, c, d by 1.7 %, 50 ms by 0.3 %; BENCHMARKS.md, step records)
+COMMAND_STEP_S = 0.001
+RECORD_EXCHANGE_S = 0.05
 
 
 class Phase(enum.Enum):
@@ -121,12 +129,13 @@ class Sequencer:
     value by more than the tolerance.
 
     Record samples are the load-cell readings passed to ``tick`` with their stamps; sample i is
-    the one stamped t_step + i T. Samples may arrive after the window (a chained bench delivers
-    an exchange's samples at the next tick): the schedule goes on at the end of the window and
-    the record is handed out (``Commands.record``) once its last sample is in. With
-    ``record_exchange_s`` > 0 the sequencer asks for exchange steps of that length during a
-    record and for valve samples every T (``Commands.sample_period_s``); with 0 it asks for a
-    step per sample. ``start_index`` resumes a run at that reading (``resume_index``): the
+    the one stamped t_step + i T. Samples may arrive after the window (a bench that delivers
+    them late): the schedule goes on at the end of the window and the record is handed out
+    (``Commands.record``) once its last sample is in. During a record the sequencer asks the
+    valve for samples every T (``Commands.sample_period_s``: a simulated valve then reports
+    its pressure, and the load cell its force, at every sample) and a lock-step clock for
+    exchange steps of at most ``record_exchange_s`` (0: the whole record in one exchange).
+    ``start_index`` resumes a run at that reading (``resume_index``): the
     settle phase then holds that reading's set values.
     """
 
@@ -201,7 +210,7 @@ class Sequencer:
             return self.t_phase + r.lead_s
         if self.phase == Phase.DWELL:
             return self.t_phase + r.dwell_s
-        step = self.record_exchange_s or r.sample_period_s
+        step = self.record_exchange_s or r.record_s
         return min(t_s + step, self.t_phase + r.record_s)
 
     def _voltage(self, r: Reading, t_s: float) -> float:
@@ -275,7 +284,7 @@ class Sequencer:
                     else:
                         self.pending = rec
         sample_period = 0.0
-        if self.phase == Phase.RECORD and self.record_exchange_s > 0.0:
+        if self.phase == Phase.RECORD:
             sample_period = self.readings[self.index].sample_period_s
         if self.running and self.phase != Phase.DONE:
             r = self.readings[self.index]

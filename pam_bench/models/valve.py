@@ -32,15 +32,7 @@ from pam_bench.models.errors import ModelError
 from pam_bench.models.lti import ZohCache
 from pam_bench.models.params import field
 
-__all__ = ['sub_steps', 'ValveParams', 'ValveModel']
-
-
-def sub_steps(dt_s: float, sample_period_s: float) -> int:
-    """Sub-steps of an exchange step ``dt_s`` that report the pressure every
-    ``sample_period_s`` (0: once per step): round(dt / T) when dt > 1.5 T, else 1."""
-    if sample_period_s > 0.0 and dt_s > 1.5 * sample_period_s:
-        return round(dt_s / sample_period_s)
-    return 1
+__all__ = ['ValveParams', 'ValveModel']
 
 
 @dataclasses.dataclass
@@ -62,11 +54,14 @@ class ValveParams:
     line_volume_m3: float = field(2.0e-5, 'm^3', 'volume of the line and fittings', 0.0, 1.0)
     reference_volume_m3: float = field(1.3e-4, 'm^3', 'total volume V_ref at which w = w_ref',
                                        1.0e-9, 1.0)
-    transient_step_s: float = field(0.02, 's', 'longest exchange step asked for while the '
-                                    'pressure is in transient', 1.0e-5, 10.0)
+    scheme: str = field('zoh', '-', 'integration: zoh (exact), rk4 or euler (one step each)')
+    transient_step_s: float = field(0.1, 's', 'longest exchange step asked for while the '
+                                    'pressure is in transient and the chamber volume moves',
+                                    1.0e-5, 10.0)
     settled_tolerance_pa: float = field(2000.0, 'Pa', 'the pressure counts as settled within '
                                         'this of its steady state', 0.0, 1.0e6)
-    scheme: str = field('zoh', '-', 'integration: zoh (exact), rk4 or euler (one step each)')
+    volume_tolerance: float = field(1.0e-3, '-', 'relative change of the chamber volume over '
+                                    'an exchange that counts as moving', 0.0, 1.0)
 
 
 class ValveModel:
@@ -140,13 +135,52 @@ class ValveModel:
             raise ModelError(f'valve scheme {self.p.scheme!r}: use zoh, rk4 or euler')
         return self.pressure
 
-    def max_step(self, voltage_v: float) -> float:
+    def samples(self, voltage_v: float, steps_s: list[float],
+                chamber_volume_m3: float | None = None) -> list[float]:
+        """Advance over consecutive sub-steps (lengths in s) with u and V held; return the
+        gauge pressure at the end of each, Pa, shape (n,). With ``scheme: zoh`` every sample
+        is the exact ZOH update, computed once per distinct sub-step length.
+
+        Raises:
+            ModelError: the voltage or a sub-step is not finite, or a sub-step is < 0.
+        """
+        if self.p.order == 0 or self.p.scheme != 'zoh' or not math.isfinite(voltage_v):
+            return [self.step(voltage_v, d, chamber_volume_m3) for d in steps_s]
+        target = self.steady_pressure(voltage_v)
+        a, b = self.matrices(chamber_volume_m3)
+        key = (self.p.order, round(self.natural_frequency(chamber_volume_m3), 9))
+        s0, s1 = float(self.state[0]), float(self.state[1])
+        p_max = self.p.pressure_max_pa
+        out = []
+        cur = None
+        for d in steps_s:
+            if d != cur:
+                if not (math.isfinite(d) and d >= 0.0):
+                    raise ModelError(f'valve step {d!r} s is not a finite non-negative number')
+                ad, bd = self._cache.get(key, a, b, d)
+                a00, a01, a10, a11 = (float(v) for v in ad.ravel())
+                b0, b1 = float(bd[0, 0]) * target, float(bd[1, 0]) * target
+                cur = d
+            s0, s1 = a00 * s0 + a01 * s1 + b0, a10 * s0 + a11 * s1 + b1
+            out.append(min(max(s0, 0.0), p_max))
+        self.state = np.array([s0, s1])
+        return out
+
+    def max_step(self, voltage_v: float, volume_change_rel: float, last_step_s: float) -> float:
         """Longest next exchange step this valve asks for, s (0: any).
 
-        While the pressure is in transient (off its steady state, or moving), a short step lets
-        the muscle follow the pressure path, overshoot included: braid friction depends on it.
+        The valve integrates an exchange with the chamber volume of its start (the muscle
+        reports the volume once per exchange), so while the pressure is in transient it asks
+        for ``transient_step_s`` unless the volume stood still over the last exchange of at
+        least that length (at a held length any step is exact).
+
+        Args:
+            voltage_v: the command, V.
+            volume_change_rel: |V_k - V_k-1| / V_k over the last exchange, -.
+            last_step_s: length of the last exchange, s.
         """
-        if self.p.order == 0:
+        if self.p.order == 0 or (volume_change_rel <= self.p.volume_tolerance
+                                 and last_step_s >= self.p.transient_step_s - 1e-9):
             return 0.0
         target = self.steady_pressure(voltage_v)
         w = self.natural_frequency(None) if self.p.order == 2 else 1.0 / self.p.time_constant_s

@@ -10,11 +10,13 @@ ready (its inputs have publishers); step 1 uses the initial values. With its ack
 a participant may ask for a shorter next step (``max_next_step_s``), so that events such as a
 reading or a 1 kHz record land exactly on the exchange grid.
 
-Two options per input. ``same_step``: the participant steps to t_k with the message stamped t_k
-itself (Gauss-Seidel along an open chain such as valve -> muscle -> load cell; the producer
+Three options per input. ``same_step``: the participant steps to t_k with the message stamped
+t_k itself (Gauss-Seidel along an open chain such as valve -> muscle -> load cell; the producer
 must not depend on this participant within the same step). ``samples``: the input is the list
 of every message stamped in the interval (previous, required], in stamp order: a producer may
 publish sub-step samples between grid points, and the last one always sits on the grid.
+``from_start``: a lagged input whose producer publishes it at t_0 too (in ``on_start``), so
+step 1 needs it like every later step.
 
 A message lost at start-up (a reader matched after the writer's first publish) would stall the
 lock-step: when a tick is not acknowledged within ``nudge_s`` the clock publishes it again, and
@@ -44,11 +46,16 @@ from rosgraph_msgs.msg import Clock
 
 from pam_bench.models.params import ParamInfo, describe, from_mapping, param_infos
 
-__all__ = ['BenchNode', 'RELIABLE', 'ns_of', 'stamp_of_cdr', 'time_of', 'run_node',
+__all__ = ['BenchNode', 'RELIABLE', 'LOCKSTEP', 'ns_of', 'stamp_of_cdr', 'time_of', 'run_node',
            'message_class']
 
 RELIABLE = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
                       history=HistoryPolicy.KEEP_LAST, durability=DurabilityPolicy.VOLATILE)
+# Lock-step inputs and outputs keep everything: a 1 kHz record puts 1000 load-cell samples on
+# the wire in one exchange, and a bounded history would drop the oldest before the readers
+# take them (a reader on a wall clock wants the latest instead: RELIABLE).
+LOCKSTEP = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE,
+                      history=HistoryPolicy.KEEP_ALL, durability=DurabilityPolicy.VOLATILE)
 
 
 def ns_of(stamp: Time) -> int:
@@ -87,6 +94,7 @@ class BenchNode(Node):
         self._sync: dict[str, dict[int, Any]] = {}
         self._same_step: set[str] = set()
         self._samples: set[str] = set()
+        self._from_start: set[str] = set()
         self._decode: dict[str, type] = {}
         self._prev_prev_ns: int | None = None
         self._last_ns: int | None = None
@@ -161,7 +169,7 @@ class BenchNode(Node):
     def create_step_publisher(self, msg_type: type, topic: str) -> Any:
         """A publisher of a step output: what it publishes in a step is sent again when the
         clock repeats that tick (module docstring)."""
-        pub = self.create_publisher(msg_type, topic, RELIABLE)
+        pub = self.create_publisher(msg_type, topic, LOCKSTEP if self.lockstep else RELIABLE)
         if not self.lockstep:
             return pub
         send = pub.publish
@@ -174,12 +182,13 @@ class BenchNode(Node):
         return pub
 
     def sync_input(self, msg_type: type, topic: str, raw: bool = False,
-                   same_step: bool = False, samples: bool = False) -> None:
+                   same_step: bool = False, samples: bool = False,
+                   from_start: bool = False) -> None:
         """Subscribe to a synchronous input: buffered by stamp, required at every step.
 
         With ``raw`` the message stays CDR bytes and its stamp is read from the header, which
-        every stamped message (and Clock) starts with. ``same_step`` and ``samples``: see the
-        module docstring.
+        every stamped message (and Clock) starts with. ``same_step``, ``samples`` and
+        ``from_start``: see the module docstring.
         """
         buf: dict[int, Any] = {}
         self._sync[topic] = buf
@@ -187,6 +196,8 @@ class BenchNode(Node):
             self._same_step.add(topic)
         if samples:
             self._samples.add(topic)
+        if from_start:
+            self._from_start.add(topic)
         if not raw:
             self._decode[topic] = msg_type
 
@@ -196,7 +207,7 @@ class BenchNode(Node):
             buf[stamp_of_cdr(data)] = data
             self._try_step()
 
-        self.create_subscription(msg_type, topic, on_msg, RELIABLE, raw=True)
+        self.create_subscription(msg_type, topic, on_msg, LOCKSTEP, raw=True)
 
     def start_lockstep(self) -> None:
         """Subscribe to /clock and create the ack publisher (call after all sync_input)."""
@@ -230,7 +241,7 @@ class BenchNode(Node):
         for topic, buf in self._sync.items():
             if topic in self._same_step:
                 lo, hi = prev, t
-            elif self._step_index >= 1:
+            elif self._step_index >= 1 or topic in self._from_start:
                 lo, hi = (self._prev_prev_ns if self._prev_prev_ns is not None else -1), prev
             else:
                 continue                  # step 1 runs on the initial values

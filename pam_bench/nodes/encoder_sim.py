@@ -1,7 +1,8 @@
 """encoder_sim: the 16-bit absolute encoder on the pulley shaft (``EncoderModel``).
 
-Input ``sim/pulley/state`` (joint ``pulley``, rad); output ``encoder/joint_state`` (JointState,
-joint ``pulley``: quantised angle in rad and its finite-difference rate in rad/s).
+Input ``sim/pulley/state`` of the same exchange (joint ``pulley``, rad); output
+``encoder/joint_state`` (JointState, joint ``pulley``: quantised angle in rad and its
+finite-difference rate in rad/s).
 """
 
 from __future__ import annotations
@@ -27,14 +28,13 @@ class EncoderSim(BenchNode):
         self.topic = 'sim/pulley/state'
         self.angle_rad = 0.0
         self.pub = self.create_step_publisher(JointState, 'encoder/joint_state')
-        self.sync_input(JointState, self.topic)
+        self.sync_input(JointState, self.topic, same_step=True)
         self.start_lockstep()
 
     def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
-        """Read the last pulley angle."""
-        if inputs:
-            js = inputs[self.topic]
-            self.angle_rad = js.position[list(js.name).index('pulley')]
+        """Read the pulley angle at the end of the exchange."""
+        js = inputs[self.topic]
+        self.angle_rad = js.position[list(js.name).index('pulley')]
         angle, rate = self.model.measure(self.angle_rad, dt_s)
         msg = JointState(name=['pulley'], position=[angle], velocity=[rate])
         msg.header.stamp = time_of(t_ns)

@@ -1,9 +1,9 @@
 """load_cell_sim: the strain-gauge load cell of one muscle (``LoadCellModel``).
 
-Input ``sim/muscle_N/state`` (true tension); output ``load_cell_N/force`` (WrenchStamped,
-force.x in N, 16-bit quantised, seeded noise, saturating at +-2 kN with a diagnostic).
-With ``chained`` it measures the muscle state of the same exchange, every sample of it, and
-publishes one reading per sample with the sample's stamp (see ``nodes.base``).
+Input ``sim/muscle_N/samples`` of the same exchange (the true tension at every sub-step);
+output ``load_cell_N/force`` (WrenchStamped, force.x in N, 16-bit quantised, seeded noise,
+saturating at +-2 kN with a diagnostic): one reading at the end of the exchange, or, while a
+1 kHz record is on (the samples' ``record``), one per sample, stamped at the sample's time.
 """
 
 from __future__ import annotations
@@ -13,10 +13,10 @@ from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import WrenchStamped
-from pam_bench_interfaces.msg import MuscleState
+from pam_bench_interfaces.msg import MuscleSamples
 
 from pam_bench.models.sensors import LoadCellModel, LoadCellParams
-from pam_bench.nodes.base import BenchNode, ns_of, run_node, time_of
+from pam_bench.nodes.base import BenchNode, run_node, time_of
 
 __all__ = ['LoadCellSim', 'main']
 
@@ -30,26 +30,27 @@ class LoadCellSim(BenchNode):
         super().__init__(name, **kwargs)
         self.channel = self.declare_typed('channel', 1, 'muscle channel N', '-', 1, 2)
         seed = self.declare_typed('seed', 0, 'seed of the noise generator', '-', 0, 2**31 - 1)
-        self.chained = self.declare_typed('chained', False, 'measure the muscle of the same '
-                                          'exchange (Gauss-Seidel chain muscle -> load cell)')
         params = self.declare_model('load_cell', LoadCellParams)
         self.model = LoadCellModel(params, seed=seed + zlib.crc32(name.encode()))
-        self.topic = f'sim/muscle_{self.channel}/state'
+        self.topic = f'sim/muscle_{self.channel}/samples'
         self.force_n = 0.0
         self._was_saturated = False
         self.pub = self.create_step_publisher(WrenchStamped, f'load_cell_{self.channel}/force')
-        self.sync_input(MuscleState, self.topic, same_step=self.chained, samples=self.chained)
+        self.sync_input(MuscleSamples, self.topic, same_step=True)
         self.start_lockstep()
 
     def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
-        """Measure the last true tension (every sample of it when chained)."""
-        samples = [(t_ns, self.force_n)]
-        if self.topic in inputs:
-            msgs = inputs[self.topic]
-            if isinstance(msgs, list):
-                samples = [(ns_of(m.header.stamp), m.force) for m in msgs]
-            else:
-                samples = [(t_ns, msgs.force)]
+        """Measure the true tension at the end of the exchange (every sample during a record)."""
+        m: MuscleSamples = inputs[self.topic]
+        samples = [(t_ns, m.force[-1])]
+        if m.record:
+            t0 = t_ns - round(dt_s * 1e9)
+            elapsed = 0.0
+            samples = []
+            for d, f in zip(m.step, m.force, strict=True):
+                elapsed += d
+                samples.append((t0 + round(elapsed * 1e9), f))
+            samples[-1] = (t_ns, samples[-1][1])
         for stamp, force in samples:
             self.force_n = force
             f = self.model.measure(force)

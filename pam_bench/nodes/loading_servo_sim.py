@@ -1,18 +1,26 @@
 """loading_servo_sim: the electric loading servo, gear, belt and pulley (``LoadingServoModel``).
 
-Inputs: ``loading_servo/command`` (LoadCommand), ``sim/muscle_N/state`` (tension, stiffness),
-``load_cell_N/force`` and ``encoder/joint_state`` (what the drive's PID reads). Outputs:
-``sim/pulley/state`` (joints ``pulley`` rad and ``muscle_N`` contraction m) and
-``loading_servo/state`` (joint ``motor``: motor-side angle, rate, torque). A command that is not
-finite, has an unknown mode or a set value out of range is rejected and the last valid one is
-kept; a saturated drive is reported on /diagnostics. ``initial_mode`` and ``initial_setpoint``
-hold a load from t_0 for scenes without a sequencer (set ``sync_command`` false there).
+Inputs: ``loading_servo/command`` (LoadCommand, previous exchange) and
+``sim/muscle_N/samples`` (same exchange: the force at every sub-step). The muscle node has
+solved its force together with the drive law this node published for the exchange
+(``sim/pulley/law``); the drive replays the same sub-steps with those forces, reaching the
+state the muscle assumed, then takes the new command and publishes the law for the next
+exchange. A set value therefore acts one exchange after it is sent (the sequencer asks for a
+short exchange then). Outputs:
+``sim/pulley/state`` (joints ``pulley`` rad and ``muscle_N`` contraction m),
+``loading_servo/state`` (joint ``motor``: motor-side angle, rate, torque) and the law. The
+drive's force loop reads the muscle force at every sub-step (noise-free: the load cell's noise
+is on the recorded readings), its position loop its own 16-bit encoder count. A command that
+is not finite, has an unknown mode or a set value out of range is rejected and the last valid
+one is kept; a saturated drive is reported on /diagnostics. ``initial_mode`` and
+``initial_setpoint`` hold a load from t_0 for scenes without a sequencer (set ``sync_command``
+false there).
 
 With ``muscles = 2`` (the torque servo of 004 section 3.2) the drive holds the pulley angle
-``hold_angle_rad`` against two antagonistic muscles and the drive mechanics are not simulated
-(ideal position hold, as 004's tests use the drive): muscle 1 sits at
-x1 = x0 + r theta + F1 / k_b, muscle 2 at x2 = x0 - r theta + F2 / k_b (belt stretch from the
-last forces), the holding torque r (F1 - F2) goes out as the motor effort.
+``hold_angle_rad`` against two antagonistic muscles without simulated mechanics (ideal hold,
+as 004's tests use the drive): muscle 1 sits at x1 = x0 + r theta + F1 / k_b, muscle 2 at
+x2 = x0 - r theta + F2 / k_b (the law's ``hold_contraction``), the holding torque r (F1 - F2)
+goes out as the motor effort.
 """
 
 from __future__ import annotations
@@ -20,8 +28,7 @@ from __future__ import annotations
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticStatus
-from geometry_msgs.msg import WrenchStamped
-from pam_bench_interfaces.msg import LoadCommand, MuscleState
+from pam_bench_interfaces.msg import DriveLaw, LoadCommand, MuscleSamples
 from sensor_msgs.msg import JointState
 
 from pam_bench.models.loading_servo import LoadingServoModel, LoadingServoParams, LoadMode
@@ -59,27 +66,18 @@ class LoadingServoSim(BenchNode):
                 self.model.reset(init_sp)
         ch = self.channel
         self.cmd_topic = 'loading_servo/command'
-        self.muscle_topic = f'sim/muscle_{ch}/state'
-        self.cell_topic = f'load_cell_{ch}/force'
-        self.enc_topic = 'encoder/joint_state'
-        self.muscle = MuscleState()
-        self.f_meas = 0.0
-        self.th_meas = 0.0
+        self.muscle_topics = ([f'sim/muscle_{i}/samples' for i in (1, 2)]
+                              if self.muscles == 2 else [f'sim/muscle_{ch}/samples'])
         self._was_saturated = False
         self.pulley_pub = self.create_step_publisher(JointState, 'sim/pulley/state')
         self.state_pub = self.create_step_publisher(JointState, 'loading_servo/state')
+        self.law_pub = self.create_step_publisher(DriveLaw, 'sim/pulley/law')
         if self.sync_command:
             self.sync_input(LoadCommand, self.cmd_topic)
         else:
             self.create_subscription(LoadCommand, self.cmd_topic, self.apply_command, RELIABLE)
-        if self.muscles == 2:
-            self.pair = [MuscleState(), MuscleState()]
-            for i in (1, 2):
-                self.sync_input(MuscleState, f'sim/muscle_{i}/state')
-        else:
-            self.sync_input(MuscleState, self.muscle_topic)
-            self.sync_input(WrenchStamped, self.cell_topic)
-            self.sync_input(JointState, self.enc_topic)
+        for topic in self.muscle_topics:
+            self.sync_input(MuscleSamples, topic, same_step=True)
         self.start_lockstep()
 
     def apply_command(self, msg: LoadCommand) -> None:
@@ -98,64 +96,62 @@ class LoadingServoSim(BenchNode):
         if (LoadMode(msg.mode), sp) != (self.model.mode, self.model.setpoint):
             self.model.command(LoadMode(msg.mode), sp)
 
-    def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
-        """Advance the drive mechanics over the exchange step."""
-        if self.muscles == 2:
-            self._hold_pair(t_ns, inputs)
-            return
-        if inputs:
-            if self.cmd_topic in inputs:
-                self.apply_command(inputs[self.cmd_topic])
-            self.muscle = inputs[self.muscle_topic]
-            self.f_meas = inputs[self.cell_topic].wrench.force.x
-            js = inputs[self.enc_topic]
-            self.th_meas = js.position[0]
-        m = self.muscle
-        out = self.model.step(dt_s, m.force, m.stiffness, m.contraction, self.f_meas,
-                              self.th_meas)
-        self.max_next_step_s = self.model.max_step()
-        if out.saturated != self._was_saturated:
-            self._was_saturated = out.saturated
-            self.diagnose(DiagnosticStatus.WARN if out.saturated else DiagnosticStatus.OK,
-                          'loading servo ' + ('at its torque limit' if out.saturated
-                                              else 'within its torque limit'))
-        stamp = time_of(t_ns)
-        r, i = self.model.r, self.model.p.gear_ratio
-        pulley = JointState(name=['pulley', f'muscle_{self.channel}'],
-                            position=[out.pulley_angle_rad, out.contraction_m],
-                            velocity=[out.pulley_rate_rad_s, out.pulley_rate_rad_s * r])
-        pulley.header.stamp = stamp
-        self.pulley_pub.publish(pulley)
-        motor = JointState(name=['motor'], position=[float(self.model.state[0]) * i],
-                           velocity=[out.pulley_rate_rad_s * i],
-                           effort=[out.output_torque_nm / i])
-        motor.header.stamp = stamp
-        self.state_pub.publish(motor)
+    def on_start(self, t_ns: int) -> None:
+        """Publish the law of the first exchange."""
+        self._publish_law(t_ns)
 
-    def _hold_pair(self, t_ns: int, inputs: dict[str, Any]) -> None:
-        """Two muscles, ideal angle hold (module docstring)."""
+    def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
+        """Replay the muscle's sub-steps, take the command, publish the next law."""
+        stamp = time_of(t_ns)
+        i = self.model.p.gear_ratio
+        if self.muscles == 2:
+            states = [inputs[t] for t in self.muscle_topics]
+            r = self.model.r
+            th = self._pair_angle()
+            f1, f2 = states[0].force[-1], states[1].force[-1]
+            positions = [th, states[0].contraction[-1], states[1].contraction[-1]]
+            names = ['pulley', 'muscle_1', 'muscle_2']
+            velocity = [0.0, 0.0, 0.0]
+            motor = JointState(name=['motor'], position=[th * i], velocity=[0.0],
+                               effort=[r * (f1 - f2) / i])
+        else:
+            m: MuscleSamples = inputs[self.muscle_topics[0]]
+            out = self.model.replay(list(m.step), list(m.force))
+            if out.saturated != self._was_saturated:
+                self._was_saturated = out.saturated
+                self.diagnose(DiagnosticStatus.WARN if out.saturated else DiagnosticStatus.OK,
+                              'loading servo ' + ('at its torque limit' if out.saturated
+                                                  else 'within its torque limit'))
+            r = self.model.r
+            positions = [out.pulley_angle_rad, out.contraction_m]
+            names = ['pulley', f'muscle_{self.channel}']
+            velocity = [out.pulley_rate_rad_s, out.pulley_rate_rad_s * r]
+            motor = JointState(name=['motor'], position=[self.model.phi * i],
+                               velocity=[out.pulley_rate_rad_s * i],
+                               effort=[out.output_torque_nm / i])
         if self.cmd_topic in inputs:
             self.apply_command(inputs[self.cmd_topic])
-        for i in (0, 1):
-            topic = f'sim/muscle_{i + 1}/state'
-            if topic in inputs:
-                self.pair[i] = inputs[topic]
-        r, k_b = self.model.r, self.model.p.belt_stiffness_n_per_m
-        th = (self.model.setpoint / r if self.model.mode == LoadMode.POSITION
-              else self.hold_angle_rad)
-        f1, f2 = self.pair[0].force, self.pair[1].force
-        x1 = self.rest_contraction_m + r * th + f1 / k_b
-        x2 = self.rest_contraction_m - r * th + f2 / k_b
-        stamp = time_of(t_ns)
-        pulley = JointState(name=['pulley', 'muscle_1', 'muscle_2'], position=[th, x1, x2],
-                            velocity=[0.0, 0.0, 0.0])
+        pulley = JointState(name=names, position=positions, velocity=velocity)
         pulley.header.stamp = stamp
         self.pulley_pub.publish(pulley)
-        i = self.model.p.gear_ratio
-        motor = JointState(name=['motor'], position=[th * i], velocity=[0.0],
-                           effort=[r * (f1 - f2) / i])
         motor.header.stamp = stamp
         self.state_pub.publish(motor)
+        self._publish_law(t_ns)
+
+    def _pair_angle(self) -> float:
+        return (self.model.setpoint / self.model.r if self.model.mode == LoadMode.POSITION
+                else self.hold_angle_rad)
+
+    def _publish_law(self, t_ns: int) -> None:
+        law = DriveLaw(mode=int(self.model.mode), setpoint=self.model.setpoint,
+                       belt_stiffness=self.model.p.belt_stiffness_n_per_m)
+        if self.muscles == 2:
+            x0, rth = self.rest_contraction_m, self.model.r * self._pair_angle()
+            law.hold_contraction = [x0 + rth, x0 - rth]
+        else:
+            law.parameters, law.state = self.model.law()
+        law.header.stamp = time_of(t_ns)
+        self.law_pub.publish(law)
 
     def on_fault(self, reason: str) -> None:
         """Torque off."""

@@ -1,84 +1,101 @@
 """muscle_sim: one McKibben muscle (``MuscleModel``), ground truth on ``sim/muscle_N/state``.
 
-Inputs: ``valve_N/pressure`` (absolute Pa) and ``sim/pulley/state`` (joint ``muscle_N``:
-contraction x in m). Output: MuscleState with the contraction x the force was evaluated at and
-the stiffness -dF/dx the loading servo uses for implicit coupling.
-
-With ``chained`` the muscle steps to t_k on the valve's pressure of the same exchange (see
-``nodes.base``) and publishes one state per pressure sample, stamped like it; between exchanges
-the end yields with ``holder_compliance_m_per_n`` (``MuscleModel.step_compliant``).
+Inputs: ``sim/valve_N/samples`` (the valve's pressure at every sub-step of this exchange) and
+``sim/pulley/law`` (DriveLaw of the previous exchange: how the loading servo moves the muscle
+end under a force). The muscle and the drive are solved together at every sub-step
+(``pam_bench.models.coupling``). Outputs: ``sim/muscle_N/state`` (MuscleState at the end of the
+exchange: pressure, force, contraction, chamber volume for the valve) and
+``sim/muscle_N/samples`` (MuscleSamples: every sub-step's force and contraction, which the
+loading servo replays and the load cell measures).
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-from pam_bench_interfaces.msg import MuscleState
-from sensor_msgs.msg import FluidPressure, JointState
+from pam_bench_interfaces.msg import DriveLaw, MuscleSamples, MuscleState, PressureSamples
 
+from pam_bench.models.coupling import solve_substeps
+from pam_bench.models.errors import ModelError
+from pam_bench.models.loading_servo import IdealHold, LoadingServoModel
 from pam_bench.models.muscle import MuscleModel, MuscleParams
-from pam_bench.nodes.base import BenchNode, ns_of, run_node, time_of
-from pam_bench.nodes.valve_sim import ATMOSPHERE_PA
+from pam_bench.nodes.base import BenchNode, run_node, time_of
 
 __all__ = ['MuscleSim', 'main']
 
 
 class MuscleSim(BenchNode):
-    """Thin node over ``MuscleModel``."""
+    """Thin node over ``MuscleModel`` and the coupled sub-step solve."""
 
     LEAN_SPIN = True    # subscriptions only: see nodes.base.lean_spin
 
     def __init__(self, name: str = 'muscle_1', **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
         self.channel = self.declare_typed('channel', 1, 'muscle channel N', '-', 1, 2)
-        self.chained = self.declare_typed('chained', False, 'step on the pressure of the same '
-                                          'exchange (Gauss-Seidel chain valve -> muscle)')
-        self.compliance_m_per_n = self.declare_typed(
-            'holder_compliance_m_per_n', 1.0e-6, 'compliance of the holder of the muscle end '
-            'between exchanges (belt + drive), used for pressure samples', 'm/N', 0.0, 1.0)
         self.model = MuscleModel(self.declare_model('muscle', MuscleParams))
         self.joint = f'muscle_{self.channel}'
-        self.p_topic = f'valve_{self.channel}/pressure'
-        self.x_topic = 'sim/pulley/state'
+        self.p_topic = f'sim/valve_{self.channel}/samples'
+        self.law_topic = 'sim/pulley/law'
         self.pressure_pa = 0.0
         self.contraction_m = 0.0
-        self.pub = self.create_step_publisher(MuscleState, f'sim/muscle_{self.channel}/state')
         self.force_n = 0.0
-        self.sync_input(FluidPressure, self.p_topic, same_step=self.chained,
-                        samples=self.chained)
-        self.sync_input(JointState, self.x_topic)
+        self._drive_cache: dict = {}
+        self._mounted = False
+        self.pub = self.create_step_publisher(MuscleState, f'sim/muscle_{self.channel}/state')
+        self.samples_pub = self.create_step_publisher(MuscleSamples,
+                                                      f'sim/muscle_{self.channel}/samples')
+        self.sync_input(PressureSamples, self.p_topic, same_step=True)
+        self.sync_input(DriveLaw, self.law_topic, from_start=True)
         self.start_lockstep()
 
+    def on_start(self, t_ns: int) -> None:
+        """Publish the state at t_0 (the valve needs the chamber volume of step 1); the muscle
+        is mounted, relaxed, where the holder's law of t_0 puts its end (first step)."""
+        out = self.model.step(self.pressure_pa, self.contraction_m)
+        self._publish(t_ns, out.stiffness_n_per_m, out.friction_n)
+
+    def _holder(self, law: DriveLaw) -> Any:
+        if len(law.hold_contraction):
+            if len(law.hold_contraction) < self.channel:
+                raise ModelError(f'drive law holds {len(law.hold_contraction)} muscles, not '
+                                 f'channel {self.channel}')
+            return IdealHold(law.hold_contraction[self.channel - 1], law.belt_stiffness)
+        return LoadingServoModel.from_law(list(law.parameters), list(law.state), law.mode,
+                                          law.setpoint, self._drive_cache)
+
     def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
-        """Evaluate the muscle at the last pressure (every pressure sample when chained) and
-        contraction."""
-        pressures: list[tuple[int, float]] = []
-        if self.p_topic in inputs:
-            msgs = inputs[self.p_topic]
-            for m in msgs if isinstance(msgs, list) else [msgs]:
-                pressures.append((ns_of(m.header.stamp), m.fluid_pressure - ATMOSPHERE_PA))
-        if self.x_topic in inputs:
-            js = inputs[self.x_topic]
-            x = js.position[list(js.name).index(self.joint)]
-            if self.finite(x):
-                self.contraction_m = x
-            else:
-                self.reject('muscle contraction', x)
-        if not self.chained or not pressures:
-            pressures = [(t_ns, pressures[-1][1] if pressures else self.pressure_pa)]
-        c = self.compliance_m_per_n if len(pressures) > 1 else 0.0
-        for stamp, p in pressures:
+        """Solve the muscle with its holder over the valve's sub-steps; publish the samples."""
+        samples: PressureSamples = inputs[self.p_topic]
+        steps, pressures = list(samples.step), list(samples.pressure)
+        for i, p in enumerate(pressures):
             if not self.finite(p):
-                self.reject('muscle pressure', p)
-                p = self.pressure_pa
-            self.pressure_pa = p
-            out, x = self.model.step_compliant(p, self.contraction_m, self.force_n, c)
-            msg = MuscleState(pressure=p, force=out.force_n, contraction=x, volume=out.volume_m3,
-                              stiffness=out.stiffness_n_per_m, friction_force=out.friction_n)
-            msg.header.stamp = time_of(stamp)
-            msg.header.frame_id = self.joint
-            self.pub.publish(msg)
-        self.force_n = out.force_n
+                self.reject('muscle pressure (last valid held)', p)
+                pressures[i] = pressures[i - 1] if i else self.pressure_pa
+        holder = self._holder(inputs[self.law_topic])
+        if not self._mounted:                 # mounted slack, where the holder puts the end
+            holder.prepare(steps[0])
+            self.contraction_m = holder.contraction(0.0)
+            self.model.reset(self.contraction_m, 0.0)
+            self._mounted = True
+        res = solve_substeps(self.model, holder, steps, pressures, self.force_n)
+        self.pressure_pa = pressures[-1]
+        self.force_n = res.forces_n[-1]
+        self.contraction_m = res.contractions_m[-1]
+        self._publish(t_ns, res.stiffness_n_per_m, res.friction_n)
+        out = MuscleSamples(step=steps, force=res.forces_n, contraction=res.contractions_m,
+                            record=samples.record)
+        out.header.stamp = time_of(t_ns)
+        out.header.frame_id = self.joint
+        self.samples_pub.publish(out)
+
+    def _publish(self, t_ns: int, stiffness: float, friction: float) -> None:
+        msg = MuscleState(pressure=self.pressure_pa, force=self.force_n,
+                          contraction=self.contraction_m,
+                          volume=self.model.volume(self.contraction_m), stiffness=stiffness,
+                          friction_force=friction)
+        msg.header.stamp = time_of(t_ns)
+        msg.header.frame_id = self.joint
+        self.pub.publish(msg)
 
 
 def main(args: list[str] | None = None) -> None:

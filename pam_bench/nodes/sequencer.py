@@ -11,10 +11,11 @@ any time when idle) a ``protocol/run`` RunProtocol goal starts one, with optiona
 overrides. Cancelling the goal stops the run and vents the valve. A lock-step sequencer with
 ``autostart`` (a scene) serves no goals and spins on its subscriptions only.
 
-Ticks: in lock-step (simulated bench) on every /clock tick, asking the clock for a step that
-lands on the next reading or record sample (or, with ``record_exchange_s``, on the record's
-exchange grid while the valve samples at 1 kHz), and for at most ``command_step_s`` right after
-a set value changes, so the devices resolve the start of every transient; with ``lockstep:
+Ticks: in lock-step (simulated bench) on every /clock tick, with the measurements of the same
+exchange (the devices form a chain that ends here), asking the clock for a step that lands on
+the next reading or on the end of a record (the valve and the load cell then report every
+1 kHz sample inside the exchange), and for ``command_step_s`` at every new reading or phase
+(the loading servo takes a new set value one exchange after it is sent); with ``lockstep:
 false`` (real bench) on a timer of ``tick_period_s``, aborting when a measured topic is older
 than ``stale_timeout_s``.
 """
@@ -41,8 +42,9 @@ from rclpy.task import Future
 from sensor_msgs.msg import FluidPressure, JointState
 
 from pam_bench.models.errors import ParameterError
-from pam_bench.models.loading_servo import LoadMode
 from pam_bench.models.protocols import (
+    COMMAND_STEP_S,
+    RECORD_EXCHANGE_S,
     Limits,
     Measurement,
     Phase,
@@ -96,18 +98,13 @@ class SequencerNode(BenchNode):
                                1e-4, 1.0)
         self.stale_timeout_s = d('stale_timeout_s', 0.5, 'abort when a measured topic is '
                                  'older than this (without lock-step)', 's', 1e-3, 60.0)
-        self.record_exchange_s = d('record_exchange_s', 0.0, 'exchange step asked for during '
-                                   'a step record; > 0 also asks the valve for pressure samples '
-                                   'at the record rate (chained benches); 0: one exchange per '
-                                   'sample', 's', 0.0, 1.0)
-        self.command_step_s = d('command_step_s', 0.02, 'longest exchange step asked for '
-                                'when a set value changes (the devices see the change one '
-                                'step later and can only then ask for short steps)', 's',
-                                1e-6, 10.0)
-        self.force_mode_exchange_s = d('force_mode_exchange_s', 0.0, 'longest exchange step '
-                                       'asked for while the loading servo is in force mode '
-                                       '(0: no limit); a campaign mixes force- and position-mode '
-                                       'protocols', 's', 0.0, 10.0)
+        self.record_exchange_s = d('record_exchange_s', RECORD_EXCHANGE_S, 'longest exchange '
+                                   'step asked for during a step record (0: the whole record in '
+                                   'one; the devices report every sample inside it)', 's', 0.0,
+                                   10.0)
+        self.command_step_s = d('command_step_s', COMMAND_STEP_S, 'exchange step asked for at '
+                                'every new reading or phase (the loading servo takes a new set '
+                                'value one exchange after it is sent)', 's', 1e-6, 10.0)
         self.resume_from_reading = d('resume_from_reading', 0, 'start the autostart protocol at '
                                      'this reading (pam-bench run --resume: the first one of '
                                      'the first series a previous bag did not complete)', '-',
@@ -140,7 +137,7 @@ class SequencerNode(BenchNode):
         self.record_pub = self.create_publisher(StepResponseRecord, 'protocol/step_response',
                                                 RELIABLE)
         self.status_pub = self.create_publisher(ProtocolStatus, 'protocol/status', RELIABLE)
-        self._last_command: tuple[float, int, float] | None = None
+        self._last_marker: tuple[int, Phase] | None = None
         self._last_status_t = -math.inf
         self._last_phase: Phase | None = None
         self._start_pending = False
@@ -156,9 +153,9 @@ class SequencerNode(BenchNode):
                                        goal_callback=self._on_goal,
                                        cancel_callback=lambda _: CancelResponse.ACCEPT)
         if self.lockstep:
-            self.sync_input(WrenchStamped, self.cell_topic, samples=True)
-            self.sync_input(JointState, self.enc_topic)
-            self.sync_input(FluidPressure, self.p_topic)
+            self.sync_input(WrenchStamped, self.cell_topic, samples=True, same_step=True)
+            self.sync_input(JointState, self.enc_topic, same_step=True)
+            self.sync_input(FluidPressure, self.p_topic, same_step=True)
             self.start_lockstep()
         else:
             self.create_subscription(WrenchStamped, self.cell_topic,
@@ -207,12 +204,14 @@ class SequencerNode(BenchNode):
 
     # --- ticking ------------------------------------------------------------------------
     def on_start(self, t_ns: int) -> None:
-        """Start the protocol at t_0 when autostart is set."""
+        """Start the protocol at t_0 when autostart is set (its first commands go out at the
+        end of a first exchange of ``command_step_s``)."""
         if self.core is not None:
             self.core.start(t_ns * 1e-9)
+            self.max_next_step_s = self.command_step_s
 
     def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
-        """Lock-step tick: take the inputs of t_(k-1), tick the protocol."""
+        """Lock-step tick: take the measurements of t_k, tick the protocol."""
         for topic, msg in inputs.items():
             self._update(topic, msg)
         self._tick(t_ns)
@@ -254,12 +253,9 @@ class SequencerNode(BenchNode):
             self._publish_status(t, stamp)
         nxt = core.next_event_s(t)
         self.max_next_step_s = max(nxt - t, 1e-6) if math.isfinite(nxt) else 0.0
-        command = (cmd.voltage_v, int(cmd.load_mode), cmd.load_value)
-        if self.force_mode_exchange_s > 0.0 and cmd.load_mode == LoadMode.FORCE:
-            self.max_next_step_s = min(self.max_next_step_s or math.inf,
-                                       self.force_mode_exchange_s)
-        if command != self._last_command:
-            self._last_command = command
+        marker = (core.index, core.phase)
+        if marker != self._last_marker:           # a new reading or phase: new set values
+            self._last_marker = marker
             self.max_next_step_s = min(self.max_next_step_s or math.inf, self.command_step_s)
         if not core.running and core.phase != Phase.IDLE:
             self._finish_goal()

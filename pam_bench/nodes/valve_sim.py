@@ -1,12 +1,13 @@
 """valve_sim: the proportional pressure valve of one muscle channel (``ValveModel``).
 
 Subscribes ``valve_N/command`` (ValveCommand, V) and ``sim/muscle_N/state`` (chamber volume);
-publishes ``valve_N/pressure`` (FluidPressure, absolute Pa). A NaN, infinite or out-of-range
-voltage is rejected, counted on /diagnostics and the valve vents (u = 0 V) until a valid
-command arrives. When the command asks for a ``sample_period`` T shorter than the exchange
-step h, the step is integrated in round(h / T) equal sub-steps and every sub-step's pressure is
-published, stamped at its own time (the last on the exchange grid); the muscle and the load
-cell of a chained scene follow each sample (1 kHz step records at 10 ms exchanges).
+publishes ``valve_N/pressure`` (FluidPressure, absolute Pa, at the end of each exchange) and
+``sim/valve_N/samples`` (PressureSamples: the gauge pressure at the end of every sub-step of
+the exchange, ``sub_step_s`` long, or the command's ``sample_period`` during a 1 kHz record),
+which the muscle follows sample by sample. A NaN, infinite or out-of-range voltage is rejected,
+counted on /diagnostics and the valve vents (u = 0 V) until a valid command arrives. While the
+pressure is in transient and the chamber volume moves, the valve asks for exchange steps of at
+most ``transient_step_s`` (it integrates an exchange at the volume of its start).
 """
 
 from __future__ import annotations
@@ -14,10 +15,11 @@ from __future__ import annotations
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticStatus
-from pam_bench_interfaces.msg import MuscleState, ValveCommand
+from pam_bench_interfaces.msg import MuscleState, PressureSamples, ValveCommand
 from sensor_msgs.msg import FluidPressure
 
-from pam_bench.models.valve import ValveModel, ValveParams, sub_steps
+from pam_bench.models.coupling import substep_grid
+from pam_bench.models.valve import ValveModel, ValveParams
 from pam_bench.nodes.base import RELIABLE, BenchNode, run_node, time_of
 
 __all__ = ['ValveSim', 'ATMOSPHERE_PA', 'main']
@@ -35,19 +37,26 @@ class ValveSim(BenchNode):
         self.channel = self.declare_typed('channel', 1, 'muscle channel N', '-', 1, 2)
         self.sync_command = self.declare_typed(
             'sync_command', True, 'require a command at every step (lock-step controllers)')
+        self.sub_step_s = self.declare_typed(
+            'sub_step_s', 0.005, 'sub-step of the pressure samples the muscle follows (the '
+            'record sample period replaces it during a record)', 's', 1e-5, 1.0)
         self.model = ValveModel(self.declare_model('valve', ValveParams))
         self.voltage_v = 0.0
         self.sample_period_s = 0.0
         self.volume_m3: float | None = None
+        self.volume_change = 0.0          # over the exchange that ended at the volume's stamp
+        self._last_dt_s = 0.0             # length of that exchange, s
         self.cmd_topic = f'valve_{self.channel}/command'
         self.muscle_topic = f'sim/muscle_{self.channel}/state'
         self.pub = self.create_step_publisher(FluidPressure, f'valve_{self.channel}/pressure')
+        self.samples_pub = self.create_step_publisher(PressureSamples,
+                                                      f'sim/valve_{self.channel}/samples')
         if self.lockstep and self.sync_command:
             self.sync_input(ValveCommand, self.cmd_topic)
         else:
             self.create_subscription(ValveCommand, self.cmd_topic, self.apply_command, RELIABLE)
         if self.lockstep:
-            self.sync_input(MuscleState, self.muscle_topic)
+            self.sync_input(MuscleState, self.muscle_topic, from_start=True)
             self.start_lockstep()
 
     def apply_command(self, msg: ValveCommand) -> None:
@@ -63,20 +72,31 @@ class ValveSim(BenchNode):
         self.voltage_v = float(u)
 
     def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
-        """Advance the valve and publish its pressure."""
+        """Advance the valve over the exchange and publish its pressure and samples."""
         if self.cmd_topic in inputs:
             self.apply_command(inputs[self.cmd_topic])
         if self.muscle_topic in inputs:
-            self.volume_m3 = inputs[self.muscle_topic].volume
-        n = sub_steps(dt_s, self.sample_period_s)
-        t0 = t_ns - round(dt_s * 1e9)
-        for j in range(1, n + 1):
-            p = self.model.step(self.voltage_v, dt_s / n, self.volume_m3)
-            msg = FluidPressure(fluid_pressure=p + ATMOSPHERE_PA, variance=0.0)
-            msg.header.stamp = time_of(t_ns if j == n else t0 + (t_ns - t0) * j // n)
-            msg.header.frame_id = f'valve_{self.channel}'
-            self.pub.publish(msg)
-        self.max_next_step_s = self.model.max_step(self.voltage_v)
+            v = inputs[self.muscle_topic].volume
+            if self.finite(v) and v > 0.0:
+                if self.volume_m3 is not None:
+                    self.volume_change = abs(v - self.volume_m3) / v
+                self.volume_m3 = v
+        record = self.sample_period_s > 0.0
+        steps = substep_grid(dt_s, min(self.sample_period_s if record else self.sub_step_s,
+                                       dt_s))
+        pressures = self.model.samples(self.voltage_v, steps, self.volume_m3)
+        stamp = time_of(t_ns)
+        msg = FluidPressure(fluid_pressure=pressures[-1] + ATMOSPHERE_PA, variance=0.0)
+        msg.header.stamp = stamp
+        msg.header.frame_id = f'valve_{self.channel}'
+        self.pub.publish(msg)
+        samples = PressureSamples(step=steps, pressure=pressures, record=record)
+        samples.header.stamp = stamp
+        samples.header.frame_id = f'valve_{self.channel}'
+        self.samples_pub.publish(samples)
+        self.max_next_step_s = self.model.max_step(self.voltage_v, self.volume_change,
+                                                   self._last_dt_s)
+        self._last_dt_s = dt_s
 
     def on_fault(self, reason: str) -> None:
         """Vent."""

@@ -1,27 +1,21 @@
 """The single-muscle bench coupled in one process with numpy, exchange for exchange as the nodes.
 
-Each exchange step of length h, exactly as the lock-step ROS nodes do. ``coupling='jacobi'``:
-every device sees the others' outputs of the previous exchange:
+Each exchange step [t_k-1, t_k] of length h, in the nodes' order (``nodes.base``: a chain of
+same-exchange inputs valve -> muscle -> loading servo -> encoder, muscle -> load cell):
 
-    valve:   p_k+1      = valve.step(u_k, h, V_k)
-    muscle:  F, K, V    = muscle.step(p_k, x_k)          (algebraic, friction state)
-    cell:    F_m        = load_cell.measure(F_k)
-    encoder: theta_m    = encoder.measure(theta_k)
-    servo:   theta, x   = servo.step(h, F_k, K_k, x_e,k, F_m,k, theta_m,k)
+    valve:   p_j     = valve.samples(u, sub-steps of h, V_k-1)    (exact ZOH, u and V held)
+    muscle:  F_j, x_j = coupling.solve_substeps(muscle, drive law of t_k-1, sub-steps, p_j)
+    servo:   the drive keeps the same sub-steps (the node replays F_j), then takes the command
+             the sequencer sent at t_k-1: a new set value acts one exchange after it is sent
+    cell:    F_m     = load_cell.measure(F_n)  (every F_j during a 1 kHz record)
+    encoder: theta_m = encoder.measure(theta_n)
 
-``coupling='chained'`` (Gauss-Seidel along valve -> muscle -> load cell, the nodes' ``chained``
-parameter): the muscle takes the pressure of the same exchange and the load cell the force of
-the same exchange, so the open chain from the valve command to the load cell has no exchange
-delay; the loading servo and the encoder still see the previous exchange:
-
-    muscle:  F_k+1      = muscle.step(p_k+1, x_k),   cell: F_m,k+1 = load_cell.measure(F_k+1)
-
-With a sample period T (``step(h, sample_period_s=T)``, chained only) the valve integrates the
-exchange in h / T sub-steps and the muscle and the load cell follow every sub-step: the force
-at each sample time, as the nodes publish it during a 1 kHz record taken with exchange steps
-much longer than 1 ms. Between exchanges the muscle end yields with the holder's compliance c
-(belt 1 / k_b plus the drive's position loop 1 / K_px, 1e-6 m/N):
-x_j = x_k + c (F_j - F_k) (``MuscleModel.step_compliant``).
+The sub-steps are ``sub_step_s`` long from the start of the exchange (the last one shorter when
+h is not a multiple), or the record's sample period while one is asked for
+(``step(h, sample_period_s=T)``). The mechanics inside an exchange are solved implicitly at
+every sub-step (``models.coupling``), so the exchange step only decides how often the devices
+talk, not how the muscle and the drive move; what an exchange still delays is a new servo set
+value and the chamber volume the valve sees.
 
 It is the reference the ROS runs are compared against and the engine of the calibration.
 """
@@ -30,12 +24,16 @@ from __future__ import annotations
 
 import dataclasses
 
+from pam_bench.models.coupling import solve_substeps, substep_grid
 from pam_bench.models.loading_servo import LoadingServoModel, LoadingServoParams, LoadMode
 from pam_bench.models.muscle import MuscleModel, MuscleParams
+from pam_bench.models.protocols import COMMAND_STEP_S
 from pam_bench.models.sensors import EncoderModel, EncoderParams, LoadCellModel, LoadCellParams
-from pam_bench.models.valve import ValveModel, ValveParams, sub_steps
+from pam_bench.models.valve import ValveModel, ValveParams
 
-__all__ = ['BenchState', 'SingleMuscleBench']
+__all__ = ['BenchState', 'SingleMuscleBench', 'DEFAULT_SUB_STEP_S']
+
+DEFAULT_SUB_STEP_S = 0.005
 
 
 @dataclasses.dataclass
@@ -58,11 +56,8 @@ class SingleMuscleBench:
     def __init__(self, valve: ValveParams | None = None, muscle: MuscleParams | None = None,
                  load_cell: LoadCellParams | None = None, encoder: EncoderParams | None = None,
                  servo: LoadingServoParams | None = None, seed: int = 0,
-                 coupling: str = 'jacobi', holder_compliance_m_per_n: float = 1.0e-6) -> None:
-        if coupling not in ('jacobi', 'chained'):
-            raise ValueError(f'coupling {coupling!r}: use jacobi or chained')
-        self.coupling = coupling
-        self.compliance = holder_compliance_m_per_n
+                 sub_step_s: float = DEFAULT_SUB_STEP_S) -> None:
+        self.sub_step_s = sub_step_s
         self.valve = ValveModel(valve)
         self.muscle = MuscleModel(muscle)
         self.cell = LoadCellModel(load_cell, seed=seed)
@@ -71,75 +66,87 @@ class SingleMuscleBench:
         self.t = 0.0
         self.u = 0.0
         self.p = 0.0
-        self.out = self.muscle.step(0.0, 0.0)
+        self.f = 0.0
         self.x = 0.0
-        self.x_eval = 0.0
-        self.theta = 0.0
+        self.volume = self.muscle.volume(0.0)
+        self.volume_change = 0.0      # |V_k - V_k-1| / V_k of the last exchange
+        self.last_step_s = 0.0
+        self._change_seen = self._step_seen = 0.0
         self.f_meas = 0.0
         self.th_meas = 0.0
-        self.steps = 0                # exchanges taken by adaptive runs
+        self.steps = 0                # exchanges taken
+        self.substeps = 0             # sub-steps taken
+        self._pending: tuple[LoadMode, float] | None = None
         self.samples: list[tuple[float, float]] = []   # (t s, measured N) of the last step
 
     def command_valve(self, voltage_v: float) -> None:
         """Hold ``voltage_v`` from now on."""
         self.u = voltage_v
 
-    def command_load(self, mode: LoadMode, setpoint: float) -> None:
-        """Loading servo mode and set value (N or m)."""
-        self.servo.command(mode, setpoint)
+    def command_load(self, mode: LoadMode, setpoint: float, now: bool = False) -> None:
+        """Loading servo mode and set value (N or m): acts after the next exchange, as a
+        command sent at this tick reaches the drive's law one exchange later (``now``: at
+        once, for setting a bench up)."""
+        if now:
+            self.servo.command(mode, setpoint)
+            self._pending = None
+        else:
+            self._pending = (LoadMode(mode), setpoint)
 
     def step(self, h_s: float, sample_period_s: float = 0.0) -> BenchState:
         """One exchange step of ``h_s`` seconds (module docstring); ``sample_period_s`` > 0
-        (chained coupling) fills ``samples`` with the load cell at every sub-step."""
-        if self.coupling == 'jacobi':
-            p_new = self.valve.step(self.u, h_s, self.out.volume_m3)
-            out_new = self.muscle.step(self.p, self.x)
-            f_meas_new = self.cell.measure(self.out.force_n)
-            self.samples = [(self.t + h_s, f_meas_new)]
+        fills ``samples`` with the load cell at every sub-step of that length."""
+        period = sample_period_s if sample_period_s > 0.0 else self.sub_step_s
+        steps = substep_grid(h_s, min(period, h_s))
+        pressures = self.valve.samples(self.u, steps, self.volume)
+        res = solve_substeps(self.muscle, self.servo, steps, pressures, self.f)
+        self.substeps += len(steps)
+        self.steps += 1
+        if self._pending is not None:
+            self.servo.command(*self._pending)
+            self._pending = None
+        self.p, self.f, self.x = pressures[-1], res.forces_n[-1], res.contractions_m[-1]
+        volume = self.muscle.volume(self.x)
+        # the valve node learns this exchange's volume change one exchange later
+        self._change_seen, self._step_seen = self.volume_change, self.last_step_s
+        self.volume_change = abs(volume - self.volume) / volume
+        self.volume = volume
+        if sample_period_s > 0.0:
+            t, self.samples = self.t, []
+            for d, f in zip(steps, res.forces_n, strict=True):
+                t += d
+                self.samples.append((t, self.cell.measure(f)))
+            self.f_meas = self.samples[-1][1]
         else:
-            n = sub_steps(h_s, sample_period_s)
-            self.samples = []
-            c = self.compliance if n > 1 else 0.0
-            x_eval = self.x
-            for j in range(1, n + 1):
-                p_new = self.valve.step(self.u, h_s / n, self.out.volume_m3)
-                out_new, x_eval = self.muscle.step_compliant(p_new, self.x, self.out.force_n, c)
-                f_meas_new = self.cell.measure(out_new.force_n)
-                self.samples.append((self.t + h_s * j / n, f_meas_new))
-        th_meas_new, _ = self.encoder.measure(self.theta, h_s)
-        srv = self.servo.step(h_s, self.out.force_n, self.out.stiffness_n_per_m, self.x_eval,
-                              self.f_meas, self.th_meas)
-        self.p, self.out, self.f_meas, self.th_meas = p_new, out_new, f_meas_new, th_meas_new
-        self.x_eval = self.x if self.coupling == 'jacobi' else x_eval
-        self.x, self.theta = srv.contraction_m, srv.pulley_angle_rad
+            self.f_meas = self.cell.measure(self.f)
+            self.samples = [(self.t + h_s, self.f_meas)]
+        self.th_meas, _ = self.encoder.measure(self.servo.angle, h_s)
         self.t += h_s
-        return BenchState(self.t, self.u, self.p, self.out.force_n, self.x, self.f_meas,
-                          self.th_meas, srv.output_torque_nm)
+        self.last_step_s = h_s
+        return BenchState(self.t, self.u, self.p, self.f, self.x, self.f_meas, self.th_meas,
+                          self.servo.torque)
 
-    def max_step(self) -> float:
-        """Longest next exchange step the devices ask for, s (0: any)."""
-        reqs = [r for r in (self.valve.max_step(self.u), self.servo.max_step()) if r > 0.0]
-        return min(reqs) if reqs else 0.0
-
-    def run(self, duration_s: float, h_s: float, adaptive: bool = False) -> BenchState:
-        """Step for ``duration_s`` and return the last state.
-
-        With ``adaptive`` the step is ``h_s`` unless a device asks for a shorter one (as the
-        ROS sim clock does with the requests in the StepAck), and the run ends exactly at
-        ``duration_s``.
-        """
+    def run(self, duration_s: float, h_s: float, first_s: float | None = None) -> BenchState:
+        """Step for ``duration_s`` in exchanges of at most ``h_s`` and return the last state
+        (the last exchange ends exactly at ``duration_s``), shorter when a device asks
+        (``max_step``, as the ROS sim clock takes the requests of the acknowledgements).
+        ``first_s`` > 0: the first exchange is that short, as the sequencer asks after a new
+        set value (None: ``COMMAND_STEP_S`` when a load command waits, so it acts after 1 ms
+        as in a protocol run, else none)."""
         st = None
-        if not adaptive:
-            for _ in range(max(1, round(duration_s / h_s))):
-                st = self.step(h_s)
-            return st
         t_end = self.t + duration_s
-        while self.t < t_end - 1e-12:
+        if first_s is None:
+            first_s = COMMAND_STEP_S if self._pending is not None else 0.0
+        if first_s > 0.0:
+            st = self.step(min(first_s, duration_s))
+        while st is None or self.t < t_end - 1e-9:
             h = h_s
             req = self.max_step()
             if req > 0.0:
                 h = min(h, req)
-            h = min(h, t_end - self.t)
-            st = self.step(h)
-            self.steps += 1
+            st = self.step(min(h, max(t_end - self.t, 1e-9)))
         return st
+
+    def max_step(self) -> float:
+        """Longest next exchange step the devices ask for, s (0: any)."""
+        return self.valve.max_step(self.u, self._change_seen, self._step_seen)

@@ -18,11 +18,13 @@ import numpy as np
 from pam_bench.analysis.identify import fit_step
 from pam_bench.models.loading_servo import LoadingServoParams, LoadMode
 from pam_bench.models.muscle import MuscleParams
+from pam_bench.models.schedules import Direction, Reading
 from pam_bench.models.sensors import LoadCellParams
 from pam_bench.models.torque_servo import ServoMode, Signal, SignalKind
 from pam_bench.models.valve import ValveParams
 from pam_bench.sim.bench import SingleMuscleBench
 from pam_bench.sim.servo_bench import run_servo, tracking_metrics
+from pam_bench.sim.twin import run_readings
 
 __all__ = ['VARIANTS', 'fidelity_table']
 
@@ -38,39 +40,42 @@ VARIANTS: dict[str, dict[str, Any]] = {
 VOLTS = np.round(np.concatenate([np.arange(0.0, 6.01, 0.5), np.arange(5.5, -0.01, -0.5)]), 6)
 
 
-def _sweep(mode: LoadMode, value: float, h: float, adaptive: bool, read_force: bool,
-           **kw: Any) -> np.ndarray:
-    b = SingleMuscleBench(**kw)
-    b.command_load(mode, value)
-    b.run(2.0, h, adaptive)
-    out = []
-    for u in VOLTS:
-        b.command_valve(float(u))
-        st = b.run(3.0, h, adaptive)
-        out.append(st.measured_force_n if read_force else st.measured_angle_rad * b.servo.r)
-    return np.array(out)
+def _sweep(kind: str, value: float, **kw: Any) -> np.ndarray:
+    """A 0.5 V series as the scene runs it (3 s exchanges, 5 ms sub-steps, ``sim.twin``)."""
+    run = run_readings(kind, _series(kind, value), 3.0, 3.0, **kw)
+    if kind == 'isometric':
+        return np.array([p.measurement.force_n for p in run.points])
+    return 1e3 * np.array([p.measurement.contraction_m for p in run.points])
+
+
+def _series(kind: str, value: float) -> list[Reading]:
+    mode = LoadMode.POSITION if kind == 'isometric' else LoadMode.FORCE
+    n = len(VOLTS) // 2 + 1
+    return [Reading(kind, 0, k, Direction.UP if k < n else Direction.DOWN, value, float(u),
+                    float(u), mode, value, 3.0) for k, u in enumerate(VOLTS)]
 
 
 def _step(**kw: Any) -> np.ndarray:
+    """004's identification step at 40 mm: 3 s at 1 V, then 1 s at 1 kHz after 5 V."""
     b = SingleMuscleBench(**kw)
-    b.command_load(LoadMode.POSITION, 0.04)
+    b.command_load(LoadMode.POSITION, 0.04, now=True)
+    b.servo.reset(0.04)
     b.command_valve(1.0)
-    b.run(3.0, 0.001)
+    b.run(3.0, 3.0)
     b.command_valve(5.0)
-    f = np.array([b.step(0.001).measured_force_n for _ in range(1000)])
+    b.step(1.0, 0.001)
+    f = np.array([m for _, m in b.samples])
     fit = fit_step(f, 0.001, 4.0)
     return np.array([fit.b, fit.c, fit.d])
 
 
 SCENES = {
     # scene: (quantity, unit, tolerance, function of the bench options)
-    'isometric (x = 40 mm, 0.5 V steps, adaptive 0.5 s)': (
-        'readings F', 'N', 4.0,
-        lambda kw: _sweep(LoadMode.POSITION, 0.04, 0.5, True, True, **kw)),
-    'isotonic (F = 200 N, 0.5 V steps, 10 ms)': (
-        'readings x', 'mm', 0.2,
-        lambda kw: 1e3 * _sweep(LoadMode.FORCE, 200.0, 0.01, False, False, **kw)),
-    'step response (x = 40 mm, 1 -> 5 V, 1 ms)': (
+    'isometric (x = 40 mm, 0.5 V steps, 3 s exchanges)': (
+        'readings F', 'N', 4.0, lambda kw: _sweep('isometric', 0.04, **kw)),
+    'isotonic (F = 200 N, 0.5 V steps, 3 s exchanges)': (
+        'readings x', 'mm', 0.2, lambda kw: _sweep('isotonic', 200.0, **kw)),
+    'step response (x = 40 mm, 1 -> 5 V, one 1 s exchange)': (
         'b, c, d', 'relative', 0.03, lambda kw: _step(**kw)),
 }
 

@@ -58,11 +58,7 @@ class QuasiStaticBench:
 
     def _trial_force(self, p: float, x_t: float) -> float:
         """F_m(p, x_t) without committing the friction state, N."""
-        fr = self.muscle.friction
-        z, st = fr.z.copy(), fr.sticking.copy()
-        f = self.muscle.step(p, x_t).force_n
-        fr.z, fr.sticking = z, st
-        return f
+        return self.muscle.trial(p, x_t)[0]
 
     def _commit(self, p: float, x_t: float) -> float:
         """Move the muscle to (p, x_t) along a straight path and return F, N.

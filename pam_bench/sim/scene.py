@@ -1,14 +1,15 @@
 """Scenes: which nodes a run brings up, their parameters, the exchange step and the protocol.
 
-A scene file (config/scenes/NAME.yaml) holds ``description``, ``exchange_step_s``,
-``protocol``, ``nodes`` (names from ``NODE_TYPES``), optional ``duration_s``, optional
-``parameters`` (per node, merged over config/bench.yaml) and optional ``protocol_overrides``
-(merged over the protocol's entry in config/protocols.yaml). ``coupling`` (``jacobi``, the
-default, or ``chained``: the muscles and load cells step on the same exchange's pressure and
-force, see ``nodes.base``) and ``record_exchange_s`` (the exchange step of a step record whose
-1 kHz samples are published inside each exchange; needs ``chained``) set the exchange scheme.
-``node_parameters`` returns the parameters of every node of the run in the ROS 2 params-file
-layout.
+A scene file (config/scenes/NAME.yaml) holds ``description``, ``exchange_step_s`` (the
+longest exchange step: the devices ask for shorter ones where they need them), ``protocol``,
+``nodes`` (names from ``NODE_TYPES``), optional ``duration_s``, optional ``sub_step_s`` (the
+sub-step of the valve's pressure samples, which the muscle and the drive are solved on inside
+every exchange; 5 ms by default), optional ``record_samples`` (record those sub-step samples,
+``sim/valve_N/samples`` and ``sim/muscle_N/samples``, too; false by default: they are most of
+a bag), optional ``parameters`` (per node, merged over
+config/bench.yaml) and optional ``protocol_overrides`` (merged over the protocol's entry in
+config/protocols.yaml). ``node_parameters`` returns the parameters of every node of the run in
+the ROS 2 params-file layout.
 """
 
 from __future__ import annotations
@@ -50,15 +51,21 @@ NODE_TYPES = {
     'sim_clock': NodeType('pam_bench.nodes.sim_clock', 'SimClock', lockstep=False),
 }
 
-# every topic published at every exchange step, with the nodes that can publish it
+# every topic published at every exchange step, with the nodes that can publish it (the
+# recorder records them all, the sub-step ``samples`` topics only when the scene asks:
+# ``record_samples``; sim/pulley/law, the drive's law for the next exchange, is left out)
 STEP_TOPIC_SOURCES = {
     '/valve_1/command:pam_bench_interfaces/msg/ValveCommand': ('sequencer', 'torque_servo'),
     '/valve_1/pressure:sensor_msgs/msg/FluidPressure': ('valve_1',),
+    '/sim/valve_1/samples:pam_bench_interfaces/msg/PressureSamples': ('valve_1',),
     '/sim/muscle_1/state:pam_bench_interfaces/msg/MuscleState': ('muscle_1',),
+    '/sim/muscle_1/samples:pam_bench_interfaces/msg/MuscleSamples': ('muscle_1',),
     '/load_cell_1/force:geometry_msgs/msg/WrenchStamped': ('load_cell_1',),
     '/valve_2/command:pam_bench_interfaces/msg/ValveCommand': ('torque_servo',),
     '/valve_2/pressure:sensor_msgs/msg/FluidPressure': ('valve_2',),
+    '/sim/valve_2/samples:pam_bench_interfaces/msg/PressureSamples': ('valve_2',),
     '/sim/muscle_2/state:pam_bench_interfaces/msg/MuscleState': ('muscle_2',),
+    '/sim/muscle_2/samples:pam_bench_interfaces/msg/MuscleSamples': ('muscle_2',),
     '/load_cell_2/force:geometry_msgs/msg/WrenchStamped': ('load_cell_2',),
     '/encoder/joint_state:sensor_msgs/msg/JointState': ('encoder',),
     '/loading_servo/command:pam_bench_interfaces/msg/LoadCommand': ('sequencer',),
@@ -69,9 +76,10 @@ STEP_TOPIC_SOURCES = {
 }
 
 
-def step_topics(nodes: list[str]) -> list[str]:
+def step_topics(nodes: list[str], samples: bool = False) -> list[str]:
     """The step topics some node of a scene publishes (the recorder waits for each); a
-    command topic (``/DEVICE/command``) is published only to a device the scene has."""
+    command topic (``/DEVICE/command``) is published only to a device the scene has; the
+    sub-step ``samples`` topics only with ``samples``."""
     have = {*nodes, 'sim_clock'}
 
     def present(topic: str, sources: tuple[str, ...]) -> bool:
@@ -79,7 +87,8 @@ def step_topics(nodes: list[str]) -> list[str]:
         device_ok = not name.endswith('/command') or name.split('/')[1] in have
         return bool(set(sources) & have) and device_ok
 
-    return [t for t, src in STEP_TOPIC_SOURCES.items() if present(t, src)]
+    return [t for t, src in STEP_TOPIC_SOURCES.items() if present(t, src)
+            and (samples or not t.split(':')[0].endswith('/samples'))]
 
 
 # the single-muscle characterisation bench
@@ -119,8 +128,8 @@ class Scene:
     duration_s: float
     parameters: dict[str, dict[str, Any]]
     protocol_overrides: dict[str, Any] = dataclasses.field(default_factory=dict)
-    coupling: str = 'jacobi'
-    record_exchange_s: float = 0.0
+    sub_step_s: float = 0.005
+    record_samples: bool = False
 
     def node_parameters(self, out_dir: str, seed: int, realtime: bool) -> dict[str, Any]:
         """Parameters of every node: config/bench.yaml, then the scene, then this run."""
@@ -141,17 +150,17 @@ class Scene:
             exchange_step_s=self.exchange_step_s, participants=participants,
             duration_s=self.duration_s, realtime=realtime, use_sim_time=False)
         for name in self.nodes:
-            if name.startswith(('muscle_', 'load_cell_')):
-                out[name]['ros__parameters']['chained'] = self.coupling == 'chained'
+            if name.startswith('valve_'):
+                out[name]['ros__parameters']['sub_step_s'] = self.sub_step_s
         if 'sequencer' in out:
             out['sequencer']['ros__parameters']['protocol'] = self.protocol
-            out['sequencer']['ros__parameters']['record_exchange_s'] = self.record_exchange_s
             if self.protocol_overrides:
                 out['sequencer']['ros__parameters']['protocol_overrides_yaml'] = yaml.safe_dump(
                     self.protocol_overrides)
         if 'recorder' in out:
             out['recorder']['ros__parameters'].update(out_dir=out_dir,
-                                                      step_topics=step_topics(self.nodes),
+                                                      step_topics=step_topics(
+                                                          self.nodes, self.record_samples),
                                                       event_topics=EVENT_TOPICS)
         for i in (1, 2):
             if f'load_cell_{i}' in out:
@@ -206,16 +215,17 @@ def load_scene(name: str) -> Scene:
     step = need('exchange_step_s', (int, float))
     if not 0 < step <= 10:
         raise ParameterError(f'scene {path.name}: exchange_step_s {step} out of (0, 10] s')
-    coupling = str(data.get('coupling', 'jacobi'))
-    if coupling not in ('jacobi', 'chained'):
-        raise ParameterError(f'scene {path.name}: coupling {coupling!r}: use jacobi or chained')
-    record_h = data.get('record_exchange_s', 0.0)
-    if not isinstance(record_h, (int, float)) or not 0.0 <= record_h <= 1.0:
-        raise ParameterError(f'scene {path.name}: record_exchange_s must be in [0, 1] s')
-    if record_h > 0.0 and coupling != 'chained':
-        raise ParameterError(f'scene {path.name}: record_exchange_s needs coupling: chained '
-                             '(the muscle and load cell must follow the valve samples)')
+    sub = data.get('sub_step_s', 0.005)
+    if isinstance(sub, bool) or not isinstance(sub, (int, float)) or not 1e-5 <= sub <= 1.0:
+        raise ParameterError(f'scene {path.name}: sub_step_s must be a number in [1e-5, 1] s')
+    for old in ('coupling', 'record_exchange_s'):
+        if old in data:
+            raise ParameterError(f'scene {path.name}: key {old!r} is gone (every exchange is '
+                                 'now solved on sub-steps: see sub_step_s)')
+    samples = data.get('record_samples', False)
+    if not isinstance(samples, bool):
+        raise ParameterError(f'scene {path.name}: record_samples must be true or false')
     return Scene(path.stem, str(data.get('description', '')), float(step),
                  str(data.get('protocol', '')), list(nodes), float(data.get('duration_s', 0.0)),
                  dict(data.get('parameters', {}) or {}),
-                 dict(data.get('protocol_overrides', {}) or {}), coupling, float(record_h))
+                 dict(data.get('protocol_overrides', {}) or {}), float(sub), samples)

@@ -2,15 +2,15 @@
 
 Two valves, two muscles, two load cells and the encoder on the pulley, whose angle the electric
 servo holds (004 section 3.2: "the electric servo holds the angle, the muscles make the
-torque"); with ``muscles = 1`` the single-muscle force check of 004 section 3.1. Per exchange
-step h (Jacobi, every device sees the others' outputs of the previous exchange, as the
-lock-step nodes do):
+torque"); with ``muscles = 1`` the single-muscle force check of 004 section 3.1, the loading
+servo holding x in position mode. Per exchange step h, in the nodes' order:
 
-    valve_i:   p_i      = valve_i.step(u_i, h, V_i)
-    muscle_i:  F_i, V_i = muscle_i.step(p_i, x_i)
-    cell_i:    F_m,i    = cell_i.measure(F_i)
-    holder:    x_1 = x0 + r theta + F_1 / k_b,  x_2 = x0 - r theta + F_2 / k_b   (belt stretch)
-    servo:     u_i      = controller(F_m,i, theta_m)                          (every exchange)
+    valve_i:   p_i    = valve_i.samples(u_i, h, V_i)     (u_i sent at the previous tick)
+    muscle_i:  F_i    = solved with its holder on the sub-step (``models.coupling``):
+               x_1 = x0 + r theta + F_1 / k_b,  x_2 = x0 - r theta + F_2 / k_b  (belt stretch),
+               or the loading servo's law with one muscle
+    cell_i:    F_m,i  = cell_i.measure(F_i)
+    servo:     u_i    = controller(F_m,i, theta_m of the previous tick)       (every exchange)
 
 Used for the controller comparison's reference, the tuning, and the closed-loop rows of the
 work-precision benchmark.
@@ -22,7 +22,13 @@ import dataclasses
 
 import numpy as np
 
-from pam_bench.models.loading_servo import LoadingServoParams
+from pam_bench.models.coupling import solve_substeps
+from pam_bench.models.loading_servo import (
+    IdealHold,
+    LoadingServoModel,
+    LoadingServoParams,
+    LoadMode,
+)
 from pam_bench.models.muscle import MuscleModel, MuscleParams
 from pam_bench.models.sensors import EncoderModel, LoadCellModel, LoadCellParams
 from pam_bench.models.torque_servo import (
@@ -66,41 +72,49 @@ def run_servo(mode: ServoMode, signal: Signal, duration_s: float, angle_rad: flo
     k_b = LoadingServoParams().belt_stiffness_n_per_m
     r = ctl.r
     sign = (1.0, -1.0)
-    x = [sp.rest_contraction_m + sign[i] * r * angle_rad for i in range(muscles)]
-    for m, xi in zip(ms, x, strict=True):
+    x0 = [sp.rest_contraction_m + sign[i] * r * angle_rad for i in range(muscles)]
+    if muscles == 2:
+        holders = [IdealHold(x, k_b) for x in x0]
+    else:
+        drive = LoadingServoModel()
+        drive.command(LoadMode.POSITION, x0[0])
+        drive.reset(x0[0])
+        holders = [drive]
+    for m, xi in zip(ms, x0, strict=True):
         m.reset(xi, 0.0)
-    p = [0.0] * muscles
-    out = [m.step(0.0, xi) for m, xi in zip(ms, x, strict=True)]
-    f_meas = [0.0] * muscles
-    th_meas = enc.measure(angle_rad, h_s)[0]
-    u = [0.0] * muscles
+    vol = [m.volume(0.0) for m in ms]       # as the muscle node reports it at t_0
+    f = [0.0] * muscles                     # true forces
+    f_meas = [0.0] * muscles                # what the controller reads (previous tick)
+    th_meas = 0.0
+    u = [0.0] * muscles                     # commands of the previous tick
     n = int(round(duration_s / h_s))
     rec = {k: [] for k in ('t', 'sp', 'meas', 'rate', 'fsp', 'f', 'u', 'ff')}
     for k in range(n):
         t = k * h_s
-        # controller on the measurements of the previous exchange
+        # devices over the exchange on the previous tick's commands
+        for i in range(muscles):
+            p = valves[i].samples(u[i], [h_s], vol[i])
+            res = solve_substeps(ms[i], holders[i], [h_s], p, f[i])
+            f[i] = res.forces_n[-1]
+            vol[i] = ms[i].volume(res.contractions_m[-1])
+        new_meas = [c.measure(fi) for c, fi in zip(cells, f, strict=True)]
+        angle = holders[0].angle if muscles == 1 else angle_rad
+        # the controller at this tick on the measurements of the previous one
         s, ds, dds = signal.value_and_rates(t)
         if muscles == 2:
             s, _ = ctl.clamp_torque(s)
         ch = ctl.step(h_s, (s, ds, dds), th_meas, tuple(f_meas))
-        u_new = [c.voltage_v for c in ch]
-        meas = r * (f_meas[0] - f_meas[1]) if muscles == 2 else f_meas[0]
+        u = [c.voltage_v for c in ch]
         rec['t'].append(t)
         rec['sp'].append(s)
         rec['rate'].append(ds)
-        rec['meas'].append(meas)
+        rec['meas'].append(r * (f_meas[0] - f_meas[1]) if muscles == 2 else f_meas[0])
         rec['fsp'].append([c.force_setpoint_n for c in ch])
         rec['f'].append(list(f_meas))
-        rec['u'].append(u_new)
+        rec['u'].append(u)
         rec['ff'].append([c.u_feedforward_v for c in ch])
-        # devices advance on the previous exchange's values
-        p_new = [v.step(ui, h_s, o.volume_m3) for v, ui, o in zip(valves, u, out, strict=True)]
-        out_new = [m.step(pi, xi) for m, pi, xi in zip(ms, p, x, strict=True)]
-        f_meas = [c.measure(o.force_n) for c, o in zip(cells, out, strict=True)]
-        th_meas = enc.measure(angle_rad, h_s)[0]
-        x = [sp.rest_contraction_m + sign[i] * r * angle_rad + out[i].force_n / k_b
-             for i in range(muscles)]
-        p, out, u = p_new, out_new, u_new
+        f_meas = new_meas
+        th_meas = enc.measure(angle, h_s)[0]
     a = {k: np.asarray(v) for k, v in rec.items()}
     return ServoRun(a['t'], a['sp'], a['meas'], a['rate'], a['fsp'], a['f'], a['u'], a['ff'],
                     'N m' if muscles == 2 else 'N')

@@ -14,6 +14,16 @@ the same estimators as the recorded ones (``pam_bench.analysis.static``):
   affine in p at held x, so the force inherits the pressure dynamics), d = c dF/du with dF/du
   the settled force change of the step divided by its voltage step (friction on, path as in the
   protocol: settle at u0, step to u1), F_a0 the settled force at u0.
+
+With ``reference`` the scene is also run noise-free on the numpy twin (``sim.twin``: every
+device's dynamics, the drive, the braid friction along the protocol's real path) and its
+readings and records go through the same estimators: ``isometric.reference_series``,
+``isotonic.reference_gain_mm_per_V``, ``isobaric.reference_hysteresis_mm_max`` and
+``step_response.reference_fits``. The parameter figures above are what an estimator that
+cancelled the friction would find; the reference is what this bench, measured without noise,
+gives to the same estimators, so an extraction's difference from it is the measurement's own
+(sensor noise, quantisation, fit), and the difference between the two is the estimators' bias
+on a bench with braid friction (BENCHMARKS.md, extraction against truth).
 """
 
 from __future__ import annotations
@@ -79,37 +89,48 @@ def _points(rows: list[tuple[Reading, SettledReading]]) -> dict[str, Points]:
     return out
 
 
-def _step_truth(bench: QuasiStaticBench, readings: list[Reading], reference: bool
-                ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
-    """(parameter fits, reference fits) of every step reading; see ``truth_summary``."""
-    fits, ref = [], []
+def _step_truth(bench: QuasiStaticBench, readings: list[Reading]) -> list[dict[str, Any]]:
+    """Parameter fits of every step reading; see the module docstring."""
+    fits = []
     for r in readings:
         if r.record_s <= 0.0 or r.pre_voltage_v is None:
             continue
-        x = r.load_value
-        f0, gain = bench.dc_gain(x, r.pre_voltage_v, r.voltage_v)
+        f0, gain = bench.dc_gain(r.load_value, r.pre_voltage_v, r.voltage_v)
         b, c = bench.pressure_dynamics(bench.x_t)
-        head = {'x_mm': x * 1e3, 'direction': 'up' if r.direction == 0 else 'down',
-                'u0_V': r.pre_voltage_v, 'u1_V': r.voltage_v}
-        fits.append({**head, 'b': b, 'c': c, 'd': c * gain, 'F_a0_N': f0, 'rms_error_N': 0.0,
-                     'delay_samples': 0})
-        if reference:
-            force = bench.step_response(x, r.pre_voltage_v, r.voltage_v, r.record_s,
-                                        r.sample_period_s)
-            fit = fit_step(force, r.sample_period_s, r.voltage_v - r.pre_voltage_v)
-            ref.append({**head, 'b': fit.b, 'c': fit.c, 'd': fit.d, 'F_a0_N': fit.f_a0_n,
-                        'rms_error_N': fit.rms_error_n, 'delay_samples': fit.delay_samples})
-    return fits, ref
+        fits.append({**_step_head(r), 'b': b, 'c': c, 'd': c * gain, 'F_a0_N': f0,
+                     'rms_error_N': 0.0, 'delay_samples': 0})
+    return fits
+
+
+def _step_head(r: Reading) -> dict[str, Any]:
+    return {'x_mm': r.load_value * 1e3, 'direction': 'up' if r.direction == 0 else 'down',
+            'u0_V': r.pre_voltage_v, 'u1_V': r.voltage_v}
+
+
+def _reference(scene_name: str) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """(gain summary, step fits) of the scene run noise-free on the numpy twin."""
+    from pam_bench.models.sensors import LoadCellParams
+    from pam_bench.sim.twin import run_protocol
+    scene = load_scene(scene_name)
+    valve, muscle, servo = scene_models(scene_name)
+    run = run_protocol(scene.protocol, scene.exchange_step_s,
+                       overrides=scene.protocol_overrides, sub_step_s=scene.sub_step_s,
+                       valve=valve, muscle=muscle, servo=servo,
+                       load_cell=LoadCellParams(noise=False))
+    rows = [(p.reading, SettledReading(p.voltage_v, p.measurement.pressure_pa,
+                                       p.measurement.force_n, p.measurement.contraction_m,
+                                       p.measurement.contraction_m)) for p in run.points]
+    fits = []
+    for rec in run.records:
+        r = rec.reading
+        fit = fit_step(np.asarray(rec.samples), r.sample_period_s, r.voltage_v - r.pre_voltage_v)
+        fits.append({**_step_head(r), 'b': fit.b, 'c': fit.c, 'd': fit.d, 'F_a0_N': fit.f_a0_n,
+                     'rms_error_N': fit.rms_error_n, 'delay_samples': fit.delay_samples})
+    return gain_summary(_points(rows)), fits
 
 
 def truth_summary(scene_name: str, reference: bool = True) -> dict[str, Any]:
-    """summary.json-shaped figures the scene's parameters imply (see the module docstring).
-
-    With ``reference``, ``step_response.reference_fits`` adds the 2nd-order fit of each step
-    simulated noise-free on the valve and muscle models at an ideal position hold: the
-    friction of the braid is not linear, so the best linear model of the bench differs from
-    the valve loop's b, c (friction adds damping); the difference between ``fits`` and
-    ``reference_fits`` is the model-structure error, the rest is the measurement's."""
+    """summary.json-shaped figures the scene's parameters imply (see the module docstring)."""
     valve, muscle, servo = scene_models(scene_name)
     readings = scene_schedule(scene_name)
     backbone = QuasiStaticBench(valve, _without_friction(muscle), servo)
@@ -119,16 +140,24 @@ def truth_summary(scene_name: str, reference: bool = True) -> dict[str, Any]:
     rows = [(r, with_friction.settle(r)) for r in readings if r.record_s == 0.0]
     hyst = gain_summary({k: v for k, v in _points(rows).items() if k.startswith('isobaric')})
     summary.update(hyst)
-    fits, ref = _step_truth(QuasiStaticBench(valve, muscle, servo), readings, reference)
+    fits = _step_truth(QuasiStaticBench(valve, muscle, servo), readings)
     if fits:
         summary['step_response'] = {'fits': fits, 'polynomials': coefficient_polynomials(fits)}
-        if ref:
+    if reference:
+        gains, ref = _reference(scene_name)
+        for kind, key, out in (('isometric', 'series', 'reference_series'),
+                               ('isotonic', 'gain_mm_per_V', 'reference_gain_mm_per_V'),
+                               ('isobaric', 'hysteresis_mm_max', 'reference_hysteresis_mm_max')):
+            if kind in gains and kind in summary:
+                summary[kind][out] = gains[kind][key]
+        if ref and fits:
             summary['step_response']['reference_fits'] = ref
             summary['step_response']['reference_polynomials'] = coefficient_polynomials(ref)
     summary['scene'] = scene_name
     summary['basis'] = ('parameters of the scene: gains on the friction-free backbone, '
                         'hysteresis and step gains with the braid friction, b and c from the '
-                        'valve pressure loop at the chamber volume of x')
+                        'valve pressure loop at the chamber volume of x; reference_*: the '
+                        'scene run noise-free on the numpy twin through the same estimators')
     return summary
 
 
@@ -143,18 +172,31 @@ def _rel(measured: float, true: float) -> float:
 def compare(truth: dict[str, Any], summary: dict[str, Any]) -> dict[str, Any]:
     """Relative errors (measured - truth) / truth of an extraction against the truth, per
     quantity both hold: isometric gain per series, isotonic gain max and min, step-response
-    b, c, d per record (against ``fits`` and, when present, ``reference_fits``)."""
+    b, c, d per record; against the parameter figures and, where the truth holds them, the
+    noise-free reference (``*_reference`` keys, ``step_reference_fits``)."""
     out: dict[str, Any] = {}
-    if 'isometric' in truth and 'isometric' in summary:
-        ref = {round(s['x_mm'], 6): s['gain_N_per_V'] for s in truth['isometric']['series']}
-        out['isometric_gain'] = [
-            {'x_mm': s['x_mm'], 'measured': s['gain_N_per_V'], 'truth': ref[round(s['x_mm'], 6)],
-             'rel_error': _rel(s['gain_N_per_V'], ref[round(s['x_mm'], 6)])}
-            for s in summary['isometric']['series'] if round(s['x_mm'], 6) in ref]
-    if 'isotonic' in truth and 'isotonic' in summary:
-        t, m = truth['isotonic']['gain_mm_per_V'], summary['isotonic']['gain_mm_per_V']
-        out['isotonic_gain'] = {k: {'measured': m[k], 'truth': t[k], 'rel_error': _rel(m[k], t[k])}
-                                for k in ('max', 'min')}
+    iso_t, iso_m = truth.get('isometric', {}), summary.get('isometric', {})
+    for key, name in (('series', 'isometric_gain'), ('reference_series',
+                                                     'isometric_gain_reference')):
+        if key in iso_t and 'series' in iso_m:
+            ref = {round(s['x_mm'], 6): s['gain_N_per_V'] for s in iso_t[key]}
+            out[name] = [{'x_mm': s['x_mm'], 'measured': s['gain_N_per_V'],
+                          'truth': ref[round(s['x_mm'], 6)],
+                          'rel_error': _rel(s['gain_N_per_V'], ref[round(s['x_mm'], 6)])}
+                         for s in iso_m['series'] if round(s['x_mm'], 6) in ref]
+    ton_t, ton_m = truth.get('isotonic', {}), summary.get('isotonic', {})
+    for key, name in (('gain_mm_per_V', 'isotonic_gain'),
+                      ('reference_gain_mm_per_V', 'isotonic_gain_reference')):
+        if key in ton_t and 'gain_mm_per_V' in ton_m:
+            t, m = ton_t[key], ton_m['gain_mm_per_V']
+            out[name] = {k: {'measured': m[k], 'truth': t[k], 'rel_error': _rel(m[k], t[k])}
+                         for k in ('max', 'min')}
+    bar_t, bar_m = truth.get('isobaric', {}), summary.get('isobaric', {})
+    for key, name in (('hysteresis_mm_max', 'isobaric_hysteresis'),
+                      ('reference_hysteresis_mm_max', 'isobaric_hysteresis_reference')):
+        if key in bar_t and 'hysteresis_mm_max' in bar_m:
+            out[name] = {'measured': bar_m['hysteresis_mm_max'], 'truth': bar_t[key],
+                         'rel_error': _rel(bar_m['hysteresis_mm_max'], bar_t[key])}
     if 'step_response' in truth and 'step_response' in summary:
         for key in ('fits', 'reference_fits'):
             if key not in truth['step_response']:

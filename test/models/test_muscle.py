@@ -112,28 +112,21 @@ def test_friction_never_reverses_the_force(x_m: float, direction: float) -> None
     assert np.all(direction * np.diff(forces) >= -1e-9)
 
 
-@pytest.mark.parametrize('compliance', [0.0, 5e-7, 1e-6, 1e-5])
-def test_step_compliant_end_follows_the_holder(compliance: float) -> None:
-    """x = x_k + c (F - F_k) up to the one tangent step (within 1 % of the move), and the
-    force is the muscle's own force at that x."""
-    p = MuscleParams(hysteresis=False)
-    m = MuscleModel(p)
-    f_k = m.step(2e5, 0.04).force_n
-    out, x = m.step_compliant(5e5, 0.04, f_k, compliance)
-    np.testing.assert_allclose(x, 0.04 + compliance * (out.force_n - f_k),
-                               atol=1e-12 + 0.01 * abs(x - 0.04))
-    direct = MuscleModel(p).step(5e5, x).force_n
-    np.testing.assert_allclose(out.force_n, direct, rtol=1e-12)
-    if compliance == 0.0:
-        assert x == 0.04
-    else:
-        assert x > 0.04          # more force stretches the holder: the muscle shortens
-
-
-def test_step_compliant_trial_leaves_no_friction_trace() -> None:
+def test_trial_leaves_no_friction_trace_and_commit_equals_step() -> None:
+    """The coupled solve tries several positions per sub-step: a trial must not move the
+    friction, and committing a trial must be the same as stepping there."""
     a, b = MuscleModel(), MuscleModel()
-    for pa in (1e5, 3e5, 5e5):
-        fa = a.step(pa, 0.04).force_n
-        out, x = b.step_compliant(pa, 0.04, fa, 0.0)
-        assert out.force_n == fa
-    np.testing.assert_array_equal(a.friction.z, b.friction.z)
+    for pa, x in ((1e5, 0.04), (3e5, 0.041), (5e5, 0.039), (2e5, 0.0405)):
+        for probe in (x - 1e-3, x + 1e-3):
+            b.trial(pa, probe)
+        assert b.friction.z == a.friction.z
+        ref = a.step(pa, x)
+        t = b.trial(pa, x)
+        b.commit(t)
+        assert (t[0], t[1], t[2]) == (ref.force_n, ref.stiffness_n_per_m, ref.friction_n)
+    assert b.friction.z == a.friction.z and b.friction.sticking == a.friction.sticking
+
+
+def test_friction_rejects_a_zero_stiffness_element() -> None:
+    with pytest.raises(ValueError):
+        MaxwellSlip([3e5, 0.0], [1.0, 2.0], [0.0, 0.0])

@@ -60,7 +60,8 @@ def test_abort_when_load_cell_out_of_range() -> None:
 
 def _records(cfg: dict, record_exchange_s: float, lag_ticks: int) -> tuple[list, list, list]:
     """Run a step-response schedule; the load cell's samples (force = 10 t N, 1 kHz) reach the
-    sequencer ``lag_ticks`` ticks after their stamp (0: the tick's own reading)."""
+    sequencer ``lag_ticks`` ticks after their stamp (0: at the tick that ends their exchange,
+    as the lock-step chain delivers them)."""
     readings, settle = schedule_from_config('s', cfg)
     seq = Sequencer('s', readings, settle, record_exchange_s=record_exchange_s)
     seq.start(0.0)
@@ -69,12 +70,10 @@ def _records(cfg: dict, record_exchange_s: float, lag_ticks: int) -> tuple[list,
     while seq.running:
         t = round(min(t + 0.1, seq.next_event_s(t)), 9)    # coarse steps, events exact
         ticks.append(t)
-        samples = None
-        if lag_ticks:
-            lo, hi = ticks[-2 - lag_ticks] if len(ticks) > 1 + lag_ticks else -1.0, \
-                ticks[-1 - lag_ticks] if len(ticks) > lag_ticks else -1.0
-            grid = np.round(np.arange(round(lo * 1e3) + 1, round(hi * 1e3) + 1) * 1e-3, 9)
-            samples = [(float(ts), 10.0 * float(ts)) for ts in grid if ts > lo]
+        lo, hi = ticks[-2 - lag_ticks] if len(ticks) > 1 + lag_ticks else -1.0, \
+            ticks[-1 - lag_ticks] if len(ticks) > lag_ticks else -1.0
+        grid = np.round(np.arange(round(lo * 1e3) + 1, round(hi * 1e3) + 1) * 1e-3, 9)
+        samples = [(float(ts), 10.0 * float(ts)) for ts in grid if ts > lo]
         cmd = seq.tick(t, Measurement(10 * t, 0.0, 0.0), samples)
         periods.append(cmd.sample_period_s)
         if cmd.point is not None:
@@ -88,7 +87,8 @@ STEPS = dict(STEP, x_m=[0.0, 0.0, 0.005], up={'u0_v': 1.0, 'step_v': 0.2, 'n': 2
              down={'u0_v': 5.0, 'step_v': -0.2, 'n': 1})
 
 
-@pytest.mark.parametrize(('record_exchange_s', 'lag_ticks'), [(0.0, 0), (0.01, 1), (0.05, 2)])
+@pytest.mark.parametrize(('record_exchange_s', 'lag_ticks'), [(0.0, 0), (0.01, 1), (0.05, 2),
+                                                             (0.0, 1)])
 def test_step_response_records_1khz_on_exact_grid(record_exchange_s: float,
                                                   lag_ticks: int) -> None:
     pts, recs, periods = _records(STEPS, record_exchange_s, lag_ticks)
@@ -100,7 +100,7 @@ def test_step_response_records_1khz_on_exact_grid(record_exchange_s: float,
         np.testing.assert_allclose(r.samples, 10 * (r.t_step_s + 1e-3 * np.arange(1000)),
                                    atol=1e-6)
         np.testing.assert_allclose(p.t_s - p.t_step_s, 1.0, atol=1e-9)
-    assert max(periods) == (0.001 if record_exchange_s else 0.0)
+    assert max(periods) == 0.001 and min(periods) == 0.0      # samples asked for in records
 
 
 def test_record_missing_samples_hold_the_last() -> None:

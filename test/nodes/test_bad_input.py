@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 import pytest
-from pam_bench_interfaces.msg import MuscleState, ValveCommand
+from pam_bench_interfaces.msg import MuscleState, PressureSamples, ValveCommand
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import FluidPressure
@@ -26,6 +26,7 @@ def valve(ros_domain: int):
         h.publisher(MuscleState, 'sim/muscle_1/state')
         h.listen(FluidPressure, 'valve_1/pressure')
         h.start()
+        h.send('sim/muscle_1/state', MuscleState(volume=1.1e-4), 0)   # published at t_0
         yield h
     finally:
         h.close()
@@ -93,15 +94,23 @@ def test_repeated_tick_sends_the_outputs_again(valve: Harness) -> None:
         == pytest.approx(2e5)
 
 
-def test_valve_publishes_sub_step_samples_when_asked(valve: Harness) -> None:
-    """A command with sample_period T < h: round(h / T) samples stamped t_(k-1) + j h / n."""
+def test_valve_publishes_sub_step_samples(valve: Harness) -> None:
+    """Every exchange: one FluidPressure at its end and one PressureSamples with the pressure
+    at the end of every sub-step (sub_step_s, or the command's sample_period in a record)."""
+    valve.listen(PressureSamples, 'sim/valve_1/samples')
     valve.tick(1 * MS)
     valve.spin_until(lambda: len(valve.received['valve_1/pressure']) >= 1)
     valve.send('valve_1/command', ValveCommand(voltage=4.0, sample_period=0.001), 1 * MS)
     valve.send('sim/muscle_1/state', MuscleState(volume=1.1e-4), 1 * MS)
     valve.tick(2 * MS)
-    valve.spin_until(lambda: len(valve.received['valve_1/pressure']) >= 11)
-    got = valve.received['valve_1/pressure'][1:]
-    stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in got]
-    assert stamps == [MS + j * 1_000_000 for j in range(1, 11)]
-    assert all(m.fluid_pressure - ATMOSPHERE_PA == pytest.approx(4e5) for m in got)
+    valve.spin_until(lambda: len(valve.received['sim/valve_1/samples']) >= 2)
+    rec = valve.received['sim/valve_1/samples'][-1]
+    assert rec.record and list(rec.step) == pytest.approx([0.001] * 10)
+    assert list(rec.pressure) == pytest.approx([4e5] * 10)
+    assert len(valve.received['valve_1/pressure']) == 2
+    valve.send('valve_1/command', ValveCommand(voltage=3.0), 2 * MS)
+    valve.send('sim/muscle_1/state', MuscleState(volume=1.1e-4), 2 * MS)
+    valve.tick(3 * MS)
+    valve.spin_until(lambda: len(valve.received['sim/valve_1/samples']) >= 3)
+    rec = valve.received['sim/valve_1/samples'][-1]
+    assert not rec.record and list(rec.step) == pytest.approx([0.005, 0.005])   # sub_step_s

@@ -12,11 +12,15 @@ from rosbags.rosbag2 import Reader
 from pam_bench.models.muscle import MuscleModel
 from pam_bench.sim.runner import run_scene
 from pam_bench.sim.scene import EVENT_TOPICS, STEP_TOPICS, load_scene
+from pam_bench.sim.twin import run_protocol
 from test.conftest import next_domain
 from test.helpers import bag_messages, bag_payloads, canonical_payloads
 
 SCENE = pathlib.Path(__file__).resolve().parents[1] / 'config_short.yaml'
-STEPS = 450           # 0.5 s settle + 2 s up + 2 s down at 10 ms
+# 0.5 s settle + 2 s up + 2 s down at 10 ms, and 1 ms at each new reading: the numpy twin of
+# the run takes the same exchange steps as the nodes' sim clock
+TWIN = run_protocol('demo_short', 0.01)
+STEPS = TWIN.exchanges
 
 
 @pytest.fixture(scope='module')
@@ -49,7 +53,7 @@ def test_log_time_is_sim_time(runs: dict[str, pathlib.Path]) -> None:
         assert max(times) <= 5_000_000_000, topic          # sim seconds, not wall clock
     forces = bag_messages(runs['proc_a'], '/load_cell_1/force')
     stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in forces]
-    assert stamps == sorted(stamps) and stamps[-1] == STEPS * 10_000_000
+    assert stamps == sorted(stamps) and stamps[-1] == round(TWIN.sim_s * 1e9) == 4_500_000_000
 
 
 @pytest.mark.parametrize('other', ['proc_b', 'one'])

@@ -34,18 +34,20 @@ def node_processes(domain: int) -> list[int]:
 def test_interrupted_run_leaves_a_valid_bag(tmp_path: pathlib.Path, ros_domain: int,
                                             sig: signal.Signals) -> None:
     bag = tmp_path / 'bag'
-    proc = subprocess.Popen([sys.executable, '-m', 'pam_bench.cli', 'run', 'isometric_quick',
+    proc = subprocess.Popen([sys.executable, '-m', 'pam_bench.cli', 'run', 'isometric',
                              '--out', str(bag)], stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True)
     try:
-        deadline = time.monotonic() + 60
-        while not list(bag.glob('*.mcap')) or time.monotonic() < deadline - 55:
-            assert proc.poll() is None, proc.stdout.read()
-            assert time.monotonic() < deadline, 'the run never started recording'
-            time.sleep(0.2)
-        time.sleep(2.0)
+        lines = []
+        for line in proc.stdout:                  # wait until the run is stepping
+            lines.append(line)
+            if line.startswith('[sim'):
+                break
+        assert proc.poll() is None, ''.join(lines)
+        time.sleep(1.0)
         proc.send_signal(sig)
         out, _ = proc.communicate(timeout=60)
+        out = ''.join(lines) + out
     finally:
         if proc.poll() is None:
             proc.kill()
@@ -53,7 +55,7 @@ def test_interrupted_run_leaves_a_valid_bag(tmp_path: pathlib.Path, ros_domain: 
     assert 'bag closed' in out or 'interrupted' in out
     assert (bag / 'metadata.yaml').exists()
     payloads = bag_payloads(bag)
-    assert len(payloads['/load_cell_1/force']) > 50
+    assert len(payloads['/load_cell_1/force']) > 20      # what ran before the signal
     time.sleep(0.5)
     assert node_processes(ros_domain) == []
 

@@ -1,0 +1,143 @@
+"""The muscle and whatever holds its end, solved together sub-step by sub-step.
+
+The muscle force depends on where its end is (F = F_m(p, x), ``models.muscle``, with the
+braid friction), and the holder (the loading servo, ``models.loading_servo``, or an ideal
+angle hold) puts the end where its own dynamics and controller take it under that force. Over
+a sub-step d the holder's backward-Euler law gives the end position as a continuous,
+non-decreasing function of the force at the end of the sub-step, x_+ = X(F_+), so one scalar
+equation fixes the sub-step:
+
+    g(F) = F_m(p_+, X(F)) - F = 0
+
+g is non-increasing in F (the muscle's force falls as its end contracts, the end contracts as
+the force grows) with g(0) >= 0 and g(F_hi) <= 0 for F_hi = F_m(p_+, X(0)), so it has one root
+in [0, F_hi]. It is found by Newton's method on the tangent g' = -K X'(F) - 1 (K = -dF_m/dx),
+kept inside the shrinking bracket (bisection when a step leaves it): the friction is
+piecewise linear, so one or two iterations are usual. The muscle keeps the friction state of
+the evaluation at the root, the holder keeps its sub-step with that force; a holder that only
+replays the forces (the loading-servo node) reaches the same state bit for bit.
+
+Solving the mechanical coupling inside every sub-step is what lets the devices exchange
+messages only once per exchange step (seconds), not once per millisecond: the exchange
+step no longer adds a coupling delay to the mechanics (BENCHMARKS.md, exchange step).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Protocol
+
+from pam_bench.models.errors import ModelError
+from pam_bench.models.muscle import MuscleModel
+
+__all__ = ['Holder', 'SubStepResult', 'solve_substep', 'solve_substeps', 'substep_grid']
+
+FORCE_TOLERANCE_N = 1.0e-7
+MAX_ITERATIONS = 60
+
+
+class Holder(Protocol):
+    """What holds the muscle end over a sub-step (``LoadingServoModel``, ``IdealHold``)."""
+
+    def prepare(self, d: float) -> None:
+        """Coefficients of the next sub-step of length d, s."""
+
+    def contraction(self, force_n: float) -> float:
+        """End position X(F) for the force at the end of the sub-step, m."""
+
+    def compliance(self, force_n: float) -> float:
+        """dX/dF, m/N."""
+
+    def commit(self, force_n: float) -> object:
+        """Keep the sub-step with that force."""
+
+
+@dataclasses.dataclass
+class SubStepResult:
+    """Samples of a run of sub-steps: lengths s, forces N, contractions m (shapes (n,)), and
+    the muscle's stiffness -dF/dx (N/m), friction (N) and Newton iterations at the end."""
+
+    steps_s: list[float]
+    forces_n: list[float]
+    contractions_m: list[float]
+    stiffness_n_per_m: float
+    friction_n: float
+    iterations: int
+
+
+def substep_grid(dt_s: float, period_s: float) -> list[float]:
+    """Sub-step lengths of an exchange of ``dt_s`` (s): ``period_s`` from its start, the last
+    one shorter when ``dt_s`` is not a multiple (rounded to the nanosecond), shape (n,)."""
+    if not (dt_s > 0.0 and period_s > 0.0):
+        raise ModelError(f'sub-steps of {dt_s!r} s at a period of {period_s!r} s')
+    n_ns, p_ns = round(dt_s * 1e9), max(round(period_s * 1e9), 1)
+    full, rest = divmod(n_ns, p_ns)
+    steps = [p_ns * 1e-9] * full
+    if rest:
+        steps.append(rest * 1e-9)
+    return steps or [dt_s]
+
+
+def solve_substep(muscle: MuscleModel, holder: Holder, d: float, pressure_pa: float,
+                  force_guess_n: float) -> tuple[float, float, float, float, int]:
+    """One sub-step of length ``d`` (s) ending at gauge pressure ``pressure_pa`` (Pa).
+
+    Returns:
+        (F N, x m, stiffness -dF/dx N/m, friction N, iterations); muscle and holder keep it.
+
+    Raises:
+        ModelError: the pressure or the holder's position is not finite.
+    """
+    if not math.isfinite(pressure_pa):
+        raise ModelError(f'muscle pressure {pressure_pa!r} is not finite')
+    holder.prepare(d)
+    x = holder.contraction(0.0)
+    if not math.isfinite(x):
+        raise ModelError(f'holder position {x!r} is not finite')
+    trial = muscle.trial(pressure_pa, x)
+    f_hi = trial[0]
+    f = 0.0
+    it = 1
+    if f_hi > 0.0:
+        lo, hi = 0.0, f_hi
+        f = min(max(force_guess_n, lo), hi)
+        while True:
+            x = holder.contraction(f)
+            trial = muscle.trial(pressure_pa, x)
+            g = trial[0] - f
+            if g >= 0.0:
+                lo = f
+            else:
+                hi = f
+            if abs(g) <= FORCE_TOLERANCE_N or hi - lo <= FORCE_TOLERANCE_N \
+                    or it >= MAX_ITERATIONS:
+                break
+            it += 1
+            nxt = f + g / (1.0 + trial[1] * holder.compliance(f))
+            f = nxt if lo < nxt < hi else 0.5 * (lo + hi)
+    muscle.commit(trial)
+    holder.commit(f)
+    return f, x, trial[1], trial[2], it
+
+
+def solve_substeps(muscle: MuscleModel, holder: Holder, steps_s: list[float],
+                   pressures_pa: list[float], force_n: float) -> SubStepResult:
+    """Every sub-step of an exchange: lengths (s) and the pressure at the end of each (Pa),
+    starting from the force ``force_n`` (N) of the last sub-step.
+
+    Raises:
+        ModelError: the lists differ in length or a value is not finite.
+    """
+    if len(steps_s) != len(pressures_pa) or not steps_s:
+        raise ModelError(f'{len(pressures_pa)} pressures for {len(steps_s)} sub-steps')
+    forces, xs = [], []
+    k = ff = 0.0
+    iters = 0
+    f = force_n
+    for d, p in zip(steps_s, pressures_pa, strict=True):
+        f, x, k, ff, it = solve_substep(muscle, holder, d, p, f)
+        forces.append(f)
+        xs.append(x)
+        iters += it
+    return SubStepResult(list(steps_s), forces, xs, k, ff, iters)
