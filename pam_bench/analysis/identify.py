@@ -9,7 +9,9 @@ under-, critically (b^2 = 4c exactly) and over-damped responses are all computed
 
 Fit: least squares over (b, c) > 0 (in logarithms) with d and F_a0 solved linearly at every
 evaluation (variable projection), the response delayed by a whole number of samples (the
-measurement chain's latency) chosen by the smallest residual. RMS error of the fit in N.
+measurement chain's latency) chosen by the smallest residual: delays 0, 1, ... each start from
+the fit of the one before, until the residual has grown for two delays in a row (or
+``max_delay``). RMS error of the fit in N.
 """
 
 from __future__ import annotations
@@ -74,24 +76,30 @@ def fit_step(force_n: np.ndarray, period_s: float, dv: float, max_delay: int = 5
     n = len(f)
     if n < 20 or dv == 0.0:
         raise ValueError('a step response needs at least 20 samples and a non-zero step')
+    def residual(theta: np.ndarray, delay: int) -> np.ndarray:
+        b, c = np.exp(theta)
+        s = np.concatenate([np.zeros(delay), unit_step_response(b, c, n - delay, period_s)])
+        return _project(f, s, dv)[2]
+
+    start = None
+    for w in (5.0, 15.0, 40.0, 100.0):
+        for z in (0.2, 0.6, 1.2):
+            th = np.log([2 * z * w, w * w])
+            cost = float(np.sum(residual(th, 0) ** 2))
+            if start is None or cost < start[0]:
+                start = (cost, th)
     best = None
+    theta = start[1]
     for delay in range(max_delay + 1):
-        def residual(theta: np.ndarray, delay: int = delay) -> np.ndarray:
-            b, c = np.exp(theta)
-            s = np.concatenate([np.zeros(delay), unit_step_response(b, c, n - delay,
-                                                                    period_s)])
-            return _project(f, s, dv)[2]
-        start = None
-        for w in (5.0, 15.0, 40.0, 100.0):
-            for z in (0.2, 0.6, 1.2):
-                th = np.log([2 * z * w, w * w])
-                cost = float(np.sum(residual(th) ** 2))
-                if start is None or cost < start[0]:
-                    start = (cost, th)
-        sol = least_squares(residual, start[1], method='lm', x_scale=1.0)
+        # each delay starts from the fit of the one before (the shape barely changes); the
+        # residual is unimodal in the delay, so the search stops once it has grown twice
+        sol = least_squares(residual, theta, args=(delay,), method='lm', x_scale=1.0)
         cost = float(np.sum(sol.fun ** 2))
         if best is None or cost < best[0]:
             best = (cost, sol.x, delay)
+        elif delay - best[2] >= 2:
+            break
+        theta = sol.x
     _, theta, delay = best
     b, c = np.exp(theta)
     s = np.concatenate([np.zeros(delay), unit_step_response(b, c, n - delay, period_s)])
