@@ -77,7 +77,7 @@ def fit_step(force_n: np.ndarray, period_s: float, dv: float, max_delay: int = 5
     if n < 20 or dv == 0.0:
         raise ValueError('a step response needs at least 20 samples and a non-zero step')
     def residual(theta: np.ndarray, delay: int) -> np.ndarray:
-        b, c = np.exp(theta)
+        b, c = np.exp(np.clip(theta, -30.0, 30.0))     # the optimiser may probe far out
         s = np.concatenate([np.zeros(delay), unit_step_response(b, c, n - delay, period_s)])
         return _project(f, s, dv)[2]
 

@@ -32,7 +32,7 @@ from pam_bench.models.errors import ModelError
 from pam_bench.models.lti import ZohCache
 from pam_bench.models.params import field
 
-__all__ = ['ValveParams', 'ValveModel']
+__all__ = ['ValveParams', 'ValveModel', 'VolumeEvidence']
 
 
 @dataclasses.dataclass
@@ -56,12 +56,43 @@ class ValveParams:
                                        1.0e-9, 1.0)
     scheme: str = field('zoh', '-', 'integration: zoh (exact), rk4 or euler (one step each)')
     transient_step_s: float = field(0.1, 's', 'longest exchange step asked for while the '
-                                    'pressure is in transient and the chamber volume moves',
-                                    1.0e-5, 10.0)
+                                    'pressure is in transient, until the chamber volume is '
+                                    'seen still', 1.0e-5, 10.0)
     settled_tolerance_pa: float = field(2000.0, 'Pa', 'the pressure counts as settled within '
                                         'this of its steady state', 0.0, 1.0e6)
-    volume_tolerance: float = field(1.0e-3, '-', 'relative change of the chamber volume over '
-                                    'an exchange that counts as moving', 0.0, 1.0)
+    volume_rate_tolerance_per_s: float = field(0.01, '1/s', 'relative rate of change of the '
+                                               'chamber volume that counts as moving',
+                                               0.0, 1.0e3)
+
+
+class VolumeEvidence:
+    """What a valve knows of the chamber volume's motion: the muscle's volume reports (one per
+    exchange, each arriving an exchange late) and the times of its own command changes.
+
+    ``change_rel`` is |V_k - V_k-1| / V_k between the last two reports, ``span_s`` the time
+    between them when both came after the last command change (else 0: nothing is known yet of
+    the transient that change started).
+    """
+
+    def __init__(self) -> None:
+        self._last: tuple[float, float] | None = None     # (t s, V m^3) of the last report
+        self._command_t = -math.inf
+        self.change_rel = 0.0
+        self.span_s = 0.0
+
+    def command_changed(self, t_s: float) -> None:
+        """The command changed at sim time ``t_s`` (the start of the exchange it acts in): what
+        was known of the volume no longer counts."""
+        self._command_t = t_s
+        self.span_s = 0.0
+
+    def volume(self, t_s: float, volume_m3: float) -> None:
+        """A volume report stamped ``t_s``, m^3."""
+        if self._last is not None and volume_m3 > 0.0:
+            t0, v0 = self._last
+            self.change_rel = abs(volume_m3 - v0) / volume_m3
+            self.span_s = t_s - t0 if t0 >= self._command_t - 1e-12 else 0.0
+        self._last = (t_s, volume_m3)
 
 
 class ValveModel:
@@ -166,21 +197,18 @@ class ValveModel:
         self.state = np.array([s0, s1])
         return out
 
-    def max_step(self, voltage_v: float, volume_change_rel: float, last_step_s: float) -> float:
+    def max_step(self, voltage_v: float, evidence: VolumeEvidence) -> float:
         """Longest next exchange step this valve asks for, s (0: any).
 
         The valve integrates an exchange with the chamber volume of its start (the muscle
         reports the volume once per exchange), so while the pressure is in transient it asks
-        for ``transient_step_s`` unless the volume stood still over the last exchange of at
-        least that length (at a held length any step is exact).
-
-        Args:
-            voltage_v: the command, V.
-            volume_change_rel: |V_k - V_k-1| / V_k over the last exchange, -.
-            last_step_s: length of the last exchange, s.
+        for ``transient_step_s`` until an exchange of at least that length since its last
+        command change showed the volume standing still (at a held length any step is exact;
+        a light muscle contracts under the new pressure and its volume moves).
         """
-        if self.p.order == 0 or (volume_change_rel <= self.p.volume_tolerance
-                                 and last_step_s >= self.p.transient_step_s - 1e-9):
+        span = evidence.span_s
+        if self.p.order == 0 or (span >= self.p.transient_step_s - 1e-9 and evidence.change_rel
+                                 <= self.p.volume_rate_tolerance_per_s * span):
             return 0.0
         target = self.steady_pressure(voltage_v)
         w = self.natural_frequency(None) if self.p.order == 2 else 1.0 / self.p.time_constant_s

@@ -6,8 +6,9 @@ publishes ``valve_N/pressure`` (FluidPressure, absolute Pa, at the end of each e
 the exchange, ``sub_step_s`` long, or the command's ``sample_period`` during a 1 kHz record),
 which the muscle follows sample by sample. A NaN, infinite or out-of-range voltage is rejected,
 counted on /diagnostics and the valve vents (u = 0 V) until a valid command arrives. While the
-pressure is in transient and the chamber volume moves, the valve asks for exchange steps of at
-most ``transient_step_s`` (it integrates an exchange at the volume of its start).
+pressure is in transient, until an exchange since its last command change has shown the
+chamber volume standing still, the valve asks for exchange steps of at most
+``transient_step_s`` (it integrates an exchange at the volume of its start).
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from pam_bench_interfaces.msg import MuscleState, PressureSamples, ValveCommand
 from sensor_msgs.msg import FluidPressure
 
 from pam_bench.models.coupling import substep_grid
-from pam_bench.models.valve import ValveModel, ValveParams
+from pam_bench.models.valve import ValveModel, ValveParams, VolumeEvidence
 from pam_bench.nodes.base import RELIABLE, BenchNode, run_node, time_of
 
 __all__ = ['ValveSim', 'ATMOSPHERE_PA', 'main']
@@ -44,8 +45,7 @@ class ValveSim(BenchNode):
         self.voltage_v = 0.0
         self.sample_period_s = 0.0
         self.volume_m3: float | None = None
-        self.volume_change = 0.0          # over the exchange that ended at the volume's stamp
-        self._last_dt_s = 0.0             # length of that exchange, s
+        self.evidence = VolumeEvidence()
         self.cmd_topic = f'valve_{self.channel}/command'
         self.muscle_topic = f'sim/muscle_{self.channel}/state'
         self.pub = self.create_step_publisher(FluidPressure, f'valve_{self.channel}/pressure')
@@ -73,14 +73,17 @@ class ValveSim(BenchNode):
 
     def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
         """Advance the valve over the exchange and publish its pressure and samples."""
+        t0_s = (t_ns - round(dt_s * 1e9)) * 1e-9            # the inputs' stamp
         if self.cmd_topic in inputs:
+            before = self.voltage_v
             self.apply_command(inputs[self.cmd_topic])
+            if self.voltage_v != before:
+                self.evidence.command_changed(t0_s)
         if self.muscle_topic in inputs:
             v = inputs[self.muscle_topic].volume
             if self.finite(v) and v > 0.0:
-                if self.volume_m3 is not None:
-                    self.volume_change = abs(v - self.volume_m3) / v
                 self.volume_m3 = v
+                self.evidence.volume(t0_s, v)
         record = self.sample_period_s > 0.0
         steps = substep_grid(dt_s, min(self.sample_period_s if record else self.sub_step_s,
                                        dt_s))
@@ -94,9 +97,7 @@ class ValveSim(BenchNode):
         samples.header.stamp = stamp
         samples.header.frame_id = f'valve_{self.channel}'
         self.samples_pub.publish(samples)
-        self.max_next_step_s = self.model.max_step(self.voltage_v, self.volume_change,
-                                                   self._last_dt_s)
-        self._last_dt_s = dt_s
+        self.max_next_step_s = self.model.max_step(self.voltage_v, self.evidence)
 
     def on_fault(self, reason: str) -> None:
         """Vent."""

@@ -29,7 +29,7 @@ from pam_bench.models.loading_servo import LoadingServoModel, LoadingServoParams
 from pam_bench.models.muscle import MuscleModel, MuscleParams
 from pam_bench.models.protocols import COMMAND_STEP_S
 from pam_bench.models.sensors import EncoderModel, EncoderParams, LoadCellModel, LoadCellParams
-from pam_bench.models.valve import ValveModel, ValveParams
+from pam_bench.models.valve import ValveModel, ValveParams, VolumeEvidence
 
 __all__ = ['BenchState', 'SingleMuscleBench', 'DEFAULT_SUB_STEP_S']
 
@@ -69,9 +69,9 @@ class SingleMuscleBench:
         self.f = 0.0
         self.x = 0.0
         self.volume = self.muscle.volume(0.0)
-        self.volume_change = 0.0      # |V_k - V_k-1| / V_k of the last exchange
-        self.last_step_s = 0.0
-        self._change_seen = self._step_seen = 0.0
+        self.evidence = VolumeEvidence()   # what the valve node knows of the volume
+        self._u_applied: float | None = None
+        self._request = 0.0
         self.f_meas = 0.0
         self.th_meas = 0.0
         self.steps = 0                # exchanges taken
@@ -96,6 +96,12 @@ class SingleMuscleBench:
     def step(self, h_s: float, sample_period_s: float = 0.0) -> BenchState:
         """One exchange step of ``h_s`` seconds (module docstring); ``sample_period_s`` > 0
         fills ``samples`` with the load cell at every sub-step of that length."""
+        # the valve node at the end of this exchange: the command and the volume report of its
+        # start (nodes.valve_sim)
+        if self._u_applied is not None and self.u != self._u_applied:
+            self.evidence.command_changed(self.t)
+        self._u_applied = self.u
+        self.evidence.volume(self.t, self.volume)
         period = sample_period_s if sample_period_s > 0.0 else self.sub_step_s
         steps = substep_grid(h_s, min(period, h_s))
         pressures = self.valve.samples(self.u, steps, self.volume)
@@ -106,11 +112,8 @@ class SingleMuscleBench:
             self.servo.command(*self._pending)
             self._pending = None
         self.p, self.f, self.x = pressures[-1], res.forces_n[-1], res.contractions_m[-1]
-        volume = self.muscle.volume(self.x)
-        # the valve node learns this exchange's volume change one exchange later
-        self._change_seen, self._step_seen = self.volume_change, self.last_step_s
-        self.volume_change = abs(volume - self.volume) / volume
-        self.volume = volume
+        self._request = self.valve.max_step(self.u, self.evidence)
+        self.volume = self.muscle.volume(self.x)
         if sample_period_s > 0.0:
             t, self.samples = self.t, []
             for d, f in zip(steps, res.forces_n, strict=True):
@@ -122,7 +125,6 @@ class SingleMuscleBench:
             self.samples = [(self.t + h_s, self.f_meas)]
         self.th_meas, _ = self.encoder.measure(self.servo.angle, h_s)
         self.t += h_s
-        self.last_step_s = h_s
         return BenchState(self.t, self.u, self.p, self.f, self.x, self.f_meas, self.th_meas,
                           self.servo.torque)
 
@@ -149,4 +151,4 @@ class SingleMuscleBench:
 
     def max_step(self) -> float:
         """Longest next exchange step the devices ask for, s (0: any)."""
-        return self.valve.max_step(self.u, self._change_seen, self._step_seen)
+        return self._request

@@ -288,8 +288,9 @@ def _exchange_section(r: dict[str, Any]) -> list[str]:
     lines = ['', '## Exchange step and sub-step against error', '',
              'One series of readings (0.1 V or 10 N steps, 3 s dwell) on the numpy twin, as the '
              'nodes run it, at the exchange step (the longest; the sequencer asks for 1 ms at '
-             'every new set value, the valve for 0.1 s while its pressure is in transient and '
-             'the chamber volume moves) and the sub-step of the coupled muscle and drive, '
+             'every new set value, the valve for 0.1 s while its pressure is in transient, '
+             'until it has seen the chamber volume standing still) and the sub-step of the '
+             'coupled muscle and drive, '
              'against the same series at 1 ms exchanges on 1 ms sub-steps; force errors also '
              'in % of the 2 kN full scale. The exchange step changes only what an exchange '
              'holds: a new loading-servo set value (1 ms later) and the chamber volume the '

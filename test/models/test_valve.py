@@ -77,3 +77,23 @@ def test_step_of_ten_seconds_lands_on_steady_state(order: int) -> None:
 def test_non_finite_voltage_raises(u: float) -> None:
     with pytest.raises(ModelError):
         ValveModel().step(u, 0.01)
+
+
+def test_transient_requests_wait_for_volume_evidence_after_the_command() -> None:
+    """A volume report from before the command change says nothing about the transient it
+    started: the valve asks for short exchanges until an exchange of transient_step_s after
+    the change shows the volume standing still."""
+    from pam_bench.models.valve import VolumeEvidence
+    v = ValveModel()
+    ev = VolumeEvidence()
+    ev.volume(0.0, 1.0e-4)
+    ev.volume(3.0, 1.0e-4)                # still, but before the change
+    ev.command_changed(3.0)
+    v.step(3.0, 0.001, 1.0e-4)            # the pressure is in transient
+    assert v.max_step(3.0, ev) == v.p.transient_step_s
+    ev.volume(3.001, 1.0e-4)              # after the change, but a 1 ms span
+    assert v.max_step(3.0, ev) == v.p.transient_step_s
+    ev.volume(3.101, 1.0e-4)              # 0.1 s after the change, still: any step
+    assert v.max_step(3.0, ev) == 0.0
+    ev.volume(3.201, 1.01e-4)             # moving (10 %/s): short steps again
+    assert v.max_step(3.0, ev) == v.p.transient_step_s
