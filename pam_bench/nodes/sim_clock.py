@@ -14,6 +14,7 @@ rate=...``) and exits. With ``realtime`` the ticks are paced to the wall clock.
 
 from __future__ import annotations
 
+import collections
 import os
 import sys
 import time
@@ -26,7 +27,28 @@ from rosgraph_msgs.msg import Clock
 
 from pam_bench.nodes.base import RELIABLE, BenchNode, lean_spin, ns_of, time_of
 
-__all__ = ['SimClock', 'main']
+__all__ = ['SimClock', 'windowed_rate', 'ETA_WINDOW_S', 'main']
+
+ETA_WINDOW_S = 30.0      # s of wall time the ETA's rate is taken over
+
+
+def windowed_rate(history: collections.deque[tuple[float, float]], wall_s: float,
+                  sim_s: float, window_s: float = ETA_WINDOW_S) -> float:
+    """Sim seconds per wall second over about the last ``window_s`` of wall time.
+
+    Appends the sample (``wall_s``, ``sim_s``) to ``history`` and drops samples older than the
+    window (keeping one at or beyond its start), so the rate follows a change of protocol: a
+    campaign's step records cost several times more wall time per sim second than its settled
+    readings, and the run's mean rate would promise an early end.
+
+    Returns:
+        The rate, sim s / wall s (0 until two samples span some wall time).
+    """
+    history.append((wall_s, sim_s))
+    while len(history) > 2 and wall_s - history[1][0] >= window_s:
+        history.popleft()
+    w0, s0 = history[0]
+    return (sim_s - s0) / (wall_s - w0) if wall_s > w0 else 0.0
 
 
 class SimClock(Node):
@@ -72,6 +94,7 @@ class SimClock(Node):
         self.t_wall0 = time.monotonic()
         self.t_run0 = 0.0
         self.last_progress = time.monotonic()
+        self.rate_history: collections.deque[tuple[float, float]] = collections.deque()
         self.last_tick_wall = time.monotonic()
         self.exit_code = 0
         self.ready_at: float | None = None    # wall time when all were ready (lean mode)
@@ -210,8 +233,9 @@ class SimClock(Node):
         wall = now - self.t_run0
         rtf = t / wall if wall > 0 else 0.0
         total = self.expected_total_s
+        recent = windowed_rate(self.rate_history, wall, t)
         if total > 0:
-            eta = (total - t) / rtf if rtf > 0 else float('inf')
+            eta = (total - t) / recent if recent > 0 else float('inf')
             print(f'[sim {t:9.2f} / {total:9.2f} s  {100 * t / total:5.1f} %]  wall {wall:7.1f} '
                   f's  x{rtf:6.1f} real time  ETA {eta:6.1f} s wall', flush=True)
         else:
