@@ -103,10 +103,9 @@ class LoadingServoSim(BenchNode):
     def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
         """Replay the muscle's sub-steps, take the command, publish the next law."""
         stamp = time_of(t_ns)
-        i = self.model.p.gear_ratio
+        i, r = self.model.p.gear_ratio, self.model.r
         if self.muscles == 2:
             states = [inputs[t] for t in self.muscle_topics]
-            r = self.model.r
             th = self._pair_angle()
             f1, f2 = states[0].force[-1], states[1].force[-1]
             positions = [th, states[0].contraction[-1], states[1].contraction[-1]]
@@ -122,7 +121,6 @@ class LoadingServoSim(BenchNode):
                 self.diagnose(DiagnosticStatus.WARN if out.saturated else DiagnosticStatus.OK,
                               'loading servo ' + ('at its torque limit' if out.saturated
                                                   else 'within its torque limit'))
-            r = self.model.r
             positions = [out.pulley_angle_rad, out.contraction_m]
             names = ['pulley', f'muscle_{self.channel}']
             velocity = [out.pulley_rate_rad_s, out.pulley_rate_rad_s * r]
