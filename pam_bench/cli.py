@@ -16,8 +16,8 @@ __all__ = ['main']
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from pam_bench.sim.runner import run_scene
-    from pam_bench.sim.scene import load_scene
+    from pam_bench.bringup.runner import run_scene
+    from pam_bench.config.scene import load_scene
     scene = load_scene(args.scene)
     out = pathlib.Path(args.out or f'bags/{scene.name}')
     if args.resume and pathlib.Path(args.resume).resolve() == out.resolve():
@@ -30,7 +30,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         shutil.rmtree(out)
     if args.resume:
         from pam_bench.analysis.bagread import BagError
-        from pam_bench.sim.resume import resume_reading
+        from pam_bench.bringup.resume import resume_reading
         try:
             start, total = resume_reading(scene, args.resume)
         except BagError as exc:
@@ -56,7 +56,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _cmd_calibration(args: argparse.Namespace) -> int:
-    from pam_bench.sim.calibration import calibration_figures
+    from pam_bench.verify.calibration import calibration_figures
     fig = calibration_figures(h_s=args.step)
     if args.json:
         print(json.dumps(fig, indent=2))
@@ -67,7 +67,7 @@ def _cmd_calibration(args: argparse.Namespace) -> int:
 
 
 def _cmd_pingpong(args: argparse.Namespace) -> int:
-    from pam_bench.sim.pingpong import pingpong_rate
+    from pam_bench.benchmarks.pingpong import pingpong_rate
     rate = pingpong_rate(args.count)
     print(json.dumps({'pingpong_round_trips_per_s': rate}) if args.json
           else f'rclpy ping-pong between two processes: {rate:.0f} round trips/s')
@@ -94,7 +94,7 @@ def _cmd_extract(args: argparse.Namespace) -> int:
 
 
 def _cmd_truth(args: argparse.Namespace) -> int:
-    from pam_bench.sim.truth import compare, truth_summary
+    from pam_bench.verify.truth import compare, truth_summary
     truth = truth_summary(args.scene, reference=not args.no_reference)
     if args.against:
         path = pathlib.Path(args.against)
@@ -120,7 +120,7 @@ def _cmd_truth(args: argparse.Namespace) -> int:
 
 
 def _cmd_servo_compare(args: argparse.Namespace) -> int:
-    from pam_bench.sim.servo_compare import compare_servo
+    from pam_bench.benchmarks.servo_compare import compare_servo
     out = pathlib.Path(args.out)
     rows = compare_servo(out, args.engine, args.scene or None, args.duration)
     print(f"{'scene':26s} {'controller':20s} {'RMS':>8s} {'max':>8s} {'at reversal':>12s}")
@@ -132,7 +132,7 @@ def _cmd_servo_compare(args: argparse.Namespace) -> int:
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
-    from pam_bench.sim.benchmark import run_benchmarks
+    from pam_bench.benchmarks.suite import run_benchmarks
     root = pathlib.Path(args.root)
     run_benchmarks(args.quick, root, args.scene or None)
     print(f'wrote {root / "BENCHMARKS.md"} and {root / "bench.json"}')
@@ -145,7 +145,9 @@ def main(argv: list[str] | None = None) -> int:
     # small matrices only: BLAS thread pools just spin against the node processes
     for var in ('OPENBLAS_NUM_THREADS', 'OMP_NUM_THREADS', 'MKL_NUM_THREADS'):
         os.environ.setdefault(var, '1')
-    # SIGTERM ends a run like Ctrl-C: nodes stopped, bag closed, no orphans.
+    # Ctrl-C and SIGTERM end a run: nodes stopped, bag closed, no orphans. Installed whatever
+    # was inherited: a background job of a non-interactive shell starts with SIGINT ignored.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     signal.signal(signal.SIGTERM, _raise_interrupt)
     ap = argparse.ArgumentParser(prog='pam-bench', description=__doc__)
     sub = ap.add_subparsers(dest='cmd', required=True)

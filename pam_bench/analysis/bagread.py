@@ -15,11 +15,12 @@ import numpy as np
 from rosbags.rosbag2 import Reader
 
 from pam_bench.analysis.types import bench_typestore
+from pam_bench.config import topics
 
 __all__ = ['BagError', 'Points', 'StepRecord', 'BagData', 'read_bags', 'open_bag']
 
-POINT_TOPIC = '/protocol/point'
-RECORD_TOPIC = '/protocol/step_response'
+POINT_TOPIC = topics.absolute(topics.POINT)
+RECORD_TOPIC = topics.absolute(topics.RECORD)
 
 
 class BagError(Exception):

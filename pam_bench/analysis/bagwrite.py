@@ -8,6 +8,7 @@ import pathlib
 from rosbags.rosbag2 import StoragePlugin, Writer
 
 from pam_bench.analysis.types import bench_typestore
+from pam_bench.config import topics
 
 __all__ = ['write_bag']
 
@@ -23,8 +24,8 @@ def write_bag(path: pathlib.Path, points: list[dict], records: list[dict] = ()) 
     Header = store.types['std_msgs/msg/Header']
     Time = store.types['builtin_interfaces/msg/Time']
     with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
-        cp = w.add_connection('/protocol/point', POINT, typestore=store)
-        cr = w.add_connection('/protocol/step_response', RECORD, typestore=store)
+        cp = w.add_connection(topics.absolute(topics.POINT), POINT, typestore=store)
+        cr = w.add_connection(topics.absolute(topics.RECORD), RECORD, typestore=store)
         for i, pt in enumerate(points):
             t = (i + 1) * 3_000_000_000
             hdr = Header(stamp=Time(sec=t // 10**9, nanosec=t % 10**9), frame_id='')

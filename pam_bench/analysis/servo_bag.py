@@ -8,10 +8,11 @@ import numpy as np
 
 from pam_bench.analysis.bagread import BagError, open_bag
 from pam_bench.analysis.types import bench_typestore
+from pam_bench.config import topics
 
 __all__ = ['SERVO_TOPIC', 'read_servo_states']
 
-SERVO_TOPIC = '/torque_servo/state'
+SERVO_TOPIC = topics.absolute(topics.SERVO_STATE)
 
 
 def read_servo_states(path: str | pathlib.Path) -> dict[str, np.ndarray]:

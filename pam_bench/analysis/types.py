@@ -3,26 +3,15 @@
 from __future__ import annotations
 
 import functools
-import pathlib
 
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
+from pam_bench.config.paths import msg_defs_dir
+
 __all__ = ['msg_defs_dir', 'bench_typestore', 'PACKAGE']
 
 PACKAGE = 'pam_bench_interfaces'
-
-
-def msg_defs_dir() -> pathlib.Path:
-    """Folder with the .msg files: the source tree's msg_defs/msg or the installed copy."""
-    src = pathlib.Path(__file__).resolve().parents[2] / 'msg_defs' / 'msg'
-    if src.is_dir():
-        return src
-    try:
-        from ament_index_python.packages import get_package_share_directory
-        return pathlib.Path(get_package_share_directory('pam_bench')) / 'msg_defs' / 'msg'
-    except Exception as exc:  # noqa: BLE001
-        raise FileNotFoundError('msg_defs/msg not found next to pam_bench nor installed') from exc
 
 
 @functools.lru_cache(maxsize=1)

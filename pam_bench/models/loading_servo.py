@@ -55,6 +55,7 @@ import dataclasses
 import enum
 import math
 
+from pam_bench.models.constants import PULLEY_PITCH_DIAMETER_M
 from pam_bench.models.errors import ModelError
 from pam_bench.models.params import field
 
@@ -76,7 +77,8 @@ class LoadMode(enum.IntEnum):
 class LoadingServoParams:
     """Parameters of ``LoadingServoModel``."""
 
-    pitch_diameter_m: float = field(0.06366, 'm', 'pulley pitch diameter (004)', 0.001, 10.0)
+    pitch_diameter_m: float = field(PULLEY_PITCH_DIAMETER_M, 'm', 'pulley pitch diameter (004)',
+                                    0.001, 10.0)
     rated_torque_nm: float = field(1.27, 'N m', 'motor rated torque (004)', 0.0, 1.0e4)
     gear_ratio: float = field(70.0, '-', 'planetary gear ratio i (004)', 1.0, 1.0e4)
     force_limit_n: float = field(2792.0, 'N', 'largest force on the muscle (004)', 0.0, 1.0e6)

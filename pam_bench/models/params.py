@@ -7,13 +7,15 @@ The same metadata serves the YAML loader (clear message naming a bad key) and th
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from typing import Any, TypeVar
 
 from pam_bench.models.errors import ParameterError
 
-__all__ = ['field', 'from_mapping', 'describe', 'ParamInfo', 'param_infos', 'validate']
+__all__ = ['field', 'from_mapping', 'describe', 'ParamInfo', 'param_infos', 'validate',
+           'check_known', 'nearest']
 
 T = TypeVar('T')
 
@@ -100,6 +102,35 @@ def _check_range(key: str, info: ParamInfo, value: float) -> None:
                              f'{info.unit}')
 
 
+def nearest(name: str, known: Iterable[str]) -> str | None:
+    """The known name closest to ``name`` (a likely misspelling), or None."""
+    close = difflib.get_close_matches(name, list(known), n=1, cutoff=0.6)
+    return close[0] if close else None
+
+
+def check_known(keys: Iterable[str], known: Iterable[str], where: str, prefix: str = '') -> None:
+    """Raise on the first key (sorted) that is not in ``known``.
+
+    Args:
+        keys: the keys given.
+        known: the keys allowed.
+        where: what holds them, for the message (e.g. ``"scene demo.yaml, parameters"``).
+        prefix: put in front of the key and the suggestion (e.g. ``"muscle_1.muscle."``).
+
+    Raises:
+        ParameterError: names the unknown key and the nearest known one.
+    """
+    known = list(known)
+    unknown = sorted(set(keys) - set(known))
+    if not unknown:
+        return
+    key = unknown[0]
+    near = nearest(key, known)
+    hint = (f"did you mean '{prefix}{near}'?" if near
+            else f'known: {", ".join(sorted(known))}')
+    raise ParameterError(f"{where}: unknown key '{prefix}{key}' ({hint})")
+
+
 def from_mapping(cls: type[T], values: Mapping[str, Any] | None, prefix: str = '') -> T:
     """Build a parameter dataclass from a mapping, checking every value against its field.
 
@@ -113,10 +144,7 @@ def from_mapping(cls: type[T], values: Mapping[str, Any] | None, prefix: str = '
     """
     values = dict(values or {})
     infos = {i.name: i for i in param_infos(cls)}
-    unknown = sorted(set(values) - set(infos))
-    if unknown:
-        raise ParameterError(f'unknown parameter {prefix}{unknown[0]}; known: '
-                             f'{", ".join(sorted(infos))}')
+    check_known(values, infos, f'parameters of {cls.__name__}', prefix)
     kwargs = {k: _check_value(prefix, infos[k], v) for k, v in values.items()}
     return cls(**kwargs)
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import enum
 
+from pam_bench.models.constants import LOAD_CELL_RANGE_N
 from pam_bench.models.errors import ParameterError
 from pam_bench.models.loading_servo import LoadMode
 from pam_bench.models.schedules import Reading
@@ -52,7 +53,7 @@ class Limits:
     """Abort thresholds: load-cell range (N), set-value tolerances of the loading servo at a
     reading (N, m; force tolerance also relative)."""
 
-    force_range_n: float = 2000.0
+    force_range_n: float = LOAD_CELL_RANGE_N
     force_tolerance_n: float = 10.0
     force_tolerance_rel: float = 0.05
     position_tolerance_m: float = 1.0e-3

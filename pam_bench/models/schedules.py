@@ -17,8 +17,10 @@ import numpy as np
 
 from pam_bench.models.errors import ParameterError
 from pam_bench.models.loading_servo import LoadMode
+from pam_bench.models.params import check_known, nearest
 
-__all__ = ['Direction', 'Reading', 'sweep', 'schedule_from_config', 'resume_index']
+__all__ = ['Direction', 'Reading', 'sweep', 'schedule_from_config', 'resume_index',
+           'PROTOCOL_KEYS', 'check_protocol']
 
 
 class Direction(enum.IntEnum):
@@ -103,6 +105,38 @@ def _step_response(name: str, get: Any, dwell: float) -> list[Reading]:
     return out
 
 
+_COMMON = ('kind', 'dwell_s', 'settle_s')
+PROTOCOL_KEYS: dict[str, tuple[str, ...]] = {
+    'ramp': _COMMON + ('load_mode', 'load_value', 'voltage_v', 'ramp_rate_v_per_s',
+                       'reading_every_s'),
+    'isometric': _COMMON + ('x_m', 'voltage_v'),
+    'isotonic': _COMMON + ('force_n', 'voltage_v'),
+    'isobaric': _COMMON + ('voltage_v', 'force_n'),
+    'step_response': _COMMON + ('x_m', 'up', 'down', 'record_s', 'sample_period_s'),
+    'campaign': _COMMON + ('protocols',),
+}
+"""The keys each protocol kind takes (config/protocols.yaml)."""
+_STEP_KEYS = ('u0_v', 'step_v', 'n')
+
+
+def check_protocol(name: str, cfg: Mapping[str, Any]) -> None:
+    """Check a protocol entry's kind and keys (values are checked when it is scheduled).
+
+    Raises:
+        ParameterError: a missing or unknown kind, or a key the kind does not take (named,
+            with the nearest known key).
+    """
+    kind = cfg.get('kind')
+    if kind not in PROTOCOL_KEYS:
+        near = nearest(str(kind), PROTOCOL_KEYS)
+        hint = f'did you mean {near!r}?' if near else f'known: {", ".join(PROTOCOL_KEYS)}'
+        raise ParameterError(f'protocol {name!r}: unknown kind {kind!r} ({hint})')
+    check_known(cfg, PROTOCOL_KEYS[kind], f'protocol {name!r} ({kind})')
+    for key in ('up', 'down'):
+        if isinstance(cfg.get(key), Mapping):
+            check_known(cfg[key], _STEP_KEYS, f'protocol {name!r}, {key}')
+
+
 def schedule_from_config(name: str, cfg: Mapping[str, Any],
                          table: Mapping[str, Any] | None = None
                          ) -> tuple[list[Reading], float]:
@@ -122,6 +156,7 @@ def schedule_from_config(name: str, cfg: Mapping[str, Any],
             raise ParameterError(f'protocol {name!r}: missing key {key!r}')
         return cfg[key]
 
+    check_protocol(name, cfg)
     kind = get('kind')
     dwell = float(cfg.get('dwell_s', 3.0))
     settle = float(cfg.get('settle_s', dwell))

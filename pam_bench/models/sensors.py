@@ -17,6 +17,7 @@ import math
 
 import numpy as np
 
+from pam_bench.models.constants import LOAD_CELL_RANGE_N
 from pam_bench.models.errors import ModelError
 from pam_bench.models.params import field
 
@@ -27,7 +28,7 @@ __all__ = ['LoadCellParams', 'LoadCellModel', 'EncoderParams', 'EncoderModel']
 class LoadCellParams:
     """Parameters of ``LoadCellModel``."""
 
-    range_n: float = field(2000.0, 'N', 'measuring range +-F_r', 1.0, 1.0e6)
+    range_n: float = field(LOAD_CELL_RANGE_N, 'N', 'measuring range +-F_r', 1.0, 1.0e6)
     output_range_v: float = field(10.0, 'V', 'analog output +-U_r at +-F_r', 0.1, 100.0)
     adc_bits: int = field(16, 'bit', 'resolution of the converter over +-U_r', 1, 32)
     noise_std_n: float = field(0.2, 'N', 'standard deviation of the Gaussian noise',

@@ -30,6 +30,7 @@ import dataclasses
 import enum
 import math
 
+from pam_bench.models.constants import PULLEY_PITCH_DIAMETER_M
 from pam_bench.models.errors import ModelError
 from pam_bench.models.inverse import InverseModel
 from pam_bench.models.params import field
@@ -136,7 +137,8 @@ class Pid:
 class TorqueServoParams:
     """Parameters of ``TorqueServoController``."""
 
-    pitch_diameter_m: float = field(0.06366, 'm', 'pulley pitch diameter (004)', 0.001, 10.0)
+    pitch_diameter_m: float = field(PULLEY_PITCH_DIAMETER_M, 'm', 'pulley pitch diameter (004)',
+                                    0.001, 10.0)
     rest_contraction_m: float = field(0.04, 'm', 'contraction x0 of both muscles at theta = 0',
                                       0.0, 0.15)
     max_torque_nm: float = field(25.46, 'N m', 'largest torque set point (004)', 0.0, 1e4)

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import importlib
 import math
+import signal
 import struct
 from collections.abc import Callable
 from typing import Any
@@ -38,16 +39,20 @@ from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from pam_bench_interfaces.msg import StepAck
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from rosgraph_msgs.msg import Clock
 
-from pam_bench.models.params import ParamInfo, describe, from_mapping, param_infos
+from pam_bench.config import topics
+from pam_bench.models.errors import ModelError
+from pam_bench.models.lockstep import InputSpec, StopRequest, prune, take_inputs
+from pam_bench.models.params import ParamInfo, check_known, describe, from_mapping, param_infos
 
 __all__ = ['BenchNode', 'RELIABLE', 'LOCKSTEP', 'ns_of', 'stamp_of_cdr', 'time_of', 'run_node',
-           'message_class']
+           'message_class', 'reject_undeclared', 'install_interrupt_handlers', 'fail_line']
 
 RELIABLE = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
                       history=HistoryPolicy.KEEP_LAST, durability=DurabilityPolicy.VOLATILE)
@@ -92,19 +97,17 @@ class BenchNode(Node):
         self.lockstep = self.declare_typed('lockstep', True,
                                            'step on /clock ticks in lock-step with sim_clock')
         self._sync: dict[str, dict[int, Any]] = {}
-        self._same_step: set[str] = set()
-        self._samples: set[str] = set()
-        self._from_start: set[str] = set()
+        self._specs: dict[str, InputSpec] = {}
         self._decode: dict[str, type] = {}
         self._prev_prev_ns: int | None = None
         self._last_ns: int | None = None
         self._pending_ns: int | None = None
         self._step_index = 0
         self.rejected_count = 0
-        self.stop_request: tuple[int, str] | None = None   # (exit code, reason) sent on acks
+        self.stop_request: StopRequest | None = None      # sent with every acknowledgement
         self.max_next_step_s = 0.0        # longest next exchange step wanted (0: any)
         self._sent: list[tuple[Callable[[Any], None], Any]] = []   # this step's outputs
-        self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', RELIABLE)
+        self._diag_pub = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, RELIABLE)
         self._ack_pub = None
 
     # --- parameters --------------------------------------------------------------------
@@ -192,12 +195,7 @@ class BenchNode(Node):
         """
         buf: dict[int, Any] = {}
         self._sync[topic] = buf
-        if same_step:
-            self._same_step.add(topic)
-        if samples:
-            self._samples.add(topic)
-        if from_start:
-            self._from_start.add(topic)
+        self._specs[topic] = InputSpec(same_step, samples, from_start)
         if not raw:
             self._decode[topic] = msg_type
 
@@ -211,9 +209,9 @@ class BenchNode(Node):
 
     def start_lockstep(self) -> None:
         """Subscribe to /clock and create the ack publisher (call after all sync_input)."""
-        self._ack_pub = self.create_publisher(StepAck, '/sim/ack',
+        self._ack_pub = self.create_publisher(StepAck, topics.ACK,
                                               RELIABLE)
-        self.create_subscription(Clock, '/clock', self._on_clock, RELIABLE)
+        self.create_subscription(Clock, topics.CLOCK, self._on_clock, RELIABLE)
 
     def _on_clock(self, msg: Clock) -> None:
         t = ns_of(msg.clock)
@@ -237,29 +235,16 @@ class BenchNode(Node):
         if t is None or self._last_ns is None:
             return
         prev = self._last_ns
-        inputs: dict[str, Any] = {}
-        for topic, buf in self._sync.items():
-            if topic in self._same_step:
-                lo, hi = prev, t
-            elif self._step_index >= 1 or topic in self._from_start:
-                lo, hi = (self._prev_prev_ns if self._prev_prev_ns is not None else -1), prev
-            else:
-                continue                  # step 1 runs on the initial values
-            msg = buf.get(hi)
-            if msg is None:
-                return
-            inputs[topic] = ([buf[k] for k in sorted(k for k in buf if lo < k <= hi)]
-                             if topic in self._samples else msg)
+        inputs = take_inputs(self._sync, self._specs, self._prev_prev_ns, prev, t,
+                             self._step_index)
+        if inputs is None:
+            return
         for topic, cls in self._decode.items():
             if topic in inputs:
                 val = inputs[topic]
                 inputs[topic] = ([deserialize_message(v, cls) for v in val]
                                  if isinstance(val, list) else deserialize_message(val, cls))
-        for topic, buf in self._sync.items():
-            # the next step needs messages after t (same-step inputs) or from prev on (lagged)
-            same = topic in self._same_step
-            for k in [k for k in buf if (k <= t if same else k < prev)]:
-                del buf[k]
+        prune(self._sync, self._specs, prev, t)
         self._pending_ns = None
         self._sent = []
         self._prev_prev_ns = prev
@@ -276,7 +261,8 @@ class BenchNode(Node):
         ack = StepAck(node=self.get_fully_qualified_name())
         ack.max_next_step = float(self.max_next_step_s)
         if self.stop_request is not None:
-            ack.stop, ack.exit_code, ack.reason = True, *self.stop_request
+            ack.stop = True
+            ack.exit_code, ack.reason = self.stop_request.exit_code, self.stop_request.reason
         ack.header.stamp = time_of(t)
         self._ack_pub.publish(ack)
 
@@ -341,17 +327,68 @@ def lean_spin(node: Node, graceful: bool = False) -> None:
         guard.destroy()
 
 
+def reject_undeclared(node: Node, overrides: list[Any] | None = None) -> None:
+    """Stop a node given a parameter it does not declare (a misspelt key in a params file or a
+    scene would otherwise be ignored and the default used).
+
+    Args:
+        node: a node after its constructor declared every parameter.
+        overrides: the ``Parameter`` overrides it was built with (default: those rclpy
+            resolved for it from ``--params-file`` and ``-p``).
+
+    Raises:
+        ParameterError: names the unknown key and the nearest declared one.
+    """
+    names = ([p.name for p in overrides] if overrides is not None
+             else list(getattr(node, '_parameter_overrides', {})))
+    declared = node.list_parameters([], 0).names
+    check_known(names, declared, f'node {node.get_name()}: parameters')
+
+
+def install_interrupt_handlers() -> None:
+    """SIGINT and SIGTERM raise KeyboardInterrupt, whatever the process inherited: a process
+    started in the background by a non-interactive shell inherits SIGINT ignored, and Python
+    then installs no handler of its own."""
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
+
+
+def fail_line(name: str, exc: BaseException) -> str:
+    """The one line a node prints when it cannot start (``bringup.runner.node_error``)."""
+    text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    return f'{name}: error: {text}'
+
+
+def _node_name(cls: type, args: list[str] | None) -> str:
+    import sys
+    for a in (args if args is not None else sys.argv):
+        if a.startswith('__node:='):
+            return a.split(':=', 1)[1]
+    return cls.__name__
+
+
 def run_node(cls: type[Node], args: list[str] | None = None) -> None:
     """The Jazzy ``main()``: init, spin, stop on Ctrl-C or external shutdown, clean up.
 
-    Nodes with only subscriptions (``LEAN_SPIN``) use ``lean_spin`` unless
-    ``PAM_BENCH_EXECUTOR=single`` asks for rclpy's SingleThreadedExecutor.
+    A node that cannot start (a bad, misspelt or out-of-range parameter) prints one line naming
+    the key and exits with code 2, no traceback. Nodes with only subscriptions
+    (``LEAN_SPIN``) use ``lean_spin`` unless ``PAM_BENCH_EXECUTOR=single`` asks for rclpy's
+    SingleThreadedExecutor.
     """
     import os
+    import sys
+    install_interrupt_handlers()
     rclpy.init(args=args)
     node = None
+    code = 0
     try:
-        node = cls()
+        try:
+            node = cls()
+            reject_undeclared(node)
+        except (ModelError, ParameterException) as exc:
+            print(fail_line(_node_name(cls, args), exc), file=sys.stderr, flush=True)
+            code = 2
+            return
         if getattr(node, 'LEAN_SPIN', False) and os.environ.get('PAM_BENCH_EXECUTOR') != 'single':
             lean_spin(node, graceful=getattr(node, 'GRACEFUL_STOP', False))
         else:
@@ -362,3 +399,5 @@ def run_node(cls: type[Node], args: list[str] | None = None) -> None:
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
+        if code:
+            sys.exit(code)

@@ -11,6 +11,7 @@ from typing import Any
 
 from sensor_msgs.msg import JointState
 
+from pam_bench.config import topics
 from pam_bench.models.sensors import EncoderModel, EncoderParams
 from pam_bench.nodes.base import BenchNode, run_node, time_of
 
@@ -25,9 +26,9 @@ class EncoderSim(BenchNode):
     def __init__(self, name: str = 'encoder', **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
         self.model = EncoderModel(self.declare_model('encoder', EncoderParams))
-        self.topic = 'sim/pulley/state'
+        self.topic = topics.PULLEY_STATE
         self.angle_rad = 0.0
-        self.pub = self.create_step_publisher(JointState, 'encoder/joint_state')
+        self.pub = self.create_step_publisher(JointState, topics.ENCODER)
         self.sync_input(JointState, self.topic, same_step=True)
         self.start_lockstep()
 

@@ -15,6 +15,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import WrenchStamped
 from pam_bench_interfaces.msg import MuscleSamples
 
+from pam_bench.config import topics
 from pam_bench.models.sensors import LoadCellModel, LoadCellParams
 from pam_bench.nodes.base import BenchNode, run_node, time_of
 
@@ -32,10 +33,10 @@ class LoadCellSim(BenchNode):
         seed = self.declare_typed('seed', 0, 'seed of the noise generator', '-', 0, 2**31 - 1)
         params = self.declare_model('load_cell', LoadCellParams)
         self.model = LoadCellModel(params, seed=seed + zlib.crc32(name.encode()))
-        self.topic = f'sim/muscle_{self.channel}/samples'
+        self.topic = topics.muscle_samples(self.channel)
         self.force_n = 0.0
         self._was_saturated = False
-        self.pub = self.create_step_publisher(WrenchStamped, f'load_cell_{self.channel}/force')
+        self.pub = self.create_step_publisher(WrenchStamped, topics.load_cell_force(self.channel))
         self.sync_input(MuscleSamples, self.topic, same_step=True)
         self.start_lockstep()
 

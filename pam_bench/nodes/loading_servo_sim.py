@@ -31,6 +31,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from pam_bench_interfaces.msg import DriveLaw, LoadCommand, MuscleSamples
 from sensor_msgs.msg import JointState
 
+from pam_bench.config import topics
 from pam_bench.models.loading_servo import LoadingServoModel, LoadingServoParams, LoadMode
 from pam_bench.nodes.base import RELIABLE, BenchNode, run_node, time_of
 
@@ -65,13 +66,13 @@ class LoadingServoSim(BenchNode):
             if init_mode == LoadMode.POSITION:
                 self.model.reset(init_sp)
         ch = self.channel
-        self.cmd_topic = 'loading_servo/command'
-        self.muscle_topics = ([f'sim/muscle_{i}/samples' for i in (1, 2)]
-                              if self.muscles == 2 else [f'sim/muscle_{ch}/samples'])
+        self.cmd_topic = topics.LOAD_COMMAND
+        self.muscle_topics = ([topics.muscle_samples(i) for i in (1, 2)]
+                              if self.muscles == 2 else [topics.muscle_samples(ch)])
         self._was_saturated = False
-        self.pulley_pub = self.create_step_publisher(JointState, 'sim/pulley/state')
-        self.state_pub = self.create_step_publisher(JointState, 'loading_servo/state')
-        self.law_pub = self.create_step_publisher(DriveLaw, 'sim/pulley/law')
+        self.pulley_pub = self.create_step_publisher(JointState, topics.PULLEY_STATE)
+        self.state_pub = self.create_step_publisher(JointState, topics.LOAD_STATE)
+        self.law_pub = self.create_step_publisher(DriveLaw, topics.PULLEY_LAW)
         if self.sync_command:
             self.sync_input(LoadCommand, self.cmd_topic)
         else:

@@ -15,6 +15,7 @@ from typing import Any
 
 from pam_bench_interfaces.msg import DriveLaw, MuscleSamples, MuscleState, PressureSamples
 
+from pam_bench.config import topics
 from pam_bench.models.coupling import solve_substeps
 from pam_bench.models.errors import ModelError
 from pam_bench.models.loading_servo import IdealHold, LoadingServoModel
@@ -34,16 +35,16 @@ class MuscleSim(BenchNode):
         self.channel = self.declare_typed('channel', 1, 'muscle channel N', '-', 1, 2)
         self.model = MuscleModel(self.declare_model('muscle', MuscleParams))
         self.joint = f'muscle_{self.channel}'
-        self.p_topic = f'sim/valve_{self.channel}/samples'
-        self.law_topic = 'sim/pulley/law'
+        self.p_topic = topics.valve_samples(self.channel)
+        self.law_topic = topics.PULLEY_LAW
         self.pressure_pa = 0.0
         self.contraction_m = 0.0
         self.force_n = 0.0
         self._drive_cache: dict = {}
         self._mounted = False
-        self.pub = self.create_step_publisher(MuscleState, f'sim/muscle_{self.channel}/state')
+        self.pub = self.create_step_publisher(MuscleState, topics.muscle_state(self.channel))
         self.samples_pub = self.create_step_publisher(MuscleSamples,
-                                                      f'sim/muscle_{self.channel}/samples')
+                                                      topics.muscle_samples(self.channel))
         self.sync_input(PressureSamples, self.p_topic, same_step=True)
         self.sync_input(DriveLaw, self.law_topic, from_start=True)
         self.start_lockstep()

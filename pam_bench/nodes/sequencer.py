@@ -23,10 +23,8 @@ than ``stale_timeout_s``.
 from __future__ import annotations
 
 import math
-import pathlib
 from typing import Any
 
-import yaml
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import WrenchStamped
 from pam_bench_interfaces.action import RunProtocol
@@ -41,7 +39,11 @@ from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.task import Future
 from sensor_msgs.msg import FluidPressure, JointState
 
+from pam_bench.config import topics
+from pam_bench.config.protocols import load_protocols, parse_overrides, protocol_schedule
+from pam_bench.models.constants import ATMOSPHERE_PA, LOAD_CELL_RANGE_N, PULLEY_PITCH_DIAMETER_M
 from pam_bench.models.errors import ParameterError
+from pam_bench.models.lockstep import EventStepRequest, StopRequest
 from pam_bench.models.protocols import (
     COMMAND_STEP_S,
     RECORD_EXCHANGE_S,
@@ -51,9 +53,7 @@ from pam_bench.models.protocols import (
     Point,
     Sequencer,
 )
-from pam_bench.models.schedules import schedule_from_config
 from pam_bench.nodes.base import RELIABLE, BenchNode, ns_of, run_node, time_of
-from pam_bench.nodes.valve_sim import ATMOSPHERE_PA
 
 __all__ = ['SequencerNode', 'main']
 
@@ -65,19 +65,6 @@ STATE_OF = {Phase.IDLE: ProtocolStatus.STATE_IDLE, Phase.SETTLE: ProtocolStatus.
             Phase.CANCELLED: ProtocolStatus.STATE_CANCELLED}
 
 
-def default_protocols_file() -> str:
-    """config/protocols.yaml of the source tree or of the installed share directory."""
-    here = pathlib.Path(__file__).resolve().parents[2] / 'config' / 'protocols.yaml'
-    if here.exists():
-        return str(here)
-    try:
-        from ament_index_python.packages import get_package_share_directory
-        return str(pathlib.Path(get_package_share_directory('pam_bench')) / 'config'
-                   / 'protocols.yaml')
-    except Exception:  # noqa: BLE001 - fall back to the relative path
-        return 'config/protocols.yaml'
-
-
 class SequencerNode(BenchNode):
     """Thin node over ``protocols.Sequencer``."""
 
@@ -87,7 +74,7 @@ class SequencerNode(BenchNode):
         self.channel = d('channel', 1, 'muscle channel under test', '-', 1, 2)
         self.protocol = d('protocol', 'demo', 'protocol started at t_0 with autostart')
         self.autostart = d('autostart', True, 'start the protocol at t_0 (else: on a goal)')
-        path = d('protocols_file', default_protocols_file(), 'YAML file of the protocols')
+        path = d('protocols_file', '', 'YAML file of the protocols (empty: config/protocols.yaml)')
         overrides = d('protocol_overrides_yaml', '', 'YAML mapping merged over the autostart '
                       'protocol (e.g. a coarser grid)')
         self.status_period_s = d('status_period_s', 1.0, 'sim time between status messages',
@@ -109,35 +96,34 @@ class SequencerNode(BenchNode):
                                      'this reading (pam-bench run --resume: the first one of '
                                      'the first series a previous bag did not complete)', '-',
                                      0, 10**7)
-        self.pulley_radius_m = d('pitch_diameter_m', 0.06366, 'pulley pitch diameter for '
-                                 'x = r theta', 'm', 1e-3, 10.0) / 2.0
+        self.pulley_radius_m = d('pitch_diameter_m', PULLEY_PITCH_DIAMETER_M, 'pulley pitch '
+                                 'diameter for x = r theta', 'm', 1e-3, 10.0) / 2.0
         self.limits = Limits(
-            force_range_n=d('force_range_n', 2000.0, 'load cell range: abort beyond', 'N',
-                            1.0, 1e6),
+            force_range_n=d('force_range_n', LOAD_CELL_RANGE_N, 'load cell range: abort '
+                            'beyond', 'N', 1.0, 1e6),
             force_tolerance_n=d('force_tolerance_n', 10.0, 'servo force tolerance at a reading',
                                 'N', 0.0, 1e5),
             force_tolerance_rel=d('force_tolerance_rel', 0.05, 'relative force tolerance', '-',
                                   0.0, 1.0),
             position_tolerance_m=d('position_tolerance_m', 1e-3, 'servo position tolerance at '
                                    'a reading', 'm', 0.0, 1.0))
-        with open(path, encoding='utf-8') as fh:
-            self.table = yaml.safe_load(fh) or {}
+        self.table = load_protocols(path or None)
         self.core = (self._make(self.protocol, overrides, self.resume_from_reading)
                      if self.autostart else None)
         ch = self.channel
-        self.cell_topic = f'load_cell_{ch}/force'
-        self.enc_topic = 'encoder/joint_state'
-        self.p_topic = f'valve_{ch}/pressure'
+        self.cell_topic = topics.load_cell_force(ch)
+        self.enc_topic = topics.ENCODER
+        self.p_topic = topics.valve_pressure(ch)
         self.meas = Measurement(0.0, 0.0, 0.0)
         self.samples: list[tuple[float, float]] = []      # load-cell (stamp s, N) since a tick
         self.stamps: dict[str, float] = {}
-        self.valve_pub = self.create_step_publisher(ValveCommand, f'valve_{ch}/command')
-        self.load_pub = self.create_step_publisher(LoadCommand, 'loading_servo/command')
-        self.point_pub = self.create_publisher(CharacteristicPoint, 'protocol/point', RELIABLE)
-        self.record_pub = self.create_publisher(StepResponseRecord, 'protocol/step_response',
+        self.valve_pub = self.create_step_publisher(ValveCommand, topics.valve_command(ch))
+        self.load_pub = self.create_step_publisher(LoadCommand, topics.LOAD_COMMAND)
+        self.point_pub = self.create_publisher(CharacteristicPoint, topics.POINT, RELIABLE)
+        self.record_pub = self.create_publisher(StepResponseRecord, topics.RECORD,
                                                 RELIABLE)
-        self.status_pub = self.create_publisher(ProtocolStatus, 'protocol/status', RELIABLE)
-        self._last_marker: tuple[int, Phase] | None = None
+        self.status_pub = self.create_publisher(ProtocolStatus, topics.STATUS, RELIABLE)
+        self.step_request = EventStepRequest(self.command_step_s)
         self._last_status_t = -math.inf
         self._last_phase: Phase | None = None
         self._start_pending = False
@@ -149,7 +135,7 @@ class SequencerNode(BenchNode):
         self.LEAN_SPIN = self.lockstep and self.autostart
         self.action = None
         if not self.LEAN_SPIN:
-            self.action = ActionServer(self, RunProtocol, 'protocol/run', self._execute,
+            self.action = ActionServer(self, RunProtocol, topics.RUN, self._execute,
                                        goal_callback=self._on_goal,
                                        cancel_callback=lambda _: CancelResponse.ACCEPT)
         if self.lockstep:
@@ -168,16 +154,7 @@ class SequencerNode(BenchNode):
             self.create_timer(self.tick_period_s, self._on_timer)
 
     def _make(self, name: str, overrides_yaml: str, start_index: int = 0) -> Sequencer:
-        if name not in self.table:
-            raise ParameterError(f'unknown protocol {name!r}; known: '
-                                 f'{", ".join(sorted(self.table))}')
-        cfg = dict(self.table[name])
-        if overrides_yaml.strip():
-            extra = yaml.safe_load(overrides_yaml)
-            if not isinstance(extra, dict):
-                raise ParameterError('overrides_yaml must be a YAML mapping')
-            cfg.update(extra)
-        readings, settle = schedule_from_config(name, cfg, self.table)
+        readings, settle = protocol_schedule(name, parse_overrides(overrides_yaml), self.table)
         return Sequencer(name, readings, settle, self.limits, self.record_exchange_s,
                          start_index)
 
@@ -251,18 +228,14 @@ class SequencerNode(BenchNode):
             self.record_pub.publish(self._record_msg(cmd.record))
         if core.phase != self._last_phase or t - self._last_status_t >= self.status_period_s:
             self._publish_status(t, stamp)
-        nxt = core.next_event_s(t)
-        self.max_next_step_s = max(nxt - t, 1e-6) if math.isfinite(nxt) else 0.0
-        marker = (core.index, core.phase)
-        if marker != self._last_marker:           # a new reading or phase: new set values
-            self._last_marker = marker
-            self.max_next_step_s = min(self.max_next_step_s or math.inf, self.command_step_s)
+        self.max_next_step_s = self.step_request.request(t, core.next_event_s(t),
+                                                         (core.index, core.phase))
         if not core.running and core.phase != Phase.IDLE:
             self._finish_goal()
             if self.stop_on_end and self.autostart:
-                self.stop_request = (END_CODES[core.phase], f'protocol {core.name} '
-                                     f'{core.phase.value}' + (f': {core.reason}'
-                                                              if core.reason else ''))
+                self.stop_request = StopRequest(
+                    END_CODES[core.phase], f'protocol {core.name} {core.phase.value}'
+                    + (f': {core.reason}' if core.reason else ''))
 
     def _publish_commands(self, stamp: Any, u: float, mode: int, value: float,
                           sample_period_s: float = 0.0) -> None:
@@ -316,7 +289,7 @@ class SequencerNode(BenchNode):
             return GoalResponse.REJECT
         try:
             self.core = self._make(goal.protocol, goal.overrides_yaml)
-        except (ParameterError, yaml.YAMLError) as exc:
+        except ParameterError as exc:
             self.diagnose(DiagnosticStatus.ERROR, f'protocol goal rejected: {exc}')
             return GoalResponse.REJECT
         self._start_pending = True

@@ -8,8 +8,10 @@ shorter when an acknowledgement asks for it (``max_next_step``).
 It stops at ``duration_s`` or when an acknowledgement asks to stop (the sequencer's, when its
 protocol ends: in the ack itself, so the last step is the same in every run). A last flush tick
 at t_N + 1 ns lets every participant (the recorder above all) take in the data stamped t_N;
-once all have acknowledged it the clock prints one summary line (``LOCKSTEP steps=...
-rate=...``) and exits. With ``realtime`` the ticks are paced to the wall clock.
+once all have acknowledged it the clock writes its ``RunSummary`` as JSON to ``summary_file``
+(when set), prints it as one line and exits with the run's exit code. The rules (step
+negotiation, flush tick, stop request, states) are ``models.lockstep``. With ``realtime`` the
+ticks are paced to the wall clock.
 """
 
 from __future__ import annotations
@@ -22,10 +24,31 @@ from typing import Any
 
 import rclpy
 from pam_bench_interfaces.msg import ProtocolStatus, StepAck
+from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
-from pam_bench.nodes.base import RELIABLE, BenchNode, lean_spin, ns_of, time_of
+from pam_bench.config import topics
+from pam_bench.models.errors import ModelError
+from pam_bench.models.lockstep import (
+    FLUSH_NS,
+    ClockState,
+    RunSummary,
+    StopRequest,
+    flush_tick,
+    negotiate,
+    request_ns,
+)
+from pam_bench.nodes.base import (
+    RELIABLE,
+    BenchNode,
+    fail_line,
+    install_interrupt_handlers,
+    lean_spin,
+    ns_of,
+    reject_undeclared,
+    time_of,
+)
 
 __all__ = ['SimClock', 'windowed_rate', 'ETA_WINDOW_S', 'main']
 
@@ -73,24 +96,24 @@ class SimClock(Node):
         self.nudge_s = decl('nudge_s', 1.0, 'publish a tick again when it is not acknowledged '
                             'within this wall time (a message lost at start-up)', 's', 0.01,
                             3600.0)
+        self.summary_file = decl('summary_file', '', 'write the run summary here as JSON '
+                                 '(empty: print it only)')
         self.timeout_s = decl('stall_timeout_s', 10.0, 'abort when a step is not acknowledged '
                               'within this wall time', 's', 0.1, 3600.0)
         self.h_ns = round(self.step_s * 1e9)
         self.k = 0
         self.tick_ns = 0
-        self.flushing = False
-        self.stop_request: tuple[str, int] | None = None
+        self.state = ClockState.WAITING
+        self.stop_request: StopRequest | None = None
+        self.summary: RunSummary | None = None
         self.acks: set[str] = set()
         self.next_step_ns = 0             # shortest step requested for the next tick
         self.nudged = False               # the current tick was published again
-        self.ready = False
-        self.done = False
-        self.stop_reason = ''
         self.expected_total_s = self.duration_s
-        self.pub = self.create_publisher(Clock, '/clock', RELIABLE)
-        self.create_subscription(StepAck, '/sim/ack', self._on_ack, RELIABLE)
-        self.create_subscription(ProtocolStatus, 'protocol/status', self._on_status, RELIABLE)
-        self.status_pub = self.create_publisher(ProtocolStatus, 'protocol/status', RELIABLE)
+        self.pub = self.create_publisher(Clock, topics.CLOCK, RELIABLE)
+        self.create_subscription(StepAck, topics.ACK, self._on_ack, RELIABLE)
+        self.create_subscription(ProtocolStatus, topics.STATUS, self._on_status, RELIABLE)
+        self.status_pub = self.create_publisher(ProtocolStatus, topics.STATUS, RELIABLE)
         self.t_wall0 = time.monotonic()
         self.t_run0 = 0.0
         self.last_progress = time.monotonic()
@@ -102,14 +125,25 @@ class SimClock(Node):
         if not self.lean:
             self.timer = self.create_timer(0.05, self._on_timer)
 
+    @property
+    def flushing(self) -> bool:
+        """The flush tick is out."""
+        return self.state == ClockState.FLUSHING
+
+    @property
+    def done(self) -> bool:
+        """The run has ended."""
+        return self.state == ClockState.DONE
+
     def lean_poll(self) -> None:
         """What the timers do, called by ``lean_spin`` at every wake-up (>= every 50 ms)."""
         now = time.monotonic()
         if self.ready_at is not None:
-            if self.t_run0 == 0.0 and now - self.ready_at >= self.grace_s:
+            if self.state == ClockState.GRACE and now - self.ready_at >= self.grace_s:
                 self.t_run0 = now
+                self.state = ClockState.RUNNING
                 self._advance()
-            elif self.t_run0 and not self.done:
+            elif self.state in (ClockState.RUNNING, ClockState.FLUSHING):
                 self._check_progress(now)
             return
         if now - self.last_tick_wall >= 0.05:
@@ -122,9 +156,9 @@ class SimClock(Node):
 
     def _on_timer(self) -> None:
         now = time.monotonic()
-        if not self.ready:
+        if self.state == ClockState.WAITING:
             if self.acks >= self.participants:
-                self.ready = True
+                self.state = ClockState.GRACE
                 if self.lean:
                     self.ready_at = now
                     return
@@ -137,7 +171,7 @@ class SimClock(Node):
                     self._finish(f'participants never ready: '
                                  f'{sorted(self.participants - self.acks)}', 2)
             return
-        if not self.done:
+        if self.state in (ClockState.RUNNING, ClockState.FLUSHING):
             self._check_progress(now)
 
     def _check_progress(self, now: float) -> None:
@@ -165,6 +199,7 @@ class SimClock(Node):
         self.timer.cancel()
         self.timer = self.create_timer(0.25, self._on_timer)
         self.t_run0 = time.monotonic()
+        self.state = ClockState.RUNNING
         self._advance()
 
     def _advance(self) -> None:
@@ -172,13 +207,11 @@ class SimClock(Node):
             return
         t_s = self.tick_ns * 1e-9
         if self.duration_s > 0.0 and t_s >= self.duration_s - 1e-12:
-            self._flush('duration reached', 0)
+            self._flush(StopRequest(0, 'duration reached'))
             return
-        step = self.h_ns
-        if self.next_step_ns > 0:
-            step = min(step, self.next_step_ns)
-        if self.duration_s > 0.0:
-            step = min(step, round(self.duration_s * 1e9) - self.tick_ns)
+        step = negotiate(self.h_ns, (self.next_step_ns,),
+                         round(self.duration_s * 1e9) - self.tick_ns
+                         if self.duration_s > 0.0 else None)
         if self.realtime:
             lag = (self.tick_ns + step) * 1e-9 - (time.monotonic() - self.t_run0)
             if lag > 0:
@@ -190,13 +223,13 @@ class SimClock(Node):
         self._publish()
         self._progress()
 
-    def _flush(self, reason: str, code: int) -> None:
+    def _flush(self, stop: StopRequest) -> None:
         """Publish the flush tick t_N + 1 ns; finish once everyone acknowledged it."""
         if self.flushing:
             return
-        self.flushing = True
-        self.flush_reason, self.flush_code = reason, code
-        self.tick_ns += 1
+        self.state = ClockState.FLUSHING
+        self.flush_request = stop
+        self.tick_ns = flush_tick(self.tick_ns)
         self.acks = set()
         self._publish()
 
@@ -205,17 +238,17 @@ class SimClock(Node):
             return
         self.acks.add(msg.node)
         if msg.max_next_step > 0.0:
-            req = max(round(msg.max_next_step * 1e9), 1000)
-            self.next_step_ns = req if self.next_step_ns == 0 else min(self.next_step_ns, req)
+            self.next_step_ns = negotiate(request_ns(msg.max_next_step), (self.next_step_ns,))
         if msg.stop and not self.flushing:
-            self.stop_request = (msg.reason, int(msg.exit_code))
-        if not (self.ready and self.k > 0 and self.acks >= self.participants):
+            self.stop_request = StopRequest(int(msg.exit_code), msg.reason)
+        if not (self.state in (ClockState.RUNNING, ClockState.FLUSHING) and self.k > 0
+                and self.acks >= self.participants):
             return
         if self.stop_request is not None and not self.flushing:
-            self._flush(*self.stop_request)
+            self._flush(self.stop_request)
             return
         if self.flushing:
-            self._finish(self.flush_reason, self.flush_code)
+            self._finish(self.flush_request.reason, self.flush_request.exit_code)
         else:
             self._advance()
 
@@ -242,24 +275,31 @@ class SimClock(Node):
             print(f'[sim {t:9.2f} s]  wall {wall:7.1f} s  x{rtf:6.1f} real time', flush=True)
 
     def _finish(self, reason: str, code: int) -> None:
-        self.done = True
-        self.exit_code = code
         wall = max(time.monotonic() - self.t_run0, 1e-9) if self.t_run0 else 0.0
-        rate = self.k / wall if wall else 0.0
-        sim_s = (self.tick_ns - (1 if self.flushing else 0)) * 1e-9
-        print(f'LOCKSTEP steps={self.k} sim_s={sim_s:.6f} wall_s={wall:.3f} '
-              f'rate={rate:.1f} rtf={sim_s / wall if wall else 0:.2f} '
-              f'reason="{reason}"', flush=True)
+        sim_s = (self.tick_ns - (FLUSH_NS if self.flushing else 0)) * 1e-9
+        self.state = ClockState.DONE
+        self.exit_code = code
+        self.summary = RunSummary(code, self.k, sim_s, wall, reason)
+        if self.summary_file:
+            with open(self.summary_file, 'w', encoding='utf-8') as fh:
+                fh.write(self.summary.to_json())
+        print(self.summary.line(), flush=True)
         raise SystemExit(code)
 
 
 def main(args: list[str] | None = None) -> None:
     """Run the clock until the scene ends; exit code 0 when it ended normally."""
+    install_interrupt_handlers()
     rclpy.init(args=args)
     node = None
     code = 0
     try:
-        node = SimClock()
+        try:
+            node = SimClock()
+            reject_undeclared(node)
+        except (ModelError, ParameterException) as exc:
+            print(fail_line('sim_clock', exc), file=sys.stderr, flush=True)
+            raise SystemExit(2) from None
         if node.lean:
             lean_spin(node)
         else:

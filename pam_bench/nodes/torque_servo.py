@@ -22,6 +22,7 @@ from geometry_msgs.msg import WrenchStamped
 from pam_bench_interfaces.msg import TorqueServoState, TorqueSetpoint, ValveCommand
 from sensor_msgs.msg import JointState
 
+from pam_bench.config import topics
 from pam_bench.models.inverse import InverseModel
 from pam_bench.models.torque_servo import (
     ServoMode,
@@ -62,8 +63,8 @@ class TorqueServoNode(BenchNode):
         inverse = InverseModel.load(model_file) if model_file else None
         self.ctl = TorqueServoController(params, ServoMode(mode), inverse, self.muscles)
         chans = range(1, self.muscles + 1)
-        self.cell_topics = [f'load_cell_{i}/force' for i in chans]
-        self.enc_topic = 'encoder/joint_state'
+        self.cell_topics = [topics.load_cell_force(i) for i in chans]
+        self.enc_topic = topics.ENCODER
         self.forces = [0.0] * self.muscles
         self.angle_rad = 0.0
         self.stamps: dict[str, float] = {}
@@ -71,10 +72,10 @@ class TorqueServoNode(BenchNode):
         self.t0_ns: int | None = None
         self.status = ''
         self._clamped = False
-        self.valve_pubs = [self.create_step_publisher(ValveCommand, f'valve_{i}/command')
+        self.valve_pubs = [self.create_step_publisher(ValveCommand, topics.valve_command(i))
                            for i in chans]
-        self.state_pub = self.create_step_publisher(TorqueServoState, 'torque_servo/state')
-        self.create_subscription(TorqueSetpoint, 'torque_servo/setpoint', self._on_setpoint,
+        self.state_pub = self.create_step_publisher(TorqueServoState, topics.SERVO_STATE)
+        self.create_subscription(TorqueSetpoint, topics.SERVO_SETPOINT, self._on_setpoint,
                                  RELIABLE)
         if self.lockstep:
             for tp in self.cell_topics:

@@ -19,13 +19,14 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from pam_bench_interfaces.msg import MuscleState, PressureSamples, ValveCommand
 from sensor_msgs.msg import FluidPressure
 
+from pam_bench.config import topics
+from pam_bench.models.constants import ATMOSPHERE_PA, SUB_STEP_S
 from pam_bench.models.coupling import substep_grid
 from pam_bench.models.valve import ValveModel, ValveParams, VolumeEvidence
 from pam_bench.nodes.base import RELIABLE, BenchNode, run_node, time_of
 
-__all__ = ['ValveSim', 'ATMOSPHERE_PA', 'main']
+__all__ = ['ValveSim', 'main']
 
-ATMOSPHERE_PA = 101325.0
 
 
 class ValveSim(BenchNode):
@@ -39,18 +40,18 @@ class ValveSim(BenchNode):
         self.sync_command = self.declare_typed(
             'sync_command', True, 'require a command at every step (lock-step controllers)')
         self.sub_step_s = self.declare_typed(
-            'sub_step_s', 0.005, 'sub-step of the pressure samples the muscle follows (the '
+            'sub_step_s', SUB_STEP_S, 'sub-step of the pressure samples the muscle follows (the '
             'record sample period replaces it during a record)', 's', 1e-5, 1.0)
         self.model = ValveModel(self.declare_model('valve', ValveParams))
         self.voltage_v = 0.0
         self.sample_period_s = 0.0
         self.volume_m3: float | None = None
         self.evidence = VolumeEvidence()
-        self.cmd_topic = f'valve_{self.channel}/command'
-        self.muscle_topic = f'sim/muscle_{self.channel}/state'
-        self.pub = self.create_step_publisher(FluidPressure, f'valve_{self.channel}/pressure')
+        self.cmd_topic = topics.valve_command(self.channel)
+        self.muscle_topic = topics.muscle_state(self.channel)
+        self.pub = self.create_step_publisher(FluidPressure, topics.valve_pressure(self.channel))
         self.samples_pub = self.create_step_publisher(PressureSamples,
-                                                      f'sim/valve_{self.channel}/samples')
+                                                      topics.valve_samples(self.channel))
         if self.lockstep and self.sync_command:
             self.sync_input(ValveCommand, self.cmd_topic)
         else:

@@ -16,7 +16,7 @@ from pam_bench.models.loading_servo import (
 )
 from pam_bench.models.muscle import MuscleModel
 from pam_bench.models.sensors import LoadCellParams
-from pam_bench.sim.bench import SingleMuscleBench
+from pam_bench.twin.bench import SingleMuscleBench
 
 QUIET = LoadCellParams(noise=False)
 

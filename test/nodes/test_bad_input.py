@@ -10,8 +10,9 @@ from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import FluidPressure
 
+from pam_bench.models.constants import ATMOSPHERE_PA
 from pam_bench.nodes.base import time_of
-from pam_bench.nodes.valve_sim import ATMOSPHERE_PA, ValveSim
+from pam_bench.nodes.valve_sim import ValveSim
 from test.nodes.harness import Harness
 
 MS = 10_000_000

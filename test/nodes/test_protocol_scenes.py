@@ -7,9 +7,9 @@ import pathlib
 import numpy as np
 import pytest
 
+from pam_bench.bringup.runner import run_scene
+from pam_bench.config.scene import load_scene
 from pam_bench.models.schedules import Direction
-from pam_bench.sim.runner import run_scene
-from pam_bench.sim.scene import load_scene
 from test.conftest import next_domain
 from test.helpers import bag_messages
 
@@ -77,7 +77,7 @@ def test_nodes_match_the_numpy_twin(name: str, tmp_path: pathlib.Path) -> None:
     import dataclasses
 
     from pam_bench.models.sensors import LoadCellParams
-    from pam_bench.sim.twin import run_protocol
+    from pam_bench.twin.protocol_run import run_protocol
     scene = load_scene(str(HERE / name) if name.endswith('.yaml') else name)
     quiet = dataclasses.replace(scene, parameters={'load_cell_1': {'load_cell':
                                                                    {'noise': False}}})
@@ -109,7 +109,7 @@ def test_resume_after_an_interrupted_run(tmp_path: pathlib.Path) -> None:
     resumed run starts at the first series the bag did not complete and takes the rest."""
     import dataclasses
 
-    from pam_bench.sim.resume import resume_reading
+    from pam_bench.bringup.resume import resume_reading
     scene = load_scene('isometric_quick')
     first = tmp_path / 'first'
     res = run_scene(dataclasses.replace(scene, duration_s=60.0), str(first),

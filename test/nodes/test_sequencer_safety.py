@@ -13,8 +13,8 @@ from rclpy.action import ActionClient
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import FluidPressure, JointState
 
+from pam_bench.models.constants import ATMOSPHERE_PA
 from pam_bench.nodes.sequencer import SequencerNode
-from pam_bench.nodes.valve_sim import ATMOSPHERE_PA
 from test.nodes.harness import Harness
 
 

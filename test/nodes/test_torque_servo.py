@@ -14,9 +14,9 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
 from pam_bench.analysis.servo_bag import read_servo_states
+from pam_bench.bringup.runner import run_scene
+from pam_bench.config.scene import load_scene
 from pam_bench.nodes.torque_servo import TorqueServoNode
-from pam_bench.sim.runner import run_scene
-from pam_bench.sim.scene import load_scene
 from test.conftest import next_domain
 from test.nodes.harness import Harness
 

@@ -1,0 +1,6 @@
+"""Benchmark studies (speed against error) and the BENCHMARKS.md report."""
+
+from __future__ import annotations
+
+__all__ = ['fidelity', 'pingpong', 'record_exchange', 'sections', 'servo_compare', 'suite',
+           'work_precision']

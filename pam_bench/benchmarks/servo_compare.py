@@ -1,0 +1,133 @@
+"""`pam-bench servo-compare`: every servo scene with each controller -> metrics.json and plots.
+
+Engines: ``ros`` runs each scene through the separate-process nodes and reads the servo's
+state from the bag; ``numpy`` runs the same models and the same controller exchange for
+exchange in one process (``pam_bench.twin.servo_bench``), seconds instead of minutes. Metrics
+(``servo_bench.tracking_metrics``): RMS and max error after the first second, and the largest
+error in the window after each reversal of the set point's derivative (or square-wave jump)
+against the largest elsewhere.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import pathlib
+import tempfile
+import time
+from typing import Any
+
+import matplotlib
+
+matplotlib.use('Agg')
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from pam_bench.analysis.servo_bag import read_servo_states  # noqa: E402
+from pam_bench.config.scene import Scene, load_scene, scene_names  # noqa: E402
+from pam_bench.models.inverse import InverseModel  # noqa: E402
+from pam_bench.models.params import from_mapping  # noqa: E402
+from pam_bench.models.torque_servo import (  # noqa: E402
+    ServoMode,
+    Signal,
+    SignalKind,
+    TorqueServoParams,
+)
+from pam_bench.twin.servo_bench import ServoRun, run_servo, tracking_metrics  # noqa: E402
+
+__all__ = ['servo_scenes', 'compare_servo', 'scene_servo_setup']
+
+
+def servo_scenes() -> list[str]:
+    """Scenes that run the torque servo node."""
+    return [n for n in scene_names() if 'torque_servo' in load_scene(n).nodes]
+
+
+def scene_servo_setup(scene: Scene) -> dict[str, Any]:
+    """The servo's settings in a scene: signal, angle, muscles, params, inverse model."""
+    params = scene.node_parameters('', 0, False)
+    ts = params['torque_servo']['ros__parameters']
+    ls = params['loading_servo']['ros__parameters']
+    muscles = int(ts.get('muscles', 2))
+    sig = Signal(SignalKind(ts.get('signal', 'sine')), float(ts.get('amplitude', 5.0)),
+                 float(ts.get('omega_rad_s', 1.0)), float(ts.get('offset', 0.0)),
+                 float(ts.get('period_s', 3.0)))
+    sp = from_mapping(TorqueServoParams, ts.get('servo', {}), 'servo.')
+    if muscles == 2:
+        angle = float(ls.get('hold_angle_rad', 0.0))
+    else:   # single muscle: the drive holds x = r theta
+        angle = float(ls.get('initial_setpoint', 0.0)) / (sp.pitch_diameter_m / 2.0)
+    model = ts.get('inverse_model_file', '')
+    return {'signal': sig, 'angle_rad': angle, 'muscles': muscles, 'params': sp,
+            'inverse': InverseModel.load(model) if model else None}
+
+
+def _ros_run(scene: Scene, controller: ServoMode, duration_s: float | None,
+             tmp: pathlib.Path) -> tuple[ServoRun, float, float]:
+    from pam_bench.bringup.runner import run_scene
+    params = {k: dict(v) for k, v in scene.parameters.items()}
+    params.setdefault('torque_servo', {})['controller'] = controller.value
+    sc = dataclasses.replace(scene, parameters=params,
+                             duration_s=duration_s or scene.duration_s)
+    out = tmp / f'{scene.name}_{controller.value}'
+    res = run_scene(sc, str(out), quiet=True)
+    if res.code != 0:
+        raise RuntimeError(f'scene {scene.name} ({controller.value}) failed: exit {res.code}')
+    s = read_servo_states(out)
+    t = s['t_s'] - s['t_s'][0]
+    muscles = 2 if 'valve_2' in scene.nodes else 1
+    run = ServoRun(t, s['torque_setpoint'], s['torque_measured'],
+                   np.gradient(s['torque_setpoint'], t), s['force_setpoint'][:, :muscles],
+                   s['force_measured'][:, :muscles], s['voltage'][:, :muscles],
+                   s['u_feedforward'][:, :muscles], 'N m' if muscles == 2 else 'N')
+    return run, res.wall_s, res.sim_s
+
+
+def compare_servo(out_dir: pathlib.Path, engine: str = 'numpy', scenes: list[str] | None = None,
+                  duration_s: float | None = None) -> list[dict[str, Any]]:
+    """Run every scene x controller; write out_dir/metrics.json and one PNG per scene."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    rows: list[dict[str, Any]] = []
+    with tempfile.TemporaryDirectory(prefix='pam_bench_servo_') as tmp:
+        for name in scenes or servo_scenes():
+            scene = load_scene(name)
+            setup = scene_servo_setup(scene)
+            runs = {}
+            for ctl in ServoMode:
+                print(f'{name}: {ctl.value} ({engine}) ...', flush=True)
+                t0 = time.perf_counter()
+                if engine == 'ros':
+                    run, wall, sim = _ros_run(scene, ctl, duration_s, pathlib.Path(tmp))
+                else:
+                    sim = duration_s or scene.duration_s
+                    run = run_servo(ctl, setup['signal'], sim, setup['angle_rad'],
+                                    scene.exchange_step_s, setup['inverse'], setup['muscles'],
+                                    setup['params'])
+                    wall = time.perf_counter() - t0
+                runs[ctl] = run
+                rows.append({'scene': name, 'controller': ctl.value, 'engine': engine,
+                             **tracking_metrics(run), 'sim_s': sim, 'wall_s': wall,
+                             'real_time_factor': sim / wall if wall else 0.0})
+            _plot(name, runs, out_dir)
+    (out_dir / 'metrics.json').write_text(json.dumps(rows, indent=2) + '\n', encoding='utf-8')
+    return rows
+
+
+def _plot(name: str, runs: dict[ServoMode, ServoRun], out_dir: pathlib.Path) -> None:
+    """Set point, measured and error of each controller (004 figure style)."""
+    fig, axes = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    first = next(iter(runs.values()))
+    axes[0].plot(first.t_s, first.setpoint, 'k-', lw=1.5, label='set point')
+    for ctl, run in runs.items():
+        axes[0].plot(run.t_s, run.measured, lw=0.9, label=ctl.value)
+        axes[1].plot(run.t_s, run.setpoint - run.measured, lw=0.9, label=ctl.value)
+    axes[0].set_ylabel(f'{"torque" if first.unit == "N m" else "force"}, {first.unit}')
+    axes[1].set_ylabel(f'error, {first.unit}')
+    axes[1].set_xlabel('t, s')
+    for ax in axes:
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    axes[0].set_title(name)
+    fig.tight_layout()
+    fig.savefig(out_dir / f'{name}.png', dpi=110)
+    plt.close(fig)

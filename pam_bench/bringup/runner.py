@@ -1,0 +1,245 @@
+"""Bring a scene up, run it, shut everything down: separate processes or one process.
+
+Every run sets ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and its own ``ROS_DOMAIN_ID`` (the
+caller's when set, else one derived from the process id), so DDS stays on loopback and two
+runs never see each other. Separate processes are stopped with SIGINT (then SIGTERM, SIGKILL
+after a timeout), devices first and the recorder last, so the bag is always closed. A node
+that stops at start-up (a bad parameter) ends the run at once with that node's one-line error.
+The clock's ``RunSummary`` comes back as JSON (``summary_file``), not as text to parse.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from typing import Any
+
+import yaml
+
+from pam_bench.config.scene import NODE_TYPES, Scene
+from pam_bench.models.lockstep import RunSummary
+
+__all__ = ['RunResult', 'ros_env', 'run_scene', 'node_error']
+
+
+@dataclasses.dataclass
+class RunResult:
+    """Outcome of a run: exit code, steps, sim and wall seconds, lock-step rate (steps/s)."""
+
+    code: int
+    steps: int = 0
+    sim_s: float = 0.0
+    wall_s: float = 0.0
+    rate: float = 0.0
+    summary: str = ''
+
+
+def ros_env(domain_id: int | None = None) -> dict[str, str]:
+    """Environment for ROS processes of one run: loopback discovery, a private domain."""
+    env = dict(os.environ)
+    env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    if domain_id is None:
+        domain_id = int(env.get('ROS_DOMAIN_ID', '') or 1 + os.getpid() % 100)
+    env['ROS_DOMAIN_ID'] = str(domain_id)
+    env.setdefault('RCUTILS_COLORIZED_OUTPUT', '0')
+    # One BLAS thread per node: many node processes share two cores, and BLAS thread pools
+    # spinning against each other made a 4x4 matrix exponential 100x slower.
+    for var in ('OPENBLAS_NUM_THREADS', 'OMP_NUM_THREADS', 'MKL_NUM_THREADS'):
+        env[var] = '1'
+    return env
+
+
+def _die_with_parent() -> None:
+    """In a node process: get SIGTERM when the runner dies, even by SIGKILL (Linux)."""
+    try:
+        import ctypes
+        ctypes.CDLL('libc.so.6', use_errno=True).prctl(1, signal.SIGTERM)   # PR_SET_PDEATHSIG
+    except OSError:
+        pass
+
+
+def _result(summary: RunSummary | None, code: int) -> RunResult:
+    if summary is None:
+        return RunResult(code)
+    return RunResult(code, summary.steps, summary.sim_s, summary.wall_s, summary.rate,
+                     summary.line())
+
+
+def node_error(log: str) -> str:
+    """The one-line error a node printed when it stopped (``nodes.base.run_node``), or ''."""
+    for line in reversed(log.splitlines()):
+        if ': error: ' in line:
+            return line.strip()
+    return ''
+
+
+def _watch(procs: dict[str, subprocess.Popen], clock: subprocess.Popen,
+           failed: list[str]) -> None:
+    """Stop the clock when a node could not start (exit code 2: a bad parameter, its one
+    line in the log); a node that dies later stalls the lock-step, and the clock says so."""
+    while clock.poll() is None:
+        for name, p in procs.items():
+            if p.poll() is not None and p.returncode == 2:
+                failed.append(name)
+                if clock.poll() is None:
+                    clock.send_signal(signal.SIGINT)
+                return
+        time.sleep(0.05)
+
+
+def run_scene(scene: Scene, out_dir: str, seed: int = 0, realtime: bool = False,
+              one_process: bool = False, domain_id: int | None = None,
+              quiet: bool = False) -> RunResult:
+    """Run ``scene``, recording into ``out_dir``; return the clock's summary."""
+    params = scene.node_parameters(out_dir, seed, realtime)
+    if one_process:
+        return _run_in_process(scene, params, domain_id, quiet)
+    return _run_processes(scene, params, domain_id, quiet)
+
+
+def _run_processes(scene: Scene, params: dict[str, Any], domain_id: int | None,
+                   quiet: bool) -> RunResult:
+    import threading
+
+    env = ros_env(domain_id)
+    procs: dict[str, subprocess.Popen] = {}
+    failed: list[str] = []
+    with tempfile.TemporaryDirectory(prefix='pam_bench_') as tmp:
+        pfile = os.path.join(tmp, 'params.yaml')
+        summary_file = os.path.join(tmp, 'summary.json')
+        params['sim_clock']['ros__parameters']['summary_file'] = summary_file
+        with open(pfile, 'w', encoding='utf-8') as fh:
+            yaml.safe_dump(params, fh)
+        log = open(os.path.join(tmp, 'nodes.log'), 'w+', encoding='utf-8')
+        try:
+            order = [n for n in scene.nodes if n != 'recorder']
+            if 'recorder' in scene.nodes:
+                order.insert(0, 'recorder')
+            for name in order:
+                procs[name] = subprocess.Popen(
+                    [sys.executable, '-m', NODE_TYPES[name].module, '--ros-args',
+                     '-r', f'__node:={name}', '--params-file', pfile],
+                    env=env, stdout=log, stderr=subprocess.STDOUT, preexec_fn=_die_with_parent)
+            clock = subprocess.Popen(
+                [sys.executable, '-m', NODE_TYPES['sim_clock'].module, '--ros-args',
+                 '-r', '__node:=sim_clock', '--params-file', pfile],
+                env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                preexec_fn=_die_with_parent)
+            watcher = threading.Thread(target=_watch, args=(dict(procs), clock, failed),
+                                       daemon=True)
+            watcher.start()
+            procs = {'sim_clock': clock, **procs}
+            lines = []
+            for line in clock.stdout:
+                lines.append(line)
+                if not quiet and (line.startswith('[sim') or line.startswith('lock-step:')):
+                    print(line, end='', flush=True)
+            code = clock.wait()
+            dead = [n for n, p in procs.items() if n != 'sim_clock' and p.poll() is not None]
+        finally:
+            _stop(procs)
+            log.flush()
+            log.seek(0)
+            node_log = log.read()
+            log.close()
+        summary = None
+        if os.path.exists(summary_file):
+            with open(summary_file, encoding='utf-8') as fh:
+                summary = RunSummary.from_json(fh.read())
+        result = _result(summary, code)
+        if failed:
+            result.code = 2
+            result.summary = node_error(node_log) or f'node {failed[0]} stopped'
+            sys.stderr.write(f'error: {result.summary}\n')
+        elif code != 0 or dead:
+            result.code = code or 5
+            sys.stderr.write(''.join(lines)[-3000:] + node_log[-4000:])
+    return result
+
+
+def _stop(procs: dict[str, subprocess.Popen]) -> None:
+    """SIGINT the clock and the devices, then the recorder; escalate after timeouts."""
+    devices = [n for n in procs if n != 'recorder']
+    groups = [devices] + ([['recorder']] if 'recorder' in procs else [])
+    for group in groups:
+        for n in group:
+            if procs[n].poll() is None:
+                procs[n].send_signal(signal.SIGINT)
+        for n in group:
+            for sig, wait in ((None, 10.0), (signal.SIGTERM, 5.0), (signal.SIGKILL, 5.0)):
+                if sig is not None and procs[n].poll() is None:
+                    procs[n].send_signal(sig)
+                try:
+                    procs[n].wait(timeout=wait)
+                    break
+                except subprocess.TimeoutExpired:
+                    continue
+
+
+def _run_in_process(scene: Scene, params: dict[str, Any], domain_id: int | None,
+                    quiet: bool) -> RunResult:
+    import contextlib
+    import importlib
+    import io
+
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.parameter import Parameter
+
+    from pam_bench.nodes.base import reject_undeclared
+
+    env = ros_env(domain_id)
+    os.environ['ROS_DOMAIN_ID'] = env['ROS_DOMAIN_ID']
+    os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    executor = SingleThreadedExecutor(context=context)
+    nodes = []
+    code = 0
+    buf = io.StringIO()
+    t0 = time.monotonic()
+    try:
+        for name in ['recorder'] * ('recorder' in scene.nodes) + [
+                n for n in scene.nodes if n != 'recorder'] + ['sim_clock']:
+            t = NODE_TYPES[name]
+            cls = getattr(importlib.import_module(t.module), t.cls)
+            overrides = [Parameter(k, value=v) for k, v in
+                         _flatten(params[name]['ros__parameters']).items()]
+            extra = {'lean': False} if name == 'sim_clock' else {}    # under the executor
+            node = cls(name, context=context, parameter_overrides=overrides, **extra)
+            nodes.append(node)
+            reject_undeclared(node, overrides)
+            executor.add_node(node)
+        with contextlib.redirect_stdout(buf if quiet else sys.stdout):
+            try:
+                executor.spin()
+            except SystemExit as exc:
+                code = int(exc.code or 0)
+    finally:
+        clock = nodes[-1] if nodes and len(nodes) == len(scene.nodes) + 1 else None
+        for node in nodes:
+            executor.remove_node(node)
+            node.destroy_node()
+        executor.shutdown()
+        rclpy.try_shutdown(context=context)
+    summary = getattr(clock, 'summary', None)
+    if summary is None:                 # interrupted before the clock finished
+        wall = time.monotonic() - t0
+        k = getattr(clock, 'k', 0)
+        return RunResult(code, k, k * getattr(clock, 'step_s', 0.0), wall, k / wall)
+    return _result(summary, code)
+
+
+def _flatten(d: dict[str, Any], prefix: str = '') -> dict[str, Any]:
+    out = {}
+    for k, v in d.items():
+        if isinstance(v, dict):
+            out.update(_flatten(v, f'{prefix}{k}.'))
+        else:
+            out[f'{prefix}{k}'] = v
+    return out

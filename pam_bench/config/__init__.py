@@ -1,0 +1,5 @@
+"""Configuration: where config/ and msg_defs/ are, strict YAML, scenes, protocols, topics."""
+
+from __future__ import annotations
+
+__all__ = ['paths', 'protocols', 'scene', 'topics', 'yaml_io']

@@ -1,0 +1,6 @@
+"""Thin rclpy nodes, one per simulated device or bench role: message <-> model."""
+
+from __future__ import annotations
+
+__all__ = ['base', 'encoder_sim', 'load_cell_sim', 'loading_servo_sim', 'muscle_sim',
+           'recorder', 'sequencer', 'sim_clock', 'torque_servo', 'valve_sim']

@@ -1,0 +1,5 @@
+"""What a scene's parameters imply (truth, calibration) and checks of runs against it."""
+
+from __future__ import annotations
+
+__all__ = ['calibration', 'reference_check', 'truth']
