@@ -191,7 +191,10 @@ def _run_in_process(scene: Scene, params: dict[str, Any], domain_id: int | None,
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.parameter import Parameter
 
-    from pam_bench.nodes.base import reject_undeclared
+    from rclpy.exceptions import ParameterException
+
+    from pam_bench.models.errors import ParameterError
+    from pam_bench.nodes.base import fail_line, reject_undeclared
 
     env = ros_env(domain_id)
     os.environ['ROS_DOMAIN_ID'] = env['ROS_DOMAIN_ID']
@@ -211,7 +214,10 @@ def _run_in_process(scene: Scene, params: dict[str, Any], domain_id: int | None,
             overrides = [Parameter(k, value=v) for k, v in
                          _flatten(params[name]['ros__parameters']).items()]
             extra = {'lean': False} if name == 'sim_clock' else {}    # under the executor
-            node = cls(name, context=context, parameter_overrides=overrides, **extra)
+            try:
+                node = cls(name, context=context, parameter_overrides=overrides, **extra)
+            except ParameterException as exc:
+                raise ParameterError(fail_line(name, exc)) from None
             nodes.append(node)
             reject_undeclared(node, overrides)
             executor.add_node(node)

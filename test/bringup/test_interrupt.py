@@ -30,13 +30,20 @@ def node_processes(domain: int) -> list[int]:
     return pids
 
 
-@pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM])
+def _ignore_sigint() -> None:
+    """What a background job of a non-interactive shell (``cmd &``) inherits."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+@pytest.mark.parametrize('sig, inherited', [
+    (signal.SIGINT, 'default'), (signal.SIGTERM, 'default'), (signal.SIGINT, 'ignored')])
 def test_interrupted_run_leaves_a_valid_bag(tmp_path: pathlib.Path, ros_domain: int,
-                                            sig: signal.Signals) -> None:
+                                            sig: signal.Signals, inherited: str) -> None:
     bag = tmp_path / 'bag'
     proc = subprocess.Popen([sys.executable, '-m', 'pam_bench.cli', 'run', 'isometric',
                              '--out', str(bag)], stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True)
+                            stderr=subprocess.STDOUT, text=True,
+                            preexec_fn=_ignore_sigint if inherited == 'ignored' else None)
     try:
         lines = []
         for line in proc.stdout:                  # wait until the run is stepping

@@ -1,0 +1,62 @@
+"""`pam-bench run` as a user meets it: one process, bad node parameters, exit codes."""
+
+from __future__ import annotations
+
+import pathlib
+import subprocess
+import sys
+import time
+
+import pytest
+
+from test.helpers import bag_messages
+
+SHORT = pathlib.Path(__file__).resolve().parents[1] / 'config_short.yaml'
+
+
+def _run(args: list[str], timeout: float = 120.0) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, '-m', 'pam_bench.cli', 'run', *args],
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def test_one_process_run_exits_0_with_a_valid_bag(tmp_path: pathlib.Path,
+                                                  ros_domain: int) -> None:
+    bag = tmp_path / 'bag'
+    res = _run([str(SHORT), '--one-process', '--out', str(bag)])
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert 'Traceback' not in res.stderr
+    assert 'done:' in res.stdout
+    assert len(bag_messages(bag, '/protocol/point')) == 8
+
+
+@pytest.mark.parametrize('one_process', [False, True])
+@pytest.mark.parametrize('params, words', [
+    ('sequencer: {stale_timout_s: 1.0}',
+     ["'stale_timout_s'", "did you mean 'stale_timeout_s'"]),
+    ('sequencer: {tick_period_s: 5.0}', ['tick_period_s']),
+    ('sequencer: {protocol_overrides_yaml: "dwel_s: 1"}', ["'dwel_s'"]),
+])
+def test_a_bad_node_parameter_stops_the_run_with_one_line(
+        tmp_path: pathlib.Path, ros_domain: int, one_process: bool, params: str,
+        words: list[str]) -> None:
+    scene = tmp_path / 'bad.yaml'
+    scene.write_text(SHORT.read_text() + f'\nparameters:\n  {params}\n')
+    t0 = time.monotonic()
+    res = _run([str(scene), '--out', str(tmp_path / 'bag')]
+               + (['--one-process'] if one_process else []))
+    assert res.returncode == 2, res.stdout + res.stderr
+    assert time.monotonic() - t0 < 30.0            # not after the clock's stall timeout
+    assert 'Traceback' not in res.stderr, res.stderr
+    errors = [line for line in res.stderr.splitlines() if 'error' in line]
+    assert errors and all(w in errors[0] for w in words), res.stderr
+
+
+def test_a_misspelt_scene_key_is_refused_before_anything_starts(tmp_path: pathlib.Path) -> None:
+    scene = tmp_path / 'bad.yaml'
+    scene.write_text(SHORT.read_text() + '\nparameters:\n  muscle_1: {muscle: '
+                     '{gain_exponnent: 2.0}}\n')
+    res = _run([str(scene), '--out', str(tmp_path / 'bag')], timeout=30)
+    assert res.returncode == 2
+    assert res.stderr.strip().count('\n') == 0, res.stderr
+    assert "did you mean 'muscle_1.muscle.gain_exponent'" in res.stderr
+    assert not (tmp_path / 'bag').exists()
