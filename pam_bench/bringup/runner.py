@@ -188,10 +188,9 @@ def _run_in_process(scene: Scene, params: dict[str, Any], domain_id: int | None,
     import io
 
     import rclpy
+    from rclpy.exceptions import ParameterException
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.parameter import Parameter
-
-    from rclpy.exceptions import ParameterException
 
     from pam_bench.models.errors import ParameterError
     from pam_bench.nodes.base import fail_line, reject_undeclared

@@ -15,7 +15,7 @@ from pam_bench.models.errors import ParameterError
 from pam_bench.models.loading_servo import LoadMode
 from pam_bench.models.schedules import Reading
 
-__all__ = ['Phase', 'Measurement', 'Limits', 'Point', 'Commands', 'Sequencer',
+__all__ = ['Phase', 'Measurement', 'Limits', 'Point', 'StepRecord', 'Commands', 'Sequencer',
            'COMMAND_STEP_S', 'RECORD_EXCHANGE_S']
 
 # exchange steps a lock-step sequencer asks for (its node's defaults): at every new reading or
@@ -24,6 +24,7 @@ __all__ = ['Phase', 'Measurement', 'Limits', 'Point', 'Commands', 'Sequencer',
 # whole-second exchange moves b, c, d by 1.7 %, 50 ms by 0.3 %; BENCHMARKS.md, step records)
 COMMAND_STEP_S = 0.001
 RECORD_EXCHANGE_S = 0.05
+_EPS = 1e-9                 # s: a phase ends at its scheduled time within this
 
 
 class Phase(enum.Enum):
@@ -67,8 +68,27 @@ class Point:
     t_s: float
     voltage_v: float
     measurement: Measurement
-    samples: tuple[float, ...] = ()      # force record after a step, N (step response)
-    t_step_s: float = 0.0                # sim time of the step of a record
+
+
+@dataclasses.dataclass(frozen=True)
+class StepRecord:
+    """A step response: the reading taken at the end of its window and the force every
+    ``reading.sample_period_s`` from the step on.
+
+    Attributes:
+        point: the reading at the end of the record window.
+        t_step_s: sim time of the valve step, s.
+        samples: force sample i belongs to t_step_s + i T, N; shape (record_s / T,).
+    """
+
+    point: Point
+    t_step_s: float
+    samples: tuple[float, ...]
+
+    @property
+    def reading(self) -> Reading:
+        """The schedule entry of the step."""
+        return self.point.reading
 
 
 @dataclasses.dataclass(frozen=True)
@@ -80,7 +100,7 @@ class Commands:
     load_mode: LoadMode
     load_value: float
     point: Point | None
-    record: Point | None = None
+    record: StepRecord | None = None
     sample_period_s: float = 0.0
 
 
@@ -117,6 +137,11 @@ class _Record:
             held = self.values.get(i, held)
             out.append(held)
         return tuple(out)
+
+    def finished(self) -> StepRecord:
+        """The record handed out (its point must be taken)."""
+        assert self.point is not None
+        return StepRecord(self.point, self.t_step, self.samples())
 
 
 class Sequencer:
@@ -241,73 +266,98 @@ class Sequencer:
              samples: list[tuple[float, float]] | None = None) -> Commands:
         """Advance to ``t_s`` given the latest measurement and the load-cell samples (stamp s,
         force N) received since the last tick (None: the latest force, stamped ``t_s``);
-        return what to command."""
-        eps = 1e-9
-        point = None
-        record = None
+        return what to command.
+
+        One tick runs the phases in order, each possibly handing over to the next at the same
+        time: samples into the open records, SETTLE -> LEAD/DWELL, LEAD -> DWELL, DWELL -> a
+        reading or RECORD, RECORD -> its reading; then the commands of the phase reached.
+        """
         if samples is None:
             samples = [(t_s, meas.force_n)]
         if self.running and abs(meas.force_n) >= 0.999 * self.limits.force_range_n:
             self.stop(Phase.ABORTED, f'load cell out of range: {meas.force_n:.1f} N')
+        record = self._collect(samples)
+        if self.phase == Phase.SETTLE:
+            self._settle(t_s)
+        point = None
+        if self.phase == Phase.LEAD:
+            self._lead(t_s)
+        elif self.phase == Phase.DWELL:
+            point = self._dwell(t_s, meas, samples)
+        if self.phase == Phase.RECORD:
+            point, finished = self._record(t_s, meas)
+            record = finished or record
+        return self._commands(t_s, point, record)
+
+    def _collect(self, samples: list[tuple[float, float]]) -> StepRecord | None:
+        """Put the samples into the open records; hand out a pending record now complete."""
         for rec in (self.pending, self.rec):
             if rec is not None:
                 for ts, f in samples:
                     rec.add(ts, f)
         if self.pending is not None and self.pending.complete:
-            record = dataclasses.replace(self.pending.point, samples=self.pending.samples())
-            self.pending = None
-        if self.phase == Phase.SETTLE and t_s - self.t_phase >= self.settle_s - eps:
+            done, self.pending = self.pending.finished(), None
+            return done
+        return None
+
+    def _settle(self, t_s: float) -> None:
+        if t_s - self.t_phase >= self.settle_s - _EPS:
             self.phase, self.t_phase = Phase.DWELL, t_s
             if self.readings[self.index].lead_s > 0 and self.index > self.start_index:
                 self.phase = Phase.LEAD
-        if self.phase == Phase.LEAD:
-            r = self.readings[self.index]
-            if t_s - self.t_phase >= r.lead_s - eps:
-                self.phase, self.t_phase = Phase.DWELL, t_s
-        elif self.phase == Phase.DWELL:
-            r = self.readings[self.index]
-            if t_s - self.t_phase >= r.dwell_s - eps:
-                if r.record_s > 0.0:
-                    self.phase, self.t_phase = Phase.RECORD, t_s
-                    self.rec = _Record(r, t_s)
-                    for ts, f in samples:           # the sample at t_step may be in already
-                        self.rec.add(ts, f)
-                else:
-                    point = self._take(r, t_s, meas)
-        if self.phase == Phase.RECORD:
-            r = self.readings[self.index]
-            if t_s - self.t_phase >= r.record_s - eps:
-                rec, self.rec = self.rec, None
-                rec.point = point = self._take(r, t_s, meas, t_step=rec.t_step)
-                if point is not None:
-                    if rec.complete:
-                        record = dataclasses.replace(rec.point, samples=rec.samples())
-                    else:
-                        self.pending = rec
-        sample_period = 0.0
-        if self.phase == Phase.RECORD:
-            sample_period = self.readings[self.index].sample_period_s
+
+    def _lead(self, t_s: float) -> None:
+        if t_s - self.t_phase >= self.readings[self.index].lead_s - _EPS:
+            self.phase, self.t_phase = Phase.DWELL, t_s
+
+    def _dwell(self, t_s: float, meas: Measurement, samples: list[tuple[float, float]]
+               ) -> Point | None:
+        r = self.readings[self.index]
+        if t_s - self.t_phase < r.dwell_s - _EPS:
+            return None
+        if r.record_s <= 0.0:
+            return self._take(r, t_s, meas)
+        self.phase, self.t_phase = Phase.RECORD, t_s
+        self.rec = _Record(r, t_s)
+        for ts, f in samples:                   # the sample at t_step may be in already
+            self.rec.add(ts, f)
+        return None
+
+    def _record(self, t_s: float, meas: Measurement) -> tuple[Point | None, StepRecord | None]:
+        r = self.readings[self.index]
+        if t_s - self.t_phase < r.record_s - _EPS or self.rec is None:
+            return None, None
+        rec, self.rec = self.rec, None
+        rec.point = point = self._take(r, t_s, meas)
+        if point is None:
+            return None, None
+        if rec.complete:
+            return point, rec.finished()
+        self.pending = rec
+        return point, None
+
+    def _commands(self, t_s: float, point: Point | None, record: StepRecord | None
+                  ) -> Commands:
         if self.running and self.phase != Phase.DONE:
             r = self.readings[self.index]
             if self.phase == Phase.SETTLE:
-                first = self.readings[self.index]
-                u0 = first.ramp_from_v if first.ramp_from_v is not None else (
-                    first.pre_voltage_v if first.pre_voltage_v is not None else first.voltage_v)
-                return Commands(u0, first.load_mode, first.load_value, point, record)
+                u0 = r.ramp_from_v if r.ramp_from_v is not None else (
+                    r.pre_voltage_v if r.pre_voltage_v is not None else r.voltage_v)
+                return Commands(u0, r.load_mode, r.load_value, point, record)
+            period = r.sample_period_s if self.phase == Phase.RECORD else 0.0
             return Commands(self._voltage(r, t_s), r.load_mode, r.load_value, point, record,
-                            sample_period)
+                            period)
         last = self.readings[min(self.index, len(self.readings) - 1)]
         if self.phase == Phase.DONE:
             return Commands(0.0, last.load_mode, last.load_value, point, record)
         return Commands(0.0, LoadMode.OFF, 0.0, point, record)          # vent, torque off
 
-    def _take(self, r: Reading, t_s: float, meas: Measurement, t_step: float = 0.0
-              ) -> Point | None:
+    def _take(self, r: Reading, t_s: float, meas: Measurement) -> Point | None:
         problem = self._check(r, meas)
         if problem:
             self.stop(Phase.ABORTED, problem)
             return None
-        point = Point(r, t_s, r.voltage_v, meas, (), t_step)
+        point = Point(r, t_s, r.voltage_v, meas)
         self.points_done += 1
         self.index += 1
         self.t_phase = t_s

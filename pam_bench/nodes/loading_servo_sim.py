@@ -32,7 +32,7 @@ from pam_bench_interfaces.msg import DriveLaw, LoadCommand, MuscleSamples
 from sensor_msgs.msg import JointState
 
 from pam_bench.config import topics
-from pam_bench.models.loading_servo import LoadingServoModel, LoadingServoParams, LoadMode
+from pam_bench.models.loading_servo import LoadingServoModel, LoadingServoParams, LoadMode, law_of
 from pam_bench.nodes.base import RELIABLE, BenchNode, run_node, time_of
 
 __all__ = ['LoadingServoSim', 'main']
@@ -148,7 +148,7 @@ class LoadingServoSim(BenchNode):
             x0, rth = self.rest_contraction_m, self.model.r * self._pair_angle()
             law.hold_contraction = [x0 + rth, x0 - rth]
         else:
-            law.parameters, law.state = self.model.law()
+            law.parameters, law.state = law_of(self.model)
         law.header.stamp = time_of(t_ns)
         self.law_pub.publish(law)
 

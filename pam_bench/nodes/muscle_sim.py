@@ -18,7 +18,7 @@ from pam_bench_interfaces.msg import DriveLaw, MuscleSamples, MuscleState, Press
 from pam_bench.config import topics
 from pam_bench.models.coupling import solve_substeps
 from pam_bench.models.errors import ModelError
-from pam_bench.models.loading_servo import IdealHold, LoadingServoModel
+from pam_bench.models.loading_servo import IdealHold, drive_from_law
 from pam_bench.models.muscle import MuscleModel, MuscleParams
 from pam_bench.nodes.base import BenchNode, run_node, time_of
 
@@ -61,7 +61,7 @@ class MuscleSim(BenchNode):
                 raise ModelError(f'drive law holds {len(law.hold_contraction)} muscles, not '
                                  f'channel {self.channel}')
             return IdealHold(law.hold_contraction[self.channel - 1], law.belt_stiffness)
-        return LoadingServoModel.from_law(list(law.parameters), list(law.state), law.mode,
+        return drive_from_law(list(law.parameters), list(law.state), law.mode,
                                           law.setpoint, self._drive_cache)
 
     def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:

@@ -52,6 +52,7 @@ from pam_bench.models.protocols import (
     Phase,
     Point,
     Sequencer,
+    StepRecord,
 )
 from pam_bench.nodes.base import RELIABLE, BenchNode, ns_of, run_node, time_of
 
@@ -255,7 +256,7 @@ class SequencerNode(BenchNode):
         msg.header.stamp = stamp
         return msg
 
-    def _record_msg(self, pt: Point) -> StepResponseRecord:
+    def _record_msg(self, pt: StepRecord) -> StepResponseRecord:
         r = pt.reading
         msg = StepResponseRecord(series=r.series, step=r.step, direction=int(r.direction),
                                  contraction=r.series_value,

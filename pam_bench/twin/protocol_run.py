@@ -29,6 +29,7 @@ from pam_bench.models.protocols import (
     Measurement,
     Point,
     Sequencer,
+    StepRecord,
 )
 from pam_bench.models.schedules import Reading
 from pam_bench.models.sensors import LoadCellParams
@@ -43,7 +44,7 @@ class TwinRun:
     """Points and step records of a run, its exchanges and sub-steps, wall time (s)."""
 
     points: list[Point]
-    records: list[Point]
+    records: list[StepRecord]
     exchanges: int
     substeps: int
     sim_s: float
@@ -62,7 +63,7 @@ def run_readings(name: str, readings: list[Reading], settle_s: float, exchange_s
     seq = Sequencer(name, readings, settle_s, record_exchange_s=record_exchange_s)
     seq.start(0.0)
     points: list[Point] = []
-    records: list[Point] = []
+    records: list[StepRecord] = []
     h = command_step_s                      # the sequencer asks for it at t_0
     sample_period = 0.0
     request = EventStepRequest(command_step_s)

@@ -13,6 +13,8 @@ from pam_bench.models.loading_servo import (
     LoadingServoModel,
     LoadingServoParams,
     LoadMode,
+    drive_from_law,
+    law_of,
 )
 from pam_bench.models.muscle import MuscleModel
 from pam_bench.models.sensors import LoadCellParams
@@ -146,14 +148,14 @@ def test_a_copy_from_the_law_replays_the_solve_bit_for_bit(mode: LoadMode,
     cache: dict = {}
     f = 0.0
     for u in (2.0, 4.0, 3.0):
-        params, state = drive.law()
-        copy = LoadingServoModel.from_law(params, state, int(drive.mode), drive.setpoint, cache)
+        params, state = law_of(drive)
+        copy = drive_from_law(params, state, int(drive.mode), drive.setpoint, cache)
         steps = [0.005] * 100
         res = solve_substeps(muscle, copy, steps, [1e5 * u] * 100, f)
         out = drive.replay(steps, res.forces_n)
         f = res.forces_n[-1]
         assert out.contraction_m == res.contractions_m[-1]
-        assert drive.law()[1] == copy.law()[1]
+        assert law_of(drive)[1] == law_of(copy)[1]
     assert len(cache) == 1
 
 
@@ -181,4 +183,4 @@ def test_non_finite_input_raises() -> None:
     with pytest.raises(ModelError):
         s.replay([0.001, 0.001], [1.0])
     with pytest.raises(ModelError):
-        LoadingServoModel.from_law([1.0], [0.0], 0, 0.0)
+        drive_from_law([1.0], [0.0], 0, 0.0)

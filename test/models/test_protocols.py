@@ -94,12 +94,12 @@ def test_step_response_records_1khz_on_exact_grid(record_exchange_s: float,
     pts, recs, periods = _records(STEPS, record_exchange_s, lag_ticks)
     assert len(pts) == 3 and len(recs) == 3
     for p, r in zip(pts, recs, strict=True):
-        assert r.reading == p.reading and not p.samples
+        assert r.reading == p.reading and r.point == p
         assert len(r.samples) == 1000
         # sample i is the reading stamped t_step + i ms, whenever it arrived
         np.testing.assert_allclose(r.samples, 10 * (r.t_step_s + 1e-3 * np.arange(1000)),
                                    atol=1e-6)
-        np.testing.assert_allclose(p.t_s - p.t_step_s, 1.0, atol=1e-9)
+        np.testing.assert_allclose(p.t_s - r.t_step_s, 1.0, atol=1e-9)
     assert max(periods) == 0.001 and min(periods) == 0.0      # samples asked for in records
 
 

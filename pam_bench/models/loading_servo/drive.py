@@ -1,4 +1,4 @@
-"""Electric loading servo of the 004 bench: motor, planetary gear, backlash, belt and pulley.
+"""Electric loading servo of the 004 bench as a sub-step law: motor, gear, backlash, belt, pulley.
 
 Figures (004 section 2.1): motor rated torque 1.27 N m, planetary ratio i = 70, backlash at
 most 9 arcmin, toothed belt on a pulley of pitch diameter 63.66 mm (r = 31.83 mm); the largest
@@ -44,77 +44,47 @@ muscle solves F_+ = F_muscle(p_+, X(F_+)) and the drive keeps the sub-step with 
 term against a sticking braid, about 7000 1/s) stay damped at any sub-step, and the error is
 first order in d (BENCHMARKS.md, work-precision of the drive).
 
-``dynamics: false`` replaces the drive by an ideal holder: position mode x = x* + F / k_b,
-force and off mode a force source that yields ``IDEAL_FORCE_COMPLIANCE_M_PER_N`` per newton
-off its set value (F* = 0 when off), so the force settles on F* within a few sub-steps.
+``dynamics: false`` replaces the drive by an ideal holder (``holders.IdealHolder``). The law a
+copy of the drive needs to follow the same sub-steps (the DriveLaw message) is
+``models.loading_servo.law``.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import enum
 import math
+from typing import NamedTuple
 
-from pam_bench.models.constants import PULLEY_PITCH_DIAMETER_M
 from pam_bench.models.errors import ModelError
-from pam_bench.models.params import field
+from pam_bench.models.loading_servo.holders import IdealHolder
+from pam_bench.models.loading_servo.params import LoadingServoParams, LoadMode
 
-__all__ = ['LoadMode', 'LoadingServoParams', 'LoadingServoModel', 'ServoOutput',
-           'IdealHold', 'IDEAL_FORCE_COMPLIANCE_M_PER_N', 'LAW_PARAMETERS']
-
-IDEAL_FORCE_COMPLIANCE_M_PER_N = 1.0e-3
+__all__ = ['LoadingServoModel', 'ServoOutput', 'SubStep']
 
 
-class LoadMode(enum.IntEnum):
-    """Modes of the loading servo (values match LoadCommand.MODE_*)."""
+class SubStep(NamedTuple):
+    """The prepared sub-step: tau_+ = t0 + t1 F_+ and I_+ = i0 + i1 F_+ (unclamped).
 
-    OFF = 0
-    FORCE = 1
-    POSITION = 2
+    Attributes:
+        d: sub-step length, s.
+        den: 1 + d c / J.
+        t0, t1: output torque at the end as an affine function of the force, N m, N m/N.
+        i0, i1: controller integral at the end, likewise (N s or m s).
+        i_limit: anti-windup bound of the integral.
+        ki: integral gain the clamped integral acts through.
+        w_position: output rate at the end in position mode (the load compensated), rad/s;
+            None in force and off modes.
+    """
 
-
-@dataclasses.dataclass
-class LoadingServoParams:
-    """Parameters of ``LoadingServoModel``."""
-
-    pitch_diameter_m: float = field(PULLEY_PITCH_DIAMETER_M, 'm', 'pulley pitch diameter (004)',
-                                    0.001, 10.0)
-    rated_torque_nm: float = field(1.27, 'N m', 'motor rated torque (004)', 0.0, 1.0e4)
-    gear_ratio: float = field(70.0, '-', 'planetary gear ratio i (004)', 1.0, 1.0e4)
-    force_limit_n: float = field(2792.0, 'N', 'largest force on the muscle (004)', 0.0, 1.0e6)
-    backlash_arcmin: float = field(9.0, 'arcmin', 'gear backlash b_l (004: at most 9)',
-                                   0.0, 600.0)
-    backlash_force_n: float = field(5.0, 'N', 'force F_bl over which the play is taken up',
-                                    1.0e-3, 1.0e4)
-    inertia_kg_m2: float = field(0.15, 'kg m^2', 'inertia J reflected to the gear output',
-                                 1.0e-6, 1.0e3)
-    damping_nm_s_per_rad: float = field(0.5, 'N m s/rad', 'viscous damping c at the output',
-                                        0.0, 1.0e4)
-    belt_stiffness_n_per_m: float = field(2.0e6, 'N/m', 'belt and load-cell stiffness k_b',
-                                          1.0e2, 1.0e12)
-    travel_min_m: float = field(-0.05, 'm', 'end stop of the belt travel (stretch side)',
-                                -10.0, 0.0)
-    travel_max_m: float = field(0.16, 'm', 'end stop of the belt travel (contraction side)',
-                                0.0, 10.0)
-    speed_limit_rad_s: float = field(4.49, 'rad/s', 'output speed limit w_max (3000 rpm / i)',
-                                     1.0e-3, 1.0e4)
-    dynamics: bool = field(True, '-', 'simulate the drive mechanics; false: ideal holder')
-    force_kp: float = field(5.0, '-', 'force loop proportional gain K_p', 0.0, 1.0e4)
-    force_ki_per_s: float = field(12.0, '1/s', 'force loop integral gain K_i', 0.0, 1.0e6)
-    force_kd_s: float = field(1.8, 's', 'force loop derivative gain K_d', 0.0, 1.0e4)
-    force_integral_band_n: float = field(25.0, 'N', 'force loop integrates only while the '
-                                         'force is within this of the set value', 0.0, 1.0e6)
-    position_kp_n_per_m: float = field(2.0e6, 'N/m', 'position loop gain K_px', 0.0, 1.0e10)
-    position_ki_n_per_m_s: float = field(1.0e7, 'N/(m s)', 'position loop integral K_ix',
-                                         0.0, 1.0e12)
-    position_kd_n_s_per_m: float = field(3.0e4, 'N s/m', 'position loop derivative K_dx',
-                                         0.0, 1.0e9)
-    encoder_bits_per_rev: int = field(16, 'bit', 'counts per revolution of the encoder the '
-                                      'position loop reads (004: 16)', 1, 52)
-
-
-# the parameters the sub-step law needs, in the order ``law`` and ``from_law`` use
-LAW_PARAMETERS = tuple(f.name for f in dataclasses.fields(LoadingServoParams))
+    d: float
+    den: float
+    t0: float
+    t1: float
+    i0: float
+    i1: float
+    i_limit: float
+    ki: float
+    w_position: float | None
 
 
 @dataclasses.dataclass
@@ -130,8 +100,6 @@ class ServoOutput:
 
 class LoadingServoModel:
     """Loading servo drive and belt mechanics as a sub-step law (module docstring)."""
-
-    STATE = ('angle_rad', 'rate_rad_s', 'integral', 'force_n', 'encoder_rad', 'contraction_m')
 
     def __init__(self, params: LoadingServoParams | None = None) -> None:
         self.p = params or LoadingServoParams()
@@ -150,7 +118,8 @@ class LoadingServoModel:
         self.contraction_m = 0.0  # muscle end of the last sub-step, m
         self.torque = 0.0
         self.saturated = False
-        self._prep: tuple = ()
+        self._prep: SubStep | None = None
+        self._holder = IdealHolder(self) if not self.p.dynamics else None
 
     # --- commands and state -------------------------------------------------------------
     def command(self, mode: LoadMode, setpoint: float) -> None:
@@ -166,46 +135,13 @@ class LoadingServoModel:
         """Drive at rest with the muscle end at ``contraction_m`` and no load."""
         self.phi = contraction_m / self.r
         self.w = self.integral = self.force_n = 0.0
-        self.encoder_rad = self._quantised(self.phi)
+        self.encoder_rad = self.quantised(self.phi)
         self.contraction_m = contraction_m
 
     @property
     def angle(self) -> float:
         """Pulley angle theta = phi + beta(F), rad."""
-        return self.phi + self._play(self.force_n)
-
-    def law(self) -> tuple[list[float], list[float]]:
-        """(parameters in ``LAW_PARAMETERS`` order, state in ``STATE`` order): what a copy
-        needs to follow the same sub-steps (``from_law``)."""
-        params = [float(getattr(self.p, n)) for n in LAW_PARAMETERS]
-        return params, [self.phi, self.w, self.integral, self.force_n, self.encoder_rad,
-                        self.contraction_m]
-
-    @classmethod
-    def from_law(cls, params: list[float], state: list[float], mode: int, setpoint: float,
-                 cache: dict | None = None) -> LoadingServoModel:
-        """A drive in the state a ``law`` describes (``cache`` reuses the parameter set).
-
-        Raises:
-            ModelError: the vectors do not have the lengths of ``LAW_PARAMETERS``/``STATE``.
-        """
-        if len(params) != len(LAW_PARAMETERS) or len(state) != len(cls.STATE):
-            raise ModelError(f'drive law has {len(params)} parameters and {len(state)} state '
-                             f'values; expected {len(LAW_PARAMETERS)} and {len(cls.STATE)}')
-        key = tuple(params)
-        m = cache.get(key) if cache is not None else None
-        if m is None:
-            kw = {}
-            for f, v in zip(dataclasses.fields(LoadingServoParams), params, strict=True):
-                kind = {'bool': bool, 'int': int}.get(str(f.type), float)
-                kw[f.name] = kind(v)
-            m = cls(LoadingServoParams(**kw))
-            if cache is not None:
-                cache.clear()
-                cache[key] = m
-        m.mode, m.setpoint = LoadMode(mode), float(setpoint)
-        (m.phi, m.w, m.integral, m.force_n, m.encoder_rad, m.contraction_m) = state
-        return m
+        return self.phi + self.play(self.force_n)
 
     # --- the sub-step law ---------------------------------------------------------------
     def prepare(self, d: float) -> None:
@@ -220,8 +156,7 @@ class LoadingServoModel:
         j, c = p.inertia_kg_m2, p.damping_nm_s_per_rad
         den = 1.0 + d * c / j
         sp = self.setpoint
-        if not p.dynamics:
-            self._prep = (d,)
+        if self._holder is not None:
             return
         if self.mode == LoadMode.FORCE:
             e0 = sp - self.force_n
@@ -235,7 +170,7 @@ class LoadingServoModel:
             t1 = -r * gain
             i0, i1 = (self.integral + d * sp, -d) if integrate else (self.integral, 0.0)
             i_lim = 0.25 * p.force_limit_n / ki if ki > 0.0 else math.inf
-            self._prep = (d, den, t0, t1, i0, i1, i_lim, ki, None)
+            self._prep = SubStep(d, den, t0, t1, i0, i1, i_lim, ki, None)
         elif self.mode == LoadMode.POSITION:
             kp, kd, ki = p.position_kp_n_per_m, p.position_kd_n_s_per_m, p.position_ki_n_per_m_s
             i_lim = 0.25 * p.force_limit_n / ki if ki > 0.0 else math.inf
@@ -246,19 +181,22 @@ class LoadingServoModel:
                      / (j / d + c + r * r * kd + r * r * kp * d + r * r * ki * d * d))
             i_new = min(max(i_c + d * d * r * w_new, -i_lim), i_lim)
             t0 = r * (kp * (r * (self.phi + d * w_new) - sp) + kd * r * w_new + ki * i_new)
-            self._prep = (d, den, t0, r, i_new, 0.0, math.inf, 0.0, w_new)
+            self._prep = SubStep(d, den, t0, r, i_new, 0.0, math.inf, 0.0, w_new)
         else:
-            self._prep = (d, den, 0.0, 0.0, 0.0, 0.0, math.inf, 0.0, None)
+            self._prep = SubStep(d, den, 0.0, 0.0, 0.0, 0.0, math.inf, 0.0, None)
 
-    def _play(self, force_n: float) -> float:
+    def play(self, force_n: float) -> float:
+        """beta(F): where the pulley sits inside the gear play, rad."""
         a = force_n / self.p.backlash_force_n
         return self.half_play * (1.0 if a > 1.0 else (-1.0 if a < -1.0 else a))
 
-    def _quantised(self, angle_rad: float) -> float:
+    def quantised(self, angle_rad: float) -> float:
+        """The angle rounded to the encoder count the position loop reads, rad."""
         return round(angle_rad / self.count_rad) * self.count_rad
 
     def _end(self, f: float) -> tuple[float, float, float, float, bool]:
         """(phi_+, w_+, I_+, tau_+, saturated) of the prepared sub-step for the force f."""
+        assert self._prep is not None, 'prepare() first'
         d, den, t0, t1, i0, i1, i_lim, ki, w_pos = self._prep
         p, r, j = self.p, self.r, self.p.inertia_kg_m2
         tau = t0 + t1 * f
@@ -284,29 +222,29 @@ class LoadingServoModel:
         """X(F): where the prepared sub-step puts the muscle end if the muscle pulls with
         ``force_n`` (N) at its end, m. Continuous and non-decreasing in the force."""
         p = self.p
-        if not p.dynamics:
-            return self._ideal(force_n)
+        if self._holder is not None:
+            return self._holder.contraction(force_n)
         phi = self._end(force_n)[0]
-        x = self.r * (phi + self._play(force_n)) + force_n / p.belt_stiffness_n_per_m
+        x = self.r * (phi + self.play(force_n)) + force_n / p.belt_stiffness_n_per_m
         return min(max(x, p.travel_min_m), p.travel_max_m)
 
     def compliance(self, force_n: float) -> float:
         """dX/dF of the prepared sub-step at ``force_n`` (the piece the force falls on), m/N."""
         p = self.p
-        if not p.dynamics:
-            return (1.0 / p.belt_stiffness_n_per_m if self.mode == LoadMode.POSITION
-                    else IDEAL_FORCE_COMPLIANCE_M_PER_N)
-        x = self.r * (self._end(force_n)[0] + self._play(force_n)) \
+        if self._holder is not None:
+            return self._holder.compliance(force_n)
+        assert self._prep is not None, 'prepare() first'
+        x = self.r * (self._end(force_n)[0] + self.play(force_n)) \
             + force_n / p.belt_stiffness_n_per_m
         if x <= p.travel_min_m or x >= p.travel_max_m:
             return 0.0
-        d, den, t0, t1 = self._prep[:4]
+        d, den, t1 = self._prep.d, self._prep.den, self._prep.t1
         _, w, _, _, sat = self._end(force_n)
         if abs(w) >= p.speed_limit_rad_s:
             dw = 0.0
         elif sat:
             dw = d / p.inertia_kg_m2 * self.r / den
-        elif self._prep[8] is not None:            # position: the load is compensated
+        elif self._prep.w_position is not None:    # position: the load is compensated
             dw = 0.0
         else:
             dw = d / p.inertia_kg_m2 * (self.r - t1) / den
@@ -314,38 +252,23 @@ class LoadingServoModel:
                 if abs(force_n) < p.backlash_force_n else 0.0)
         return self.r * (d * dw + play) + 1.0 / p.belt_stiffness_n_per_m
 
-    def _ideal(self, force_n: float) -> float:
-        p = self.p
-        if self.mode == LoadMode.POSITION:
-            x = self.setpoint + force_n / p.belt_stiffness_n_per_m
-        else:
-            target = self.setpoint if self.mode == LoadMode.FORCE else 0.0
-            x = self.contraction_m + IDEAL_FORCE_COMPLIANCE_M_PER_N * (force_n - target)
-        return min(max(x, p.travel_min_m), p.travel_max_m)
-
     def commit(self, force_n: float) -> ServoOutput:
         """Keep the prepared sub-step with the muscle force ``force_n`` (N) at its end."""
         p = self.p
-        if not p.dynamics:
-            x = self._ideal(force_n)
-            self.phi = (x - force_n / p.belt_stiffness_n_per_m) / self.r
-            self.w = 0.0
-            self.torque = self.r * force_n
-            self.saturated = abs(self.torque) > self.tau_max
-            if self.saturated:
-                self.torque = math.copysign(self.tau_max, self.torque)
+        if self._holder is not None:
+            x = self._holder.commit(force_n)
         else:
             phi, w, i_new, tau, sat = self._end(force_n)
-            x = self.r * (phi + self._play(force_n)) + force_n / p.belt_stiffness_n_per_m
+            x = self.r * (phi + self.play(force_n)) + force_n / p.belt_stiffness_n_per_m
             if x < p.travel_min_m or x > p.travel_max_m:
                 x = p.travel_min_m if x < p.travel_min_m else p.travel_max_m
-                phi = (x - force_n / p.belt_stiffness_n_per_m) / self.r - self._play(force_n)
+                phi = (x - force_n / p.belt_stiffness_n_per_m) / self.r - self.play(force_n)
                 w = 0.0
             self.phi, self.w, self.integral = phi, w, i_new
             self.torque, self.saturated = tau, sat
         self.force_n = force_n
         self.contraction_m = x
-        self.encoder_rad = self._quantised(self.angle)
+        self.encoder_rad = self.quantised(self.angle)
         return ServoOutput(self.angle, self.w, x, self.torque, self.saturated)
 
     def replay(self, steps_s: list[float], forces_n: list[float]) -> ServoOutput:
@@ -364,27 +287,3 @@ class LoadingServoModel:
             self.prepare(d)
             out = self.commit(f)
         return out
-
-
-class IdealHold:
-    """A holder that keeps the muscle end at x = x_0 + F / k_b (an angle held ideally: 004
-    section 3.2 holds the pulley of the torque servo with the electric drive). Same sub-step
-    interface as ``LoadingServoModel``."""
-
-    def __init__(self, contraction_m: float, belt_stiffness_n_per_m: float) -> None:
-        self.x0 = contraction_m
-        self.k_b = belt_stiffness_n_per_m
-
-    def prepare(self, d: float) -> None:
-        """Nothing to prepare (no dynamics)."""
-
-    def contraction(self, force_n: float) -> float:
-        """x_0 + F / k_b, m."""
-        return self.x0 + force_n / self.k_b
-
-    def compliance(self, force_n: float) -> float:
-        """1 / k_b, m/N."""
-        return 1.0 / self.k_b
-
-    def commit(self, force_n: float) -> None:
-        """Nothing to keep."""
