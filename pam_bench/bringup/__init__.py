@@ -2,4 +2,4 @@
 
 from __future__ import annotations
 
-__all__ = ['resume', 'run_summary', 'runner']
+__all__ = ['resume', 'runner']

@@ -1,6 +1,7 @@
-"""Physics, controllers and protocol logic of the bench: numpy/scipy only, never rclpy."""
+"""Physics, controllers, protocol logic and lock-step rules of the bench: never rclpy."""
 
 from __future__ import annotations
 
-__all__ = ['errors', 'friction', 'inverse', 'loading_servo', 'lti', 'muscle', 'params',
-           'protocols', 'schedules', 'sensors', 'valve']
+__all__ = ['constants', 'coupling', 'errors', 'friction', 'inverse', 'loading_servo', 'lockstep',
+           'lti', 'muscle', 'params', 'protocols', 'schedules', 'sensors', 'torque_servo',
+           'valve']

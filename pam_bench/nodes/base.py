@@ -52,7 +52,8 @@ from pam_bench.models.lockstep import InputSpec, StopRequest, prune, take_inputs
 from pam_bench.models.params import ParamInfo, check_known, describe, from_mapping, param_infos
 
 __all__ = ['BenchNode', 'RELIABLE', 'LOCKSTEP', 'ns_of', 'stamp_of_cdr', 'time_of', 'run_node',
-           'message_class', 'reject_undeclared', 'install_interrupt_handlers', 'fail_line']
+           'message_class', 'reject_undeclared', 'install_interrupt_handlers', 'fail_line',
+           'start_node']
 
 RELIABLE = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
                       history=HistoryPolicy.KEEP_LAST, durability=DurabilityPolicy.VOLATILE)
@@ -367,6 +368,19 @@ def _node_name(cls: type, args: list[str] | None) -> str:
     return cls.__name__
 
 
+def start_node(cls: Callable[[], Node], name: str) -> Any:
+    """Build a node and refuse undeclared parameters; on a bad parameter print one line
+    (``fail_line``) and return None."""
+    import sys
+    try:
+        node = cls()
+        reject_undeclared(node)
+    except (ModelError, ParameterException) as exc:
+        print(fail_line(name, exc), file=sys.stderr, flush=True)
+        return None
+    return node
+
+
 def run_node(cls: type[Node], args: list[str] | None = None) -> None:
     """The Jazzy ``main()``: init, spin, stop on Ctrl-C or external shutdown, clean up.
 
@@ -382,11 +396,8 @@ def run_node(cls: type[Node], args: list[str] | None = None) -> None:
     node = None
     code = 0
     try:
-        try:
-            node = cls()
-            reject_undeclared(node)
-        except (ModelError, ParameterException) as exc:
-            print(fail_line(_node_name(cls, args), exc), file=sys.stderr, flush=True)
+        node = start_node(cls, _node_name(cls, args))
+        if node is None:
             code = 2
             return
         if getattr(node, 'LEAN_SPIN', False) and os.environ.get('PAM_BENCH_EXECUTOR') != 'single':

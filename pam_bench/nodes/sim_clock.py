@@ -24,12 +24,10 @@ from typing import Any
 
 import rclpy
 from pam_bench_interfaces.msg import ProtocolStatus, StepAck
-from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
 from pam_bench.config import topics
-from pam_bench.models.errors import ModelError
 from pam_bench.models.lockstep import (
     FLUSH_NS,
     ClockState,
@@ -42,11 +40,10 @@ from pam_bench.models.lockstep import (
 from pam_bench.nodes.base import (
     RELIABLE,
     BenchNode,
-    fail_line,
     install_interrupt_handlers,
     lean_spin,
     ns_of,
-    reject_undeclared,
+    start_node,
     time_of,
 )
 
@@ -294,12 +291,9 @@ def main(args: list[str] | None = None) -> None:
     node = None
     code = 0
     try:
-        try:
-            node = SimClock()
-            reject_undeclared(node)
-        except (ModelError, ParameterException) as exc:
-            print(fail_line('sim_clock', exc), file=sys.stderr, flush=True)
-            raise SystemExit(2) from None
+        node = start_node(SimClock, 'sim_clock')
+        if node is None:
+            raise SystemExit(2)
         if node.lean:
             lean_spin(node)
         else:

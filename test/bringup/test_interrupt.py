@@ -30,6 +30,21 @@ def node_processes(domain: int) -> list[int]:
     return pids
 
 
+def start_run(scene: str, bag: pathlib.Path, ignore_sigint: bool = False
+              ) -> tuple[subprocess.Popen, list[str]]:
+    """``pam-bench run SCENE`` in a child process, returned once it is stepping."""
+    proc = subprocess.Popen([sys.executable, '-m', 'pam_bench.cli', 'run', scene,
+                             '--out', str(bag)], stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True,
+                            preexec_fn=_ignore_sigint if ignore_sigint else None)
+    lines = []
+    for line in proc.stdout:
+        lines.append(line)
+        if line.startswith('[sim'):
+            break
+    return proc, lines
+
+
 def _ignore_sigint() -> None:
     """What a background job of a non-interactive shell (``cmd &``) inherits."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -40,16 +55,8 @@ def _ignore_sigint() -> None:
 def test_interrupted_run_leaves_a_valid_bag(tmp_path: pathlib.Path, ros_domain: int,
                                             sig: signal.Signals, inherited: str) -> None:
     bag = tmp_path / 'bag'
-    proc = subprocess.Popen([sys.executable, '-m', 'pam_bench.cli', 'run', 'isometric',
-                             '--out', str(bag)], stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True,
-                            preexec_fn=_ignore_sigint if inherited == 'ignored' else None)
+    proc, lines = start_run('isometric', bag, ignore_sigint=inherited == 'ignored')
     try:
-        lines = []
-        for line in proc.stdout:                  # wait until the run is stepping
-            lines.append(line)
-            if line.startswith('[sim'):
-                break
         assert proc.poll() is None, ''.join(lines)
         time.sleep(1.0)
         proc.send_signal(sig)
@@ -69,15 +76,8 @@ def test_interrupted_run_leaves_a_valid_bag(tmp_path: pathlib.Path, ros_domain: 
 
 def test_dead_node_ends_the_run_with_a_reason(tmp_path: pathlib.Path, ros_domain: int) -> None:
     bag = tmp_path / 'bag'
-    proc = subprocess.Popen([sys.executable, '-m', 'pam_bench.cli', 'run', 'isotonic_quick',
-                             '--out', str(bag)], stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True)
+    proc, lines = start_run('isotonic_quick', bag)
     try:
-        lines = []
-        for line in proc.stdout:                  # wait until the run is stepping
-            lines.append(line)
-            if line.startswith('[sim'):
-                break
         muscle = [p for p in node_processes(ros_domain)
                   if b'muscle_sim' in pathlib.Path(f'/proc/{p}/cmdline').read_bytes()]
         assert len(muscle) == 1

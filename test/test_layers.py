@@ -1,0 +1,68 @@
+"""The house: every folder one role, no import from a layer above, no rclpy below the nodes."""
+
+from __future__ import annotations
+
+import ast
+import pathlib
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[1] / 'pam_bench'
+# lower rank = lower layer; a module may import its own folder and lower ranks only
+RANK = {'models': 0, 'config': 1, 'analysis': 2, 'nodes': 3, 'twin': 3, 'verify': 4,
+        'bringup': 5, 'benchmarks': 6, 'cli': 7}
+NO_ROS = {'models', 'config', 'analysis', 'twin', 'verify'}
+MODULES = sorted(p for p in ROOT.rglob('*.py'))
+
+
+def _room(path: pathlib.Path) -> str:
+    rel = path.relative_to(ROOT).parts
+    return rel[0] if len(rel) > 1 else rel[0].removesuffix('.py')
+
+
+def _imports(path: pathlib.Path) -> list[str]:
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(encoding='utf-8'))):
+        if isinstance(node, ast.Import):
+            out += [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module:
+            out.append(node.module)
+    return out
+
+
+def test_every_folder_is_a_known_room() -> None:
+    rooms = {p.name for p in ROOT.iterdir() if p.is_dir() and p.name != '__pycache__'}
+    assert rooms == {r for r in RANK if r != 'cli'}
+
+
+@pytest.mark.parametrize('path', MODULES, ids=[str(p.relative_to(ROOT)) for p in MODULES])
+def test_no_import_from_a_layer_above(path: pathlib.Path) -> None:
+    room = _room(path)
+    if room == '__init__':
+        return
+    for name in _imports(path):
+        parts = name.split('.')
+        if parts[0] == 'rclpy' or parts[0].startswith('rosgraph') or parts[0] == 'rcl_interfaces':
+            assert room not in NO_ROS, f'{path.name} imports {name}'
+        if parts[0] != 'pam_bench' or len(parts) < 2:
+            continue
+        other = parts[1]
+        if other == room:
+            continue
+        assert RANK[other] < RANK[room], f'{room}/{path.name} imports {name}'
+
+
+@pytest.mark.parametrize('init', sorted(ROOT.rglob('__init__.py')),
+                         ids=lambda p: str(p.relative_to(ROOT)))
+def test_every_package_has_a_one_line_docstring_and_all(init: pathlib.Path) -> None:
+    tree = ast.parse(init.read_text(encoding='utf-8'))
+    doc = ast.get_docstring(tree)
+    assert doc and '\n' not in doc.strip()
+    names = [t.id for n in tree.body if isinstance(n, ast.Assign) for t in n.targets
+             if isinstance(t, ast.Name)]
+    assert '__all__' in names
+
+
+def test_every_folder_is_a_package() -> None:
+    for folder in {p.parent for p in MODULES}:
+        assert (folder / '__init__.py').is_file(), folder
