@@ -19,10 +19,12 @@ demo: setup
 
 test: setup
 	$(PY) -m ruff check pam_bench test
+	$(PY) -m mypy
 	$(PY) -m pytest -q test
 
 lint: setup
 	$(PY) -m ruff check pam_bench test
+	$(PY) -m mypy
 
 calibration: setup
 	$(VENV)/bin/pam-bench calibration --json

@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import pathlib
 from collections.abc import Iterable
+from typing import Any
 
 import numpy as np
 from rosbags.rosbag2 import Reader
@@ -95,15 +96,15 @@ def read_bags(paths: Iterable[str | pathlib.Path]) -> BagData:
     store = bench_typestore()
     rows: dict[str, list[tuple]] = {}
     records: list[StepRecord] = []
-    paths = [pathlib.Path(p) for p in paths]
-    if not paths:
+    bags = [pathlib.Path(p) for p in paths]
+    if not bags:
         raise BagError('no bag given')
-    for path in paths:
+    for path in bags:
         reader = open_bag(path)
         try:
             conns = [c for c in reader.connections if c.topic in (POINT_TOPIC, RECORD_TOPIC)]
             for conn, _, raw in reader.messages(connections=conns):
-                msg = store.deserialize_cdr(raw, conn.msgtype)
+                msg: Any = store.deserialize_cdr(raw, conn.msgtype)
                 if conn.topic == POINT_TOPIC:
                     t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
                     rows.setdefault(msg.protocol, []).append(
@@ -122,7 +123,7 @@ def read_bags(paths: Iterable[str | pathlib.Path]) -> BagData:
             reader.close()
     if not rows and not records:
         raise BagError('no protocol points (topics /protocol/point, /protocol/step_response) in '
-                       + ', '.join(str(p) for p in paths))
+                       + ', '.join(str(p) for p in bags))
     points = {}
     for name, r in rows.items():
         a = np.array(sorted(r), dtype=float)

@@ -16,7 +16,8 @@ POINT = 'pam_bench_interfaces/msg/CharacteristicPoint'
 RECORD = 'pam_bench_interfaces/msg/StepResponseRecord'
 
 
-def write_bag(path: pathlib.Path, points: list[dict], records: list[dict] = ()) -> None:
+def write_bag(path: pathlib.Path, points: list[dict], records: list[dict] | None = None
+              ) -> None:
     """points: dicts of CharacteristicPoint fields (SI); records: StepResponseRecord fields."""
     store = bench_typestore()
     P = store.types[POINT]
@@ -31,7 +32,7 @@ def write_bag(path: pathlib.Path, points: list[dict], records: list[dict] = ()) 
             hdr = Header(stamp=Time(sec=t // 10**9, nanosec=t % 10**9), frame_id='')
             msg = P(header=hdr, **pt)
             w.write(cp, t, store.serialize_cdr(msg, POINT))
-        for i, rec in enumerate(records):
+        for i, rec in enumerate(records or []):
             t = (len(points) + i + 1) * 3_000_000_000
             hdr = Header(stamp=Time(sec=t // 10**9, nanosec=t % 10**9), frame_id='')
             w.write(cr, t, store.serialize_cdr(R(header=hdr, **rec), RECORD))

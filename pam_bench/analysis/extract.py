@@ -109,9 +109,9 @@ def _model_comparison(points: dict[str, Points]) -> list[dict[str, Any]]:
     use = [p for p in (_largest(points, 'isometric'), _largest(points, 'isobaric')) if p]
     if not use:
         return []
-    cat = [np.concatenate([getattr(p, c) for p in use])
-           for c in ('pressure_pa', 'contraction_m', 'force_n')]
-    return fit_force_models(*cat)
+    p, x, f = (np.concatenate([getattr(q, c) for q in use])
+               for c in ('pressure_pa', 'contraction_m', 'force_n'))
+    return fit_force_models(p, x, f)
 
 
 def _figures(tmp: pathlib.Path, data: BagData, summary: dict[str, Any],

@@ -81,14 +81,15 @@ def fit_step(force_n: np.ndarray, period_s: float, dv: float, max_delay: int = 5
         s = np.concatenate([np.zeros(delay), unit_step_response(b, c, n - delay, period_s)])
         return _project(f, s, dv)[2]
 
-    start = None
+    start: tuple[float, np.ndarray] | None = None
     for w in (5.0, 15.0, 40.0, 100.0):
         for z in (0.2, 0.6, 1.2):
             th = np.log([2 * z * w, w * w])
             cost = float(np.sum(residual(th, 0) ** 2))
             if start is None or cost < start[0]:
                 start = (cost, th)
-    best = None
+    best: tuple[float, np.ndarray, int] | None = None
+    assert start is not None
     theta = start[1]
     for delay in range(max_delay + 1):
         # each delay starts from the fit of the one before (the shape barely changes); the
@@ -100,6 +101,7 @@ def fit_step(force_n: np.ndarray, period_s: float, dv: float, max_delay: int = 5
         elif delay - best[2] >= 2:
             break
         theta = sol.x
+    assert best is not None
     _, theta, delay = best
     b, c = np.exp(theta)
     s = np.concatenate([np.zeros(delay), unit_step_response(b, c, n - delay, period_s)])

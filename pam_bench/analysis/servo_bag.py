@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pathlib
+from typing import Any
 
 import numpy as np
 
@@ -29,7 +30,7 @@ def read_servo_states(path: str | pathlib.Path) -> dict[str, np.ndarray]:
     try:
         conns = [c for c in reader.connections if c.topic == SERVO_TOPIC]
         for conn, _, raw in reader.messages(connections=conns):
-            m = store.deserialize_cdr(raw, conn.msgtype)
+            m: Any = store.deserialize_cdr(raw, conn.msgtype)
             rows.append((m.header.stamp.sec + m.header.stamp.nanosec * 1e-9, m.torque_setpoint,
                          m.torque_measured, m.angle, list(m.force_setpoint),
                          list(m.force_measured), list(m.u_feedforward), list(m.u_pid),

@@ -22,6 +22,7 @@ class CentredPoly:
 
     @property
     def rms_residual(self) -> float:
+        """Root mean square of the residuals, in the unit of y."""
         return float(np.sqrt(np.mean(self.residuals ** 2)))
 
 
@@ -31,6 +32,7 @@ def centred_polyfit(x: np.ndarray, y: np.ndarray, max_degree: int = 5) -> Centre
     Args:
         x: positions, shape (n,), n >= 1.
         y: values, shape (n,).
+        max_degree: highest degree allowed.
     """
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     mid, half = float((x.max() + x.min()) / 2), float((x.max() - x.min()) / 2)

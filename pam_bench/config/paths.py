@@ -18,15 +18,16 @@ PACKAGE = 'pam_bench'
 
 
 def _candidates() -> list[pathlib.Path]:
-    src = pathlib.Path(__file__).resolve().parents[2]       # a checkout: the repository root
-    out = [src]
+    here = pathlib.Path(__file__).resolve().parents
+    out = [here[2]]                     # a checkout: the repository root
+    # an install (pip, colcon) puts the package at <prefix>/lib/pythonX.Y/site-packages and
+    # the data at <prefix>/share/pam_bench: its own prefix first, then the interpreter's and
+    # the ament prefixes
+    if len(here) > 5:
+        out.append(here[5] / 'share' / PACKAGE)
     prefixes = [sys.prefix]
     prefixes += [p for p in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep) if p]
     out += [pathlib.Path(p) / 'share' / PACKAGE for p in prefixes]
-    # colcon and `setup.py install` put the package at <prefix>/lib/pythonX.Y/site-packages
-    here = pathlib.Path(__file__).resolve().parents
-    if len(here) > 5:
-        out.append(here[5] / 'share' / PACKAGE)
     return out
 
 

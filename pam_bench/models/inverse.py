@@ -38,12 +38,14 @@ class Poly:
     x_half_m: float
 
     def __call__(self, x_m: float) -> float:
+        """The polynomial at ``x_m`` (m), z clamped to the fitted range [-1, 1]."""
         z = (x_m - self.x_mid_m) / self.x_half_m if self.x_half_m else 0.0
         return float(np.polynomial.polynomial.polyval(min(max(z, -1.0), 1.0),
                                                       self.coefficients))
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Poly:
+        """Read the mapping ``inverse_model.yaml`` holds for one coefficient."""
         return cls(tuple(float(c) for c in d['coefficients_low_to_high']),
                    float(d['x_mid_m']), float(d['x_half_range_m']))
 
@@ -67,7 +69,7 @@ class InverseModel:
 
     def dynamic_voltage(self, force_n: float, rate_n_s: float, accel_n_s2: float,
                         contraction_m: float) -> float:
-        """u (V) for the desired F*, F*', F*'' at contraction x (m)."""
+        """U (V) for the desired F*, F*', F*'' at contraction x (m)."""
         x = contraction_m
         d = self.d(x)
         if abs(d) < 1e-12:
@@ -76,7 +78,7 @@ class InverseModel:
                                         + self.c(x) * (force_n - self.f_a0(x))) / d)
 
     def static_voltage(self, force_n: float, contraction_m: float) -> float:
-        """u (V) that holds F* at contraction x (m) once settled."""
+        """U (V) that holds F* at contraction x (m) once settled."""
         k = self.k(contraction_m)
         if k <= 1e-9:
             return self.u_max_v if force_n > self.f0(contraction_m) else self.u_min_v

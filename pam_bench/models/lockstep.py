@@ -90,7 +90,10 @@ def take_inputs(buffers: Mapping[str, Mapping[int, M]], specs: Mapping[str, Inpu
     Args:
         buffers: topic -> {stamp ns: message} received so far.
         specs: topic -> options, for every topic of ``buffers``.
-        prev_prev_ns, prev_ns, t_ns, step_index: as ``input_window``.
+        prev_prev_ns: as ``input_window``.
+        prev_ns: as ``input_window``.
+        t_ns: as ``input_window``.
+        step_index: as ``input_window``.
 
     Returns:
         topic -> the message (or, with ``samples``, the list of messages in stamp order) for

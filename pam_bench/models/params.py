@@ -45,7 +45,8 @@ def param_infos(cls: type) -> list[ParamInfo]:
     """The ``ParamInfo`` of every field of a parameter dataclass, in declaration order."""
     out = []
     for f in dataclasses.fields(cls):
-        default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
+        default = (f.default if f.default is not dataclasses.MISSING
+                   else f.default_factory())  # type: ignore[operator]
         out.append(ParamInfo(f.name, default, f.metadata.get('unit', ''), f.metadata.get('low'),
                              f.metadata.get('high'), f.metadata.get('text', '')))
     return out

@@ -69,6 +69,7 @@ class Signal:
     period_s: float = 3.0
 
     def value_and_rates(self, t_s: float) -> tuple[float, float, float]:
+        """The set point and its first and second time derivatives at ``t_s`` (s)."""
         a, w = self.amplitude, self.omega_rad_s
         if self.kind == SignalKind.SINE:
             return (self.offset + a * math.sin(w * t_s), a * w * math.cos(w * t_s),
@@ -91,8 +92,8 @@ def split_torque(torque_nm: float, rate: float, accel: float, radius_m: float,
     else:
         base = (pretension_n, 0.0, 0.0)
     m = (torque_nm * half, rate * half, accel * half)
-    return (tuple(b + v for b, v in zip(base, m, strict=True)),
-            tuple(b - v for b, v in zip(base, m, strict=True)))
+    return ((base[0] + m[0], base[1] + m[1], base[2] + m[2]),
+            (base[0] - m[0], base[1] - m[1], base[2] - m[2]))
 
 
 class Pid:
@@ -114,6 +115,7 @@ class Pid:
         self.prev_e: float | None = None
 
     def reset(self) -> None:
+        """Clear the integral and the derivative filter."""
         self.integral, self.deriv, self.prev_e = 0.0, 0.0, None
 
     def step(self, error: float, dt_s: float, feedforward: float = 0.0) -> float:
@@ -189,15 +191,16 @@ class TorqueServoController:
         return min(max(torque_nm, -m), m), abs(torque_nm) > m
 
     def reset(self) -> None:
+        """Reset every channel's PID."""
         for pid in self.pids:
             pid.reset()
 
     def _feedforward(self, f: tuple[float, float, float], x: float) -> float:
+        if self.inverse is None or self.mode == ServoMode.PID:
+            return 0.0
         if self.mode == ServoMode.DYNAMIC:
             return self.inverse.dynamic_voltage(f[0], f[1], f[2], x)
-        if self.mode == ServoMode.STATIC:
-            return self.inverse.static_voltage(f[0], x)
-        return 0.0
+        return self.inverse.static_voltage(f[0], x)
 
     def step(self, dt_s: float, setpoint: tuple[float, float, float], angle_rad: float,
              forces_n: tuple[float, ...]) -> list[ChannelOutput]:
@@ -210,6 +213,8 @@ class TorqueServoController:
             angle_rad: measured pulley angle.
             forces_n: measured forces, shape (muscles,).
         """
+        targets: tuple[tuple[float, float, float], ...]
+        xs: tuple[float, ...]
         if self.muscles == 2:
             targets = split_torque(*setpoint, self.r, self.p.pretension_n, self.p.min_force_n)
             xs = (self.p.rest_contraction_m + self.r * angle_rad,

@@ -113,7 +113,7 @@ class ValveModel:
         return self.p.gain_pa_per_v * u
 
     def natural_frequency(self, chamber_volume_m3: float | None) -> float:
-        """w in rad/s for the given muscle chamber volume (None: reference volume)."""
+        """W in rad/s for the given muscle chamber volume (None: reference volume)."""
         w = self.p.natural_frequency_rad_s
         if self.p.volume_scaling and chamber_volume_m3 is not None:
             total = self.p.line_volume_m3 + max(chamber_volume_m3, 0.0)

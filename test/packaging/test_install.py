@@ -1,0 +1,77 @@
+"""The package installs like any other: a non-editable pip install into a fresh venv, and a
+colcon workspace build; each then runs the bench from a folder outside the checkout.
+
+The fresh venv reaches the ROS 2 wheels and the other dependencies through a ``.pth`` line that
+adds this project's .venv site-packages (``pip install --no-index`` proves nothing is
+downloaded): what is under test is what ``pam_bench`` itself ships (nodes, config, scenes,
+msg_defs), not the registry.
+"""
+
+from __future__ import annotations
+
+import os
+import pathlib
+import subprocess
+import sys
+import sysconfig
+
+REPO = pathlib.Path(__file__).resolve().parents[2]
+SITE = pathlib.Path(sysconfig.get_paths()['purelib'])
+SHORT = REPO / 'test' / 'config_short.yaml'
+
+
+def _venv_site(venv: pathlib.Path) -> pathlib.Path:
+    ver = f'python{sys.version_info.major}.{sys.version_info.minor}'
+    return venv / 'lib' / ver / 'site-packages'
+
+
+def test_pip_install_runs_the_demo_from_anywhere(tmp_path: pathlib.Path,
+                                                 ros_domain: int) -> None:
+    venv = tmp_path / 'venv'
+    subprocess.run([sys.executable, '-m', 'venv', str(venv)], check=True)
+    (_venv_site(venv) / 'zz_pam_bench_deps.pth').write_text(
+        f'import site; site.addsitedir({str(SITE)!r})\n')
+    py = venv / 'bin' / 'python'
+    res = subprocess.run([str(py), '-m', 'pip', 'install', '-q', '--no-index',
+                          '--no-build-isolation', str(REPO)],
+                         capture_output=True, text=True, cwd=tmp_path)
+    assert res.returncode == 0, res.stdout + res.stderr
+    away = tmp_path / 'elsewhere'
+    away.mkdir()
+    where = subprocess.run([str(py), '-c', 'import pam_bench.nodes.valve_sim, pam_bench; '
+                            'print(pam_bench.__file__)'],
+                           capture_output=True, text=True, cwd=away, check=True).stdout
+    assert where.startswith(str(venv)), where             # the installed copy, not the tree
+    for script in ('pam-bench', 'valve_sim', 'sequencer', 'recorder'):
+        assert (venv / 'bin' / script).exists(), script
+    res = subprocess.run([str(venv / 'bin' / 'pam-bench'), 'run', 'demo', '--out', 'bag'],
+                         capture_output=True, text=True, cwd=away, timeout=240)
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert (away / 'bag' / 'metadata.yaml').exists()
+
+
+def test_colcon_workspace_builds_and_its_install_runs(tmp_path: pathlib.Path,
+                                                      ros_domain: int) -> None:
+    venv = pathlib.Path(sys.prefix)
+    ws = tmp_path / 'ws'
+    (ws / 'src').mkdir(parents=True)
+    (ws / 'src' / 'pam_bench').symlink_to(REPO)
+    (ws / 'src' / 'pam_bench_interfaces').symlink_to(REPO / 'msg_defs')
+    env = dict(os.environ, PATH=f'{venv / "bin"}{os.pathsep}{os.environ["PATH"]}',
+               AMENT_PREFIX_PATH=str(venv), CMAKE_PREFIX_PATH=str(venv))
+    res = subprocess.run([str(venv / 'bin' / 'colcon'), 'build', '--cmake-args',
+                          f'-DPython3_EXECUTABLE={sys.executable}', '-DBUILD_TESTING=OFF'],
+                         capture_output=True, text=True, cwd=ws, env=env, timeout=400)
+    assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
+    install = ws / 'install'
+    assert (install / 'pam_bench' / 'share' / 'pam_bench' / 'config' / 'bench.yaml').exists()
+    away = tmp_path / 'elsewhere'
+    away.mkdir()
+    script = (f'. {install / "setup.sh"} && python -c "import pam_bench; '
+              f'print(pam_bench.__file__)" && {install / "pam_bench/lib/pam_bench/pam-bench"}'
+              f' run {SHORT} --out bag')
+    res = subprocess.run(['bash', '-c', script], capture_output=True, text=True, cwd=away,
+                         env=env, timeout=240)
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert res.stdout.startswith(str(install / 'pam_bench')), res.stdout   # the built copy
+    assert (away / 'bag' / 'metadata.yaml').exists()
