@@ -132,8 +132,11 @@ def _cmd_servo_compare(args: argparse.Namespace) -> int:
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
-    from pam_bench.benchmarks.suite import run_benchmarks
+    from pam_bench.benchmarks.suite import render_report, run_benchmarks
     root = pathlib.Path(args.root)
+    if args.render:
+        print(f'wrote {render_report(root)} from {root / "bench.json"}')
+        return 0
     run_benchmarks(args.quick, root, args.scene or None)
     print(f'wrote {root / "BENCHMARKS.md"} and {root / "bench.json"}')
     return 0
@@ -192,6 +195,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument('--quick', action='store_true', help='a few minutes: quick grids and scenes')
     p.add_argument('--root', default='.', help='where to write the report (default: here)')
     p.add_argument('--scene', action='append', help='scene to time (repeatable)')
+    p.add_argument('--render', action='store_true', help='only render BENCHMARKS.md again from '
+                   'bench.json and docs/long_runs.md (no measurement)')
     p.set_defaults(func=_cmd_bench)
     args = ap.parse_args(argv)
     try:

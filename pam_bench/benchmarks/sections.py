@@ -1,6 +1,6 @@
-"""Benchmark sections on speed against error: work-precision of the models, the ROS run's
-exchange step, fidelity per scene, and the torque servo. Measured by ``measure``, written into
-BENCHMARKS.md by ``render`` (tables) and into PNG files beside it (log-log plots)."""
+"""Benchmark studies on speed against error: work-precision of the models, the ROS run's
+exchange step, fidelity per scene, and the torque servo. Measured by ``measure``; rendered by
+``benchmarks.report`` (tables) and ``plot_work_precision`` (a log-log PNG beside the report)."""
 
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ from pam_bench.config.scene import load_scene  # noqa: E402
 from pam_bench.models.inverse import InverseModel  # noqa: E402
 from pam_bench.verify.reference_check import FULL_SCALE_N  # noqa: E402
 
-__all__ = ['measure', 'render']
+__all__ = ['measure', 'plot_work_precision']
 
 def _ros_sweep(out: pathlib.Path, quick: bool) -> dict[str, Any]:
     """isometric_quick and servo_sin_t through the nodes at several exchange steps (the
@@ -85,7 +85,8 @@ def measure(quick: bool, out: pathlib.Path) -> dict[str, Any]:
     return res
 
 
-def _plot_work_precision(rows: list[dict[str, Any]], root: pathlib.Path) -> str:
+def plot_work_precision(rows: list[dict[str, Any]], root: pathlib.Path) -> str:
+    """Log-log plot of error against wall time per model into ``root``; returns its name."""
     models = list(dict.fromkeys(r['model'] for r in rows))
     fig, axes = plt.subplots(1, len(models), figsize=(4 * len(models), 3.6))
     for ax, model in zip(np.atleast_1d(axes), models, strict=True):
@@ -106,76 +107,3 @@ def _plot_work_precision(rows: list[dict[str, Any]], root: pathlib.Path) -> str:
     fig.savefig(root / name, dpi=100)
     plt.close(fig)
     return name
-
-
-def render(r: dict[str, Any], root: pathlib.Path) -> list[str]:
-    """Markdown lines of the sections (and their plots written into ``root``)."""
-    wp = r['work_precision']
-    lines = ['', '## Work-precision of the models', '',
-             'Error against a reference (see `pam_bench/benchmarks/work_precision.py`: scipy '
-             'Radau at '
-             'rtol 1e-12 for the valve, a 10 us path for the friction, the exact solution of '
-             'the continuous drive and spring for the drive, 0.1 ms for the torque loop) '
-             'against wall time per simulated second. Exact ZOH of the valve against the '
-             'closed form: largest relative error '
-             f"{wp['zoh_max_relative_error']:.1e} (goal <= 1e-12).", '',
-             f'![work-precision]({_plot_work_precision(wp["rows"], root)})', '',
-             '| model | scheme | step | relative error | wall s / sim s |',
-             '|---|---|---|---|---|']
-    for row in wp['rows']:
-        lines.append(f"| {row['model']} | {row['scheme']} | {row['step_s'] * 1e3:g} ms | "
-                     f"{row['relative_error']:.2e} | {row['wall_s_per_sim_s']:.4f} |")
-    lines += ['', 'Fastest within 0.1 %:', '']
-    for model, row in wp['fastest_within_0.1pct'].items():
-        lines.append(f'- {model}: ' + (f"{row['scheme']} at {row['step_s'] * 1e3:g} ms "
-                                       f"({row['relative_error']:.1e})" if row else
-                                       'none of the steps tried (see the note below)'))
-    lines += ['', 'The valve (exact ZOH) and the friction (an exact projection) have no '
-              'integration error at any step. The drive is the stiff part: its derivative term '
-              'against a sticking braid puts a pole near -7000 1/s, so explicit Euler and RK4 '
-              'diverge beyond about 0.3 ms, while its backward-Euler sub-step law converges '
-              'to the exact continuous solution at first order from any sub-step. The torque '
-              "loop's step is its controller's sampling period (a 1 kHz servo, 004), not an "
-              'integration step: what it costs is control performance.']
-    lines += ['', '## Fidelity per scene', '',
-              'Each model option switched off in turn on the numpy bench (same coupling as the '
-              'nodes); change of what the scene measures against all options on, and wall '
-              'time. Scene defaults keep every option whose removal moves the quantity beyond '
-              'the tolerance.', '',
-              '| scene | option | quantity | change | tolerance | within | wall s | '
-              'speed-up |', '|---|---|---|---|---|---|---|---|']
-    for row in r['fidelity']:
-        lines.append(f"| {row['scene']} | {row['option']} | {row['quantity']} | "
-                     f"{row['change']:.3g} {row['unit']} | {row['tolerance']:g} | "
-                     f"{'yes' if row['within'] else 'no'} | {row['wall_s']:.2f} | "
-                     f"{row['speed_up']:.2f}x |")
-    lines += ['', '## Exchange step of the ROS run', '',
-              'Separate-process nodes, the exchange step swept; error against the finest step '
-              'of the same sweep (isometric: largest reading difference, load-cell noise '
-              'included; servo: largest measured-torque difference after 0.3 s). The isometric '
-              'scene runs on its 5 ms sub-steps at every exchange step, so its readings barely '
-              "move while its wall time falls with the exchanges; the servo's exchange step is "
-              "its controller's period, so its loop changes with it.", '',
-              '| scene | exchange step | wall s | real-time factor | error | % FS |',
-              '|---|---|---|---|---|---|']
-    for row in r['ros_exchange_step']['rows']:
-        fs = '' if row['pct_fs'] is None else f"{row['pct_fs']:.3f}"
-        lines.append(f"| {row['scene']} | {row['exchange_step_s'] * 1e3:g} ms | "
-                     f"{row['wall_s']:.1f} | {row['real_time_factor']:.2f}x | "
-                     f"{row['max_error']:.3f} {row['unit']} | {fs} |")
-    lines += ['', '## Torque servo: controllers compared', '',
-              '`pam-bench servo-compare`: each scene with the identified dynamic inverse + PID, '
-              'the static inverse + PID and the PID alone (same gains). Errors after the first '
-              'second; "at reversal" is the largest error from 0.05 s before a reversal of the '
-              "set point's derivative (or a square-wave jump) to a quarter of the spacing "
-              'between reversals after it, "elsewhere" the largest outside those windows. '
-              '`numpy` runs the same models and controller exchange for exchange in one '
-              'process; `ros` runs the separate-process nodes.', '',
-              '| scene | controller | engine | RMS error | max | at reversal | elsewhere | '
-              'real-time factor |', '|---|---|---|---|---|---|---|---|']
-    for row in r.get('servo', []):
-        lines.append(f"| {row['scene']} | {row['controller']} | {row['engine']} | "
-                     f"{row['rms_error']:.3f} {row['unit']} | {row['max_error']:.3f} | "
-                     f"{row['error_at_reversal']:.3f} | {row['error_elsewhere']:.3f} | "
-                     f"{row['real_time_factor']:.2f}x |")
-    return lines

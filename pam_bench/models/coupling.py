@@ -19,7 +19,8 @@ replays the forces (the loading-servo node) reaches the same state bit for bit.
 
 Solving the mechanical coupling inside every sub-step is what lets the devices exchange
 messages only once per exchange step (seconds), not once per millisecond: the exchange
-step no longer adds a coupling delay to the mechanics (BENCHMARKS.md, exchange step).
+step no longer adds a coupling delay to the mechanics (BENCHMARKS.md,
+'Exchange step and sub-step against error').
 """
 
 from __future__ import annotations

@@ -20,8 +20,8 @@ __all__ = ['Phase', 'Measurement', 'Limits', 'Point', 'StepRecord', 'Commands', 
 
 # exchange steps a lock-step sequencer asks for (its node's defaults): at every new reading or
 # phase (the loading servo takes a new set value one exchange after it is sent), and at most
-# during a 1 kHz record (the valve holds the chamber volume of an exchange's start: at x = 0 a
-# whole-second exchange moves b, c, d by 1.7 %, 50 ms by 0.3 %; BENCHMARKS.md, step records)
+# during a 1 kHz record (the valve holds the chamber volume of an exchange's start, which moves
+# the fitted b, c, d the more the longer the exchange: BENCHMARKS.md, 'Step records')
 COMMAND_STEP_S = 0.001
 RECORD_EXCHANGE_S = 0.05
 _EPS = 1e-9                 # s: a phase ends at its scheduled time within this

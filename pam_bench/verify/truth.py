@@ -23,7 +23,8 @@ readings and records go through the same estimators: ``isometric.reference_serie
 cancelled the friction would find; the reference is what this bench, measured without noise,
 gives to the same estimators, so an extraction's difference from it is the measurement's own
 (sensor noise, quantisation, fit), and the difference between the two is the estimators' bias
-on a bench with braid friction (BENCHMARKS.md, extraction against truth).
+on a bench with braid friction (BENCHMARKS.md, 'Extraction against
+`pam-bench truth`').
 """
 
 from __future__ import annotations

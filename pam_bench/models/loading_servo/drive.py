@@ -42,7 +42,7 @@ then the limits (tau clipped with the integral frozen, w clipped, x held at an e
 muscle solves F_+ = F_muscle(p_+, X(F_+)) and the drive keeps the sub-step with that F_+
 (``commit``). Backward Euler is L-stable, so the stiff modes of the force loop (the derivative
 term against a sticking braid, about 7000 1/s) stay damped at any sub-step, and the error is
-first order in d (BENCHMARKS.md, work-precision of the drive).
+first order in d (BENCHMARKS.md, 'Work-precision of the models', drive rows).
 
 ``dynamics: false`` replaces the drive by an ideal holder (``holders.IdealHolder``). The law a
 copy of the drive needs to follow the same sub-steps (the DriveLaw message) is

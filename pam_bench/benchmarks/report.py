@@ -1,0 +1,273 @@
+"""BENCHMARKS.md from the measured data (bench.json): one renderer, one table helper.
+
+The report opens with the key results (each figure, its goal, the measured value and the
+commit it was measured at), then one section per study: its title and method from
+``methods.yaml`` (prose, no figures) and its table from the data. The hand-written long runs
+(``docs/long_runs.md``, runs too long for every `pam-bench bench`) are included whole at the
+end. ``pam-bench bench --render`` renders again from an existing bench.json.
+"""
+
+from __future__ import annotations
+
+import functools
+import pathlib
+from collections.abc import Callable, Iterable, Sequence
+from typing import Any
+
+import yaml
+
+__all__ = ['table', 'key_results', 'render', 'methods', 'LONG_RUNS']
+
+LONG_RUNS = pathlib.Path('docs') / 'long_runs.md'
+Row = Sequence[Any]
+
+
+def table(headers: Sequence[str], rows: Iterable[Row]) -> list[str]:
+    """A Markdown table: one line per row, cells as given (strings or numbers)."""
+    out = ['| ' + ' | '.join(headers) + ' |', '|' + '---|' * len(headers)]
+    out += ['| ' + ' | '.join(str(c) for c in row) + ' |' for row in rows]
+    return out
+
+
+@functools.lru_cache(maxsize=1)
+def methods() -> dict[str, dict[str, str]]:
+    """Section key -> {'title', 'method'} from methods.yaml."""
+    path = pathlib.Path(__file__).with_name('methods.yaml')
+    return yaml.safe_load(path.read_text(encoding='utf-8'))
+
+
+def _pct(x: float | None, digits: int = 3) -> str:
+    return '' if x is None else f'{x:.{digits}f}'
+
+
+def _campaign_max(r: dict[str, Any], unit: str) -> tuple[float, float | None] | None:
+    """Largest reading difference of the campaign against its 1 ms twin in ``unit``."""
+    cmp = r.get('campaign')
+    if not cmp:
+        return None
+    rows = [row for row in cmp['twin_1ms']['protocols'] if row['unit'] == unit]
+    if not rows:
+        return None
+    worst = max(rows, key=lambda row: row['max_error'])
+    return worst['max_error'], worst['max_error_pct_fs']
+
+
+def key_results(r: dict[str, Any]) -> list[Row]:
+    """(figure, goal, measured, commit) of every headline figure the data holds."""
+    c, ls, commit = r['calibration'], r['lockstep'], f"`{r['commit']}`"
+    rows: list[Row] = [
+        ('isometric gain at x = 0 mm', '284.3 N/V (004) +-10 %',
+         f"{c['isometric_gain_N_per_V_at_0mm']:.1f} N/V", commit),
+        ('isometric gain at x = 95 mm', '17.4 N/V (004) +-30 %',
+         f"{c['isometric_gain_N_per_V_at_95mm']:.1f} N/V", commit),
+        ('contraction at 6 V, 50 N', '>= 100 mm (004)',
+         f"{c['contraction_mm_at_6V_50N']:.1f} mm", commit),
+        ('force at 6 V, x = 0', '>= 900 N (004)', f"{c['force_N_at_6V_0mm']:.0f} N", commit),
+        ('one lock-step exchange (demo, 7 participants)', 'a few round trips',
+         f"{1 / ls['ratio_lockstep_to_pingpong']:.1f} round trips "
+         f"({ls['demo_lockstep_steps_per_s']:.0f} exchanges/s against "
+         f"{ls['pingpong_round_trips_per_s']:.0f} round trips/s)", commit)]
+    for s in r.get('scenes', []):
+        if s['scene'] in ('campaign', 'campaign_quick'):
+            goal = '>= 36x real time' if s['scene'] == 'campaign' else '-'
+            rows.append((f"`{s['scene']}` through separate-process nodes", goal,
+                         f"{s['real_time_factor']:.1f}x ({s['wall_s_lockstep']:.0f} s for "
+                         f"{s['sim_s'] / 3600:.2f} h)", commit))
+    force, x = _campaign_max(r, 'N'), _campaign_max(r, 'mm')
+    if force:
+        rows.append(('campaign force readings against the 1 ms reference', '<= 0.2 % FS',
+                     f'{force[0]:.3f} N ({_pct(force[1])} % FS)', commit))
+    if x:
+        rows.append(('campaign contraction readings against the 1 ms reference',
+                     '<= 0.2 % of the 210 mm belt travel (0.42 mm)', f'{x[0]:.3f} mm', commit))
+    wp = r.get('work_precision')
+    if wp:
+        rows.append(('exact ZOH of the valve against its closed form', '<= 1e-12 relative',
+                     f"{wp['zoh_max_relative_error']:.1e}", commit))
+    ex = r.get('extraction')
+    if ex:
+        idf = ex['identification']
+        rows.append(('extraction of a campaign-sized bag, figures included', '< 30 s',
+                     f"{idf['campaign_extract_s']:.1f} s", commit))
+        rows.append((f"step fits ({idf['records']} records)", '< 10 s',
+                     f"{idf['fits_s']:.2f} s on {idf['workers']} cores", commit))
+    for row in r.get('servo', []):
+        if row['scene'] == 'servo_sin_t' and row['controller'] == 'dynamic_inverse_pid':
+            rows.append((f"servo_sin_t torque RMS, dynamic inverse + PID ({row['engine']})",
+                         '-', f"{row['rms_error']:.3f} {row['unit']} at "
+                         f"{row['real_time_factor']:.2f}x real time", commit))
+    return rows
+
+
+def _calibration(r: dict[str, Any]) -> list[str]:
+    c = r['calibration']
+    return table(['figure', 'simulated bench', '004', 'tolerance'], [
+        ('isometric gain at x = 0 mm', f"{c['isometric_gain_N_per_V_at_0mm']:.1f} N/V",
+         '284.3 N/V', '+-10 %'),
+        ('isometric gain at x = 95 mm', f"{c['isometric_gain_N_per_V_at_95mm']:.1f} N/V",
+         '17.4 N/V', '+-30 %'),
+        ('contraction at 6 V, 50 N', f"{c['contraction_mm_at_6V_50N']:.1f} mm", '>= 100 mm',
+         '-'),
+        ('force at 6 V, x = 0', f"{c['force_N_at_6V_0mm']:.0f} N", '>= 900 N', '-'),
+        ('isobaric hysteresis, max', f"{c['isobaric_hysteresis_mm_max']:.2f} mm", 'visible',
+         '-')])
+
+
+def _lockstep(r: dict[str, Any]) -> list[str]:
+    ls = r['lockstep']
+    return table(['measure', 'rate'], [
+        ('rclpy ping-pong, two processes', f"{ls['pingpong_round_trips_per_s']:.0f} round "
+         'trips/s'),
+        (f"lock-step, demo scene (10 ms exchanges), {ls['participants']} participants in "
+         'separate processes', f"{ls['demo_lockstep_steps_per_s']:.0f} exchanges/s"),
+        ('ratio lock-step / ping-pong', f"{ls['ratio_lockstep_to_pingpong']:.3f}")])
+
+
+def _scenes(r: dict[str, Any]) -> list[str]:
+    return table(['scene', 'sim time', 'wall time (lock-step)', 'real-time factor',
+                  'wall time with start-up', 'exchange steps', 'steps/s'],
+                 [(s['scene'], f"{s['sim_s']:.0f} s ({s['sim_s'] / 3600:.2f} h)",
+                   f"{s['wall_s_lockstep']:.1f} s", f"{s['real_time_factor']:.1f}x",
+                   f"{s['wall_s_total']:.1f} s", s['exchange_steps'],
+                   f"{s['lockstep_rate_steps_per_s']:.0f}") for s in r['scenes']])
+
+
+def _campaign(r: dict[str, Any]) -> list[str]:
+    cmp = r['campaign']
+    rows: list[Row] = []
+    for key, label in (('twin_same_steps', 'scene steps'), ('twin_1ms', '1 ms / 1 ms')):
+        t = cmp[key]
+        rows += [(label, row['protocol'], row['readings'],
+                  f"{row['max_error']:.3f} {row['unit']}", f"{row['p99_error']:.3f}",
+                  _pct(row['max_error_pct_fs'])) for row in t['protocols']]
+        rec = t['records']
+        rows.append((label, 'step records b, c, d', rec['records'],
+                     f"{100 * rec['max_bcd_rel_error']:.2f} %",
+                     f"1 <-> 5 V: {100 * rec['max_bcd_rel_error_1_5V']:.2f} %", ''))
+    t = cmp['twin_1ms']
+    return [f"Scene `{cmp['scene']}`.", ''] + table(
+        ['twin', 'protocol', 'readings', 'max difference', '99th percentile', '% FS'], rows) + [
+        '', f"The 1 ms twin took {t['twin_exchanges']} exchanges and {t['twin_wall_s']:.0f} s "
+        'of wall time in one process.']
+
+
+def _exchange_step(r: dict[str, Any]) -> list[str]:
+    return table(['protocol', 'held', 'exchange step', 'sub-step', 'exchanges per reading',
+                  'max error', '% FS', 'wall s (reference wall s)'],
+                 [(row['protocol'], f"{row['held']:g}", f"{row['exchange_step_s']:g} s",
+                   f"{1e3 * row['sub_step_s']:g} ms", f"{row['exchanges_per_reading']:.1f}",
+                   f"{row['max_error']:.3f} {row['unit']}", _pct(row['max_error_pct_fs']),
+                   f"{row['wall_s']:.2f} ({row['wall_s_1ms']:.1f})")
+                  for row in r['exchange_step']])
+
+
+def _record_exchange(r: dict[str, Any]) -> list[str]:
+    return table(['x mm', 'step', 'H', 'exchanges per record', 'largest b, c, d change',
+                  'largest force difference', 'wall s (1 ms wall s)'],
+                 [(f"{row['x_mm']:.0f}", f"{row['u0_V']:g} -> {row['u1_V']:g} V",
+                   f"{1e3 * row['record_exchange_s']:g} ms", row['exchanges'],
+                   f"{100 * row['max_abs_rel_error']:.3f} %",
+                   f"{row['max_force_difference_N']:.2f} N",
+                   f"{row['wall_s']:.2f} ({row['wall_s_1ms']:.2f})")
+                  for row in r['record_exchange']])
+
+
+def _extraction(r: dict[str, Any]) -> list[str]:
+    ex = r['extraction']
+    rows: list[Row] = []
+    for row in ex['scenes']:
+        def pct(key: str, row: dict[str, Any] = row) -> str:
+            return f'{100 * abs(row[key]):.2f} %' if key in row else '-'
+
+        def bcd(prefix: str, row: dict[str, Any] = row) -> str:
+            keys = [f'{prefix}_{c}_max_abs_rel_error' for c in 'bcd']
+            return ', '.join(f'{100 * row[k]:.1f} %' for k in keys) if keys[0] in row else '-'
+        for against, suffix, step in (('parameters', '', 'step_fits'),
+                                      ('reference', '_reference', 'step_reference_fits')):
+            rows.append((row['scene'], against,
+                         pct(f'isometric_gain{suffix}_max_abs_rel_error'),
+                         pct(f'isotonic_gain{suffix}_max_rel_error'),
+                         pct(f'isobaric_hysteresis{suffix}_rel_error'), bcd(step)))
+    idf = ex['identification']
+    speed = table(['what', 'wall time'], [
+        (f"{idf['records']} step fits (1 s at 1 kHz, noise on), {idf['workers']} cores",
+         f"{idf['fits_s']:.2f} s"),
+        ('whole extraction of that bag', f"{idf['extract_s']:.2f} s"),
+        (f"a bag the size of the {'quick' if r['quick'] else 'full'} campaign "
+         f"({idf['campaign_points']} points and those records), figures included",
+         f"{idf['campaign_extract_s']:.1f} s")])
+    return table(['scene', 'against', 'isometric gain', 'isotonic max gain',
+                  'isobaric hysteresis', 'step b, c, d'], rows) + [''] + speed
+
+
+def _work_precision(r: dict[str, Any], root: pathlib.Path) -> list[str]:
+    from pam_bench.benchmarks.sections import plot_work_precision
+    wp = r['work_precision']
+    fastest = [(model, f"{row['scheme']} at {row['step_s'] * 1e3:g} ms "
+                       f"({row['relative_error']:.1e})" if row else 'none of the steps tried')
+               for model, row in wp['fastest_within_0.1pct'].items()]
+    return ([f"![work-precision]({plot_work_precision(wp['rows'], root)})", '']
+            + table(['model', 'scheme', 'step', 'relative error', 'wall s / sim s'],
+                    [(row['model'], row['scheme'], f"{row['step_s'] * 1e3:g} ms",
+                      f"{row['relative_error']:.2e}", f"{row['wall_s_per_sim_s']:.4f}")
+                     for row in wp['rows']])
+            + ['', 'Fastest scheme within 0.1 %:', ''] + table(['model', 'scheme'], fastest)
+            + ['', f"Exact ZOH of the valve against the closed form: largest relative error "
+               f"{wp['zoh_max_relative_error']:.1e}."])
+
+
+def _fidelity(r: dict[str, Any]) -> list[str]:
+    return table(['scene', 'option', 'quantity', 'change', 'tolerance', 'within', 'wall s',
+                  'speed-up'],
+                 [(row['scene'], row['option'], row['quantity'],
+                   f"{row['change']:.3g} {row['unit']}", f"{row['tolerance']:g}",
+                   'yes' if row['within'] else 'no', f"{row['wall_s']:.2f}",
+                   f"{row['speed_up']:.2f}x") for row in r['fidelity']])
+
+
+def _ros_exchange_step(r: dict[str, Any]) -> list[str]:
+    return table(['scene', 'exchange step', 'wall s', 'real-time factor', 'error', '% FS'],
+                 [(row['scene'], f"{row['exchange_step_s'] * 1e3:g} ms",
+                   f"{row['wall_s']:.1f}", f"{row['real_time_factor']:.2f}x",
+                   f"{row['max_error']:.3f} {row['unit']}", _pct(row['pct_fs']))
+                  for row in r['ros_exchange_step']['rows']])
+
+
+def _servo(r: dict[str, Any]) -> list[str]:
+    return table(['scene', 'controller', 'engine', 'RMS error', 'max', 'at reversal',
+                  'elsewhere', 'real-time factor'],
+                 [(row['scene'], row['controller'], row['engine'],
+                   f"{row['rms_error']:.3f} {row['unit']}", f"{row['max_error']:.3f}",
+                   f"{row['error_at_reversal']:.3f}", f"{row['error_elsewhere']:.3f}",
+                   f"{row['real_time_factor']:.2f}x") for row in r['servo']])
+
+
+SECTIONS: list[tuple[str, Callable[..., list[str]]]] = [
+    ('calibration', _calibration), ('lockstep', _lockstep), ('scenes', _scenes),
+    ('campaign', _campaign), ('exchange_step', _exchange_step),
+    ('record_exchange', _record_exchange), ('extraction', _extraction),
+    ('work_precision', _work_precision), ('fidelity', _fidelity),
+    ('ros_exchange_step', _ros_exchange_step), ('servo', _servo)]
+"""Section key (of bench.json and methods.yaml) and its table renderer, in report order."""
+
+
+def render(r: dict[str, Any], root: pathlib.Path) -> str:
+    """BENCHMARKS.md from a report (plots are written into ``root``)."""
+    m = r['machine']
+    lines = ['# pam_bench benchmarks', '',
+             f"Measured in one run of `pam-bench bench{' --quick' if r['quick'] else ''}` on "
+             f"{m['platform']}, {m['cpus']} CPUs, Python {m['python']}, {r['date']}, commit "
+             f"`{r['commit']}`. Raw figures: `bench.json`. Each section says how its figures "
+             'are measured; code cites these sections by title instead of quoting figures.',
+             '', '## Key results', ''] + table(['figure', 'goal', 'measured', 'commit'],
+                                               key_results(r))
+    for key, section in SECTIONS:
+        if not r.get(key):
+            continue
+        text = methods()[key]
+        lines += ['', f"## {text['title']}", '', text['method'], '']
+        lines += section(r, root) if key == 'work_precision' else section(r)
+    long_runs = root / LONG_RUNS
+    if long_runs.exists():
+        lines += ['', long_runs.read_text(encoding='utf-8').strip()]
+    return '\n'.join(lines) + '\n'
