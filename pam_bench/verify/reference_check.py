@@ -6,8 +6,9 @@ and ``twin.protocol_run`` drives it with the sequencer's own state machine, so a
 scene it runs at 1 ms exchanges on 1 ms sub-steps is the reference the scenes' long exchanges
 and 5 ms sub-steps are measured against (BENCHMARKS.md, 'Exchange step and sub-step against
 error', 'The campaign against its numpy twin'). For a recorded run the reference uses the
-scene's own model parameters and a noise-free load cell; the recorded readings keep their sensor noise (load cell 0.2 N RMS,
-encoder 3 um counts), which is part of the difference reported.
+scene's own model parameters and a noise-free load cell; the recorded readings keep their
+sensor noise (load cell 0.2 N RMS, encoder 3 um counts), which is part of the difference
+reported.
 """
 
 from __future__ import annotations
