@@ -193,6 +193,7 @@ def _run_in_process(scene: Scene, params: dict[str, Any], domain_id: int | None,
     from rclpy.parameter import Parameter
 
     from pam_bench.models.errors import ParameterError
+    from pam_bench.nodes import intra
     from pam_bench.nodes.base import fail_line, reject_undeclared
 
     env = ros_env(domain_id)
@@ -205,6 +206,7 @@ def _run_in_process(scene: Scene, params: dict[str, Any], domain_id: int | None,
     code = 0
     buf = io.StringIO()
     t0 = time.monotonic()
+    bus = intra.activate()
     try:
         for name in ['recorder'] * ('recorder' in scene.nodes) + [
                 n for n in scene.nodes if n != 'recorder'] + ['sim_clock']:
@@ -212,7 +214,7 @@ def _run_in_process(scene: Scene, params: dict[str, Any], domain_id: int | None,
             cls = getattr(importlib.import_module(t.module), t.cls)
             overrides = [Parameter(k, value=v) for k, v in
                          _flatten(params[name]['ros__parameters']).items()]
-            extra = {'lean': False} if name == 'sim_clock' else {}    # under the executor
+            extra = {'lean': True} if name == 'sim_clock' else {}    # polled by the loop
             try:
                 node = cls(name, context=context, parameter_overrides=overrides, **extra)
             except ParameterException as exc:
@@ -222,10 +224,11 @@ def _run_in_process(scene: Scene, params: dict[str, Any], domain_id: int | None,
             executor.add_node(node)
         with contextlib.redirect_stdout(buf if quiet else sys.stdout):
             try:
-                executor.spin()
+                intra.spin_composed(bus, nodes, executor)
             except SystemExit as exc:
                 code = int(exc.code or 0)
     finally:
+        intra.deactivate()
         clock = nodes[-1] if nodes and len(nodes) == len(scene.nodes) + 1 else None
         for node in nodes:
             executor.remove_node(node)

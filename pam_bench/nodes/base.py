@@ -50,10 +50,11 @@ from pam_bench.config import topics
 from pam_bench.models.errors import ModelError
 from pam_bench.models.lockstep import InputSpec, StopRequest, prune, take_inputs
 from pam_bench.models.params import ParamInfo, check_known, describe, from_mapping, param_infos
+from pam_bench.nodes import intra
 
 __all__ = ['BenchNode', 'RELIABLE', 'LOCKSTEP', 'ns_of', 'stamp_of_cdr', 'time_of', 'run_node',
            'message_class', 'reject_undeclared', 'install_interrupt_handlers', 'fail_line',
-           'start_node']
+           'start_node', 'bus_publisher', 'bus_subscription', 'stamp_of_msg']
 
 RELIABLE = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
                       history=HistoryPolicy.KEEP_LAST, durability=DurabilityPolicy.VOLATILE)
@@ -82,6 +83,32 @@ def message_class(msgtype: str) -> type:
     return getattr(importlib.import_module(f'{pkg}.{kind}'), name)
 
 
+def stamp_of_msg(msg: Any) -> int:
+    """Stamp (ns) of a message object with a Header (or of a Clock)."""
+    stamp = msg.header.stamp if hasattr(msg, 'header') else msg.clock
+    return stamp.sec * 1_000_000_000 + stamp.nanosec
+
+
+def bus_publisher(node: Node, msg_type: type, topic: str, qos: QoSProfile) -> Any:
+    """A publisher that goes through the process's intra-process bus when it composes nodes
+    (``nodes.intra``), else an ordinary DDS publisher."""
+    bus = intra.current()
+    if bus is None:
+        return node.create_publisher(msg_type, topic, qos)
+    return bus.publisher(node, msg_type, topic, qos)
+
+
+def bus_subscription(node: Node, msg_type: type, topic: str, callback: Callable[[Any], None],
+                     qos: QoSProfile, raw: bool = False) -> None:
+    """A subscription served by the intra-process bus when the process composes nodes (the
+    callback then gets message objects, also where ``raw`` asks for bytes), else by DDS."""
+    bus = intra.current()
+    if bus is None:
+        node.create_subscription(msg_type, topic, callback, qos, raw=raw)
+    else:
+        bus.subscribe(node, topic, callback)
+
+
 def time_of(ns: int) -> Time:
     """Integer nanoseconds as a ROS time stamp."""
     return Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
@@ -108,7 +135,8 @@ class BenchNode(Node):
         self.stop_request: StopRequest | None = None      # sent with every acknowledgement
         self.max_next_step_s = 0.0        # longest next exchange step wanted (0: any)
         self._sent: list[tuple[Callable[[Any], None], Any]] = []   # this step's outputs
-        self._diag_pub = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, RELIABLE)
+        self._bus = intra.current()
+        self._diag_pub = bus_publisher(self, DiagnosticArray, topics.DIAGNOSTICS, RELIABLE)
         self._ack_pub = None
 
     # --- parameters --------------------------------------------------------------------
@@ -173,7 +201,7 @@ class BenchNode(Node):
     def create_step_publisher(self, msg_type: type, topic: str) -> Any:
         """A publisher of a step output: what it publishes in a step is sent again when the
         clock repeats that tick (module docstring)."""
-        pub = self.create_publisher(msg_type, topic, LOCKSTEP if self.lockstep else RELIABLE)
+        pub = bus_publisher(self, msg_type, topic, LOCKSTEP if self.lockstep else RELIABLE)
         if not self.lockstep:
             return pub
         send = pub.publish
@@ -197,6 +225,14 @@ class BenchNode(Node):
         buf: dict[int, Any] = {}
         self._sync[topic] = buf
         self._specs[topic] = InputSpec(same_step, samples, from_start)
+        if self._bus is not None:            # message objects, in process
+
+            def on_object(msg: Any) -> None:
+                buf[stamp_of_msg(msg)] = msg
+                self._try_step()
+
+            bus_subscription(self, msg_type, topic, on_object, LOCKSTEP)
+            return
         if not raw:
             self._decode[topic] = msg_type
 
@@ -210,9 +246,8 @@ class BenchNode(Node):
 
     def start_lockstep(self) -> None:
         """Subscribe to /clock and create the ack publisher (call after all sync_input)."""
-        self._ack_pub = self.create_publisher(StepAck, topics.ACK,
-                                              RELIABLE)
-        self.create_subscription(Clock, topics.CLOCK, self._on_clock, RELIABLE)
+        self._ack_pub = bus_publisher(self, StepAck, topics.ACK, RELIABLE)
+        bus_subscription(self, Clock, topics.CLOCK, self._on_clock, RELIABLE)
 
     def _on_clock(self, msg: Clock) -> None:
         t = ns_of(msg.clock)
@@ -223,13 +258,18 @@ class BenchNode(Node):
                 self._ack(t)
             return
         if self._last_ns is None:
-            if all(self.count_publishers(tp) > 0 for tp in self._sync):
+            if all(self._has_publisher(tp) for tp in self._sync):
                 self._last_ns = t
                 self.on_start(t)
                 self._ack(t)
             return
         self._pending_ns = t
         self._try_step()
+
+    def _has_publisher(self, topic: str) -> bool:
+        if self._bus is not None:
+            return self._bus.has_publisher(self, topic)
+        return self.count_publishers(topic) > 0
 
     def _try_step(self) -> None:
         t = self._pending_ns

@@ -22,7 +22,15 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from rosgraph_msgs.msg import Clock
 
 from pam_bench.analysis.types import bench_typestore
-from pam_bench.nodes.base import BenchNode, message_class, run_node, stamp_of_cdr, time_of
+from pam_bench.nodes.base import (
+    BenchNode,
+    bus_subscription,
+    message_class,
+    run_node,
+    stamp_of_cdr,
+    stamp_of_msg,
+    time_of,
+)
 
 __all__ = ['Recorder', 'main']
 
@@ -68,8 +76,8 @@ class Recorder(BenchNode):
             self.sync_input(message_class(msgtype), topic, raw=True, samples=True)
         for entry in event_topics:
             topic, msgtype = self._split(entry)
-            self.create_subscription(message_class(msgtype), topic, self._event_writer(topic),
-                                     KEEP_ALL, raw=True)
+            bus_subscription(self, message_class(msgtype), topic, self._event_writer(topic),
+                             KEEP_ALL, raw=True)
         self.start_lockstep()
 
     @staticmethod
@@ -84,9 +92,26 @@ class Recorder(BenchNode):
             self.writer.write(self.connections[topic], t_ns, bytes(data))
             self.count += 1
 
-    def _event_writer(self, topic: str) -> Any:
-        def write(data: bytes) -> None:
+    def _write_any(self, topic: str, data: Any) -> None:
+        """Write CDR bytes (from DDS) or a message object (from the intra-process bus)."""
+        if isinstance(data, (bytes, bytearray, memoryview)):
             self._write(topic, stamp_of_cdr(data), data)
+        else:
+            self._write(topic, stamp_of_msg(data), self._cdr(topic, data))
+
+    def _cdr(self, topic: str, msg: Any) -> bytes:
+        """CDR of a message object as DDS puts it on the wire: rclpy's serialisation pads the
+        end to 8 bytes, a reader wants at most 3 bytes of end padding (counted in the
+        encapsulation options), so the data is cut at its true end and padded to 4."""
+        raw = serialize_message(msg)
+        msgdef = self.store.get_msgdef(self.connections[topic].msgtype)
+        end, _ = msgdef.getsize_cdr_to_ros1(memoryview(raw)[4:], 0, None, 0, self.store)
+        pad = -end % 4
+        return raw[:2] + bytes((0, pad)) + raw[4:4 + end] + bytes(pad)
+
+    def _event_writer(self, topic: str) -> Any:
+        def write(data: Any) -> None:
+            self._write_any(topic, data)
         return write
 
     def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
@@ -98,7 +123,7 @@ class Recorder(BenchNode):
             self._write('/clock', prev, serialize_message(Clock(clock=time_of(prev))))
         for topic in self.step_order:
             for data in inputs.get(topic, ()):
-                self._write(topic, stamp_of_cdr(data), data)
+                self._write_any(topic, data)
         if dt_s < 1e-6:
             self.end_ns = prev            # the clock's flush tick: nothing later is recorded
 

@@ -54,7 +54,14 @@ from pam_bench.models.protocols import (
     Sequencer,
     StepRecord,
 )
-from pam_bench.nodes.base import RELIABLE, BenchNode, ns_of, run_node, time_of
+from pam_bench.nodes.base import (
+    RELIABLE,
+    BenchNode,
+    bus_publisher,
+    ns_of,
+    run_node,
+    time_of,
+)
 
 __all__ = ['SequencerNode', 'main']
 
@@ -120,10 +127,10 @@ class SequencerNode(BenchNode):
         self.stamps: dict[str, float] = {}
         self.valve_pub = self.create_step_publisher(ValveCommand, topics.valve_command(ch))
         self.load_pub = self.create_step_publisher(LoadCommand, topics.LOAD_COMMAND)
-        self.point_pub = self.create_publisher(CharacteristicPoint, topics.POINT, RELIABLE)
-        self.record_pub = self.create_publisher(StepResponseRecord, topics.RECORD,
+        self.point_pub = bus_publisher(self, CharacteristicPoint, topics.POINT, RELIABLE)
+        self.record_pub = bus_publisher(self, StepResponseRecord, topics.RECORD,
                                                 RELIABLE)
-        self.status_pub = self.create_publisher(ProtocolStatus, topics.STATUS, RELIABLE)
+        self.status_pub = bus_publisher(self, ProtocolStatus, topics.STATUS, RELIABLE)
         self.step_request = EventStepRequest(self.command_step_s)
         self._last_status_t = -math.inf
         self._last_phase: Phase | None = None

@@ -40,6 +40,8 @@ from pam_bench.models.lockstep import (
 from pam_bench.nodes.base import (
     RELIABLE,
     BenchNode,
+    bus_publisher,
+    bus_subscription,
     install_interrupt_handlers,
     lean_spin,
     ns_of,
@@ -107,10 +109,10 @@ class SimClock(Node):
         self.next_step_ns = 0             # shortest step requested for the next tick
         self.nudged = False               # the current tick was published again
         self.expected_total_s = self.duration_s
-        self.pub = self.create_publisher(Clock, topics.CLOCK, RELIABLE)
-        self.create_subscription(StepAck, topics.ACK, self._on_ack, RELIABLE)
-        self.create_subscription(ProtocolStatus, topics.STATUS, self._on_status, RELIABLE)
-        self.status_pub = self.create_publisher(ProtocolStatus, topics.STATUS, RELIABLE)
+        self.pub = bus_publisher(self, Clock, topics.CLOCK, RELIABLE)
+        bus_subscription(self, StepAck, topics.ACK, self._on_ack, RELIABLE)
+        bus_subscription(self, ProtocolStatus, topics.STATUS, self._on_status, RELIABLE)
+        self.status_pub = bus_publisher(self, ProtocolStatus, topics.STATUS, RELIABLE)
         self.t_wall0 = time.monotonic()
         self.t_run0 = 0.0
         self.last_progress = time.monotonic()

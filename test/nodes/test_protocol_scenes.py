@@ -68,9 +68,11 @@ def test_step_response_records_at_1khz(tmp_path: pathlib.Path, ros_domain: int) 
     assert len(pts) == 2
 
 
+@pytest.mark.parametrize('one_process', [False, True], ids=['processes', 'one_process'])
 @pytest.mark.parametrize('name', ['config_step.yaml', 'isotonic_quick'])
-def test_nodes_match_the_numpy_twin(name: str, tmp_path: pathlib.Path) -> None:
-    """Separate-process nodes against the numpy twin of the same run (sequencer state machine
+def test_nodes_match_the_numpy_twin(name: str, one_process: bool, tmp_path: pathlib.Path
+                                    ) -> None:
+    """Nodes (separate processes, or composed on the intra-process bus) against the numpy twin of the same run (sequencer state machine
     on the numpy bench, same exchange steps), load-cell noise off: the same exchanges, the
     same readings and every 1 kHz record sample equal to the last bit (the muscle node solves
     the sub-steps with the drive's law, the drive replays them)."""
@@ -82,7 +84,8 @@ def test_nodes_match_the_numpy_twin(name: str, tmp_path: pathlib.Path) -> None:
     quiet = dataclasses.replace(scene, parameters={'load_cell_1': {'load_cell':
                                                                    {'noise': False}}})
     bag = tmp_path / 'bag'
-    res = run_scene(quiet, str(bag), domain_id=next_domain(), quiet=True)
+    res = run_scene(quiet, str(bag), domain_id=next_domain(), quiet=True,
+                    one_process=one_process)
     assert res.code == 0, res
     twin = run_protocol(scene.protocol, scene.exchange_step_s,
                         overrides=scene.protocol_overrides, sub_step_s=scene.sub_step_s,

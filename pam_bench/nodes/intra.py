@@ -1,0 +1,150 @@
+"""Intra-process delivery for nodes composed in one process: no DDS, no serialisation.
+
+rclpy has no intra-process shortcut: two nodes of one process still serialise every message
+and pass it through DDS, and rclpy's executor wakes up once per message. When a scene is
+composed (``pam-bench run --one-process``) the runner activates one ``IntraProcessBus``
+before it builds the nodes. The bench nodes then create their lock-step and event topics
+through it (``bus_publisher``, ``bus_subscription``):
+
+* a publish hands the message object to every in-process subscription of the topic by
+  appending (callback, message) to one FIFO queue, the way rclcpp's intra-process manager hands
+  a message to its subscriptions;
+* ``spin_composed`` drains that queue in one loop for the whole process: no wait set, no
+  task per message. Deliveries are queued, not called in place, so a tick that triggers the
+  next tick never recurses;
+* subscribers outside the process (a recorder, Foxglove, ``ros2 topic echo``) still get the
+  messages over DDS: a bus publisher also publishes on its DDS publisher while that publisher
+  has matched subscriptions (checked every ``refresh_s``), and in-process subscriptions are
+  not DDS subscriptions, so nothing is delivered twice.
+
+Topics fed from outside (a torque set point, a protocol goal) stay ordinary DDS entities,
+served by an rclpy executor whenever the queue is empty and at least every ``refresh_s``.
+Subscribers receive message objects where DDS would give them bytes (``raw``); they must not
+change what they receive.
+"""
+
+from __future__ import annotations
+
+import collections
+import time
+from collections.abc import Callable
+from typing import Any
+
+from rclpy.node import Node
+
+__all__ = ['IntraProcessBus', 'BusPublisher', 'activate', 'deactivate', 'current',
+           'spin_composed']
+
+Callback = Callable[[Any], None]
+
+
+class BusPublisher:
+    """A publisher that delivers in process and, when someone outside listens, over DDS."""
+
+    def __init__(self, bus: IntraProcessBus, topic: str, dds: Any) -> None:
+        self.bus, self.topic, self.dds = bus, topic, dds
+        self.external = False
+        self._subs = bus.subscribers(topic)
+
+    def publish(self, msg: Any) -> None:
+        """Queue ``msg`` for every in-process subscription; publish on DDS when listened to."""
+        queue = self.bus.queue
+        for cb in self._subs:
+            queue.append((cb, msg))
+        if self.external:
+            self.dds.publish(msg)
+
+    def get_subscription_count(self) -> int:
+        """In-process and DDS subscriptions together."""
+        return len(self._subs) + self.dds.get_subscription_count()
+
+
+class IntraProcessBus:
+    """Topic -> in-process subscriptions, and the queue of deliveries (module docstring)."""
+
+    def __init__(self) -> None:
+        self._subs: dict[str, list[Callback]] = collections.defaultdict(list)
+        self._publishers: list[BusPublisher] = []
+        self.queue: collections.deque[tuple[Callback, Any]] = collections.deque()
+
+    def subscribers(self, topic: str) -> list[Callback]:
+        """The live list of in-process callbacks of ``topic`` (full name)."""
+        return self._subs[topic]
+
+    def publisher(self, node: Node, msg_type: type, topic: str, qos: Any) -> BusPublisher:
+        """A bus publisher of ``topic`` for ``node`` (with its DDS publisher for outsiders)."""
+        name = node.resolve_topic_name(topic)
+        pub = BusPublisher(self, name, node.create_publisher(msg_type, topic, qos))
+        self._publishers.append(pub)
+        return pub
+
+    def subscribe(self, node: Node, topic: str, callback: Callback) -> None:
+        """Deliver every message published in process on ``topic`` to ``callback``."""
+        self._subs[node.resolve_topic_name(topic)].append(callback)
+
+    def has_publisher(self, node: Node, topic: str) -> bool:
+        """Whether some node of this process publishes ``topic``."""
+        name = node.resolve_topic_name(topic)
+        return any(p.topic == name for p in self._publishers)
+
+    def refresh(self) -> None:
+        """Look again whether each publisher has subscribers outside the process."""
+        for p in self._publishers:
+            p.external = p.dds.get_subscription_count() > 0
+
+    def drain(self, budget: int) -> int:
+        """Deliver up to ``budget`` queued messages in order; return how many were."""
+        queue = self.queue
+        n = 0
+        while queue and n < budget:
+            cb, msg = queue.popleft()
+            cb(msg)
+            n += 1
+        return n
+
+
+_BUS: IntraProcessBus | None = None
+
+
+def activate() -> IntraProcessBus:
+    """Start composing: nodes built from now on in this process share a new bus."""
+    global _BUS
+    _BUS = IntraProcessBus()
+    return _BUS
+
+
+def deactivate() -> None:
+    """Stop composing (nodes built later use DDS only)."""
+    global _BUS
+    _BUS = None
+
+
+def current() -> IntraProcessBus | None:
+    """The active bus, if the process is composing."""
+    return _BUS
+
+
+def spin_composed(bus: IntraProcessBus, nodes: list[Node], executor: Any,
+                  refresh_s: float = 0.01, should_stop: Callable[[], bool] | None = None
+                  ) -> None:
+    """Run the composed process: drain the bus; between batches call each node's
+    ``lean_poll`` and let ``executor`` serve the DDS entities (external topics, actions,
+    timers) without blocking, and block on it only when there is nothing to deliver.
+
+    Returns when ``should_stop()`` is true or the executor's context shuts down; exceptions
+    of callbacks (the clock's SystemExit at the end of a run) propagate.
+    """
+    polls = [n.lean_poll for n in nodes if hasattr(n, 'lean_poll')]
+    ctx = executor.context
+    last = 0.0
+    bus.refresh()
+    while ctx.ok() and not (should_stop and should_stop()):
+        delivered = bus.drain(2000)
+        now = time.monotonic()
+        if delivered and now - last < refresh_s:
+            continue
+        last = now
+        for poll in polls:
+            poll()
+        bus.refresh()
+        executor.spin_once(timeout_sec=0.0 if bus.queue else refresh_s)
