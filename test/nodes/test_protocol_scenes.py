@@ -73,9 +73,10 @@ def test_step_response_records_at_1khz(tmp_path: pathlib.Path, ros_domain: int) 
 def test_nodes_match_the_numpy_twin(name: str, one_process: bool, tmp_path: pathlib.Path
                                     ) -> None:
     """Nodes (separate processes, or composed on the intra-process bus) against the numpy
-    twin of the same run (sequencer state machine on the numpy bench, same exchange steps), load-cell noise off: the same exchanges, the
-    same readings and every 1 kHz record sample equal to the last bit (the muscle node solves
-    the sub-steps with the drive's law, the drive replays them)."""
+    twin of the same run (sequencer state machine on the numpy bench, same exchange steps),
+    load-cell noise off: the same exchanges, the same readings and every 1 kHz record sample
+    equal to the last bit (the muscle node solves the sub-steps with the drive's law, the
+    drive replays them)."""
     import dataclasses
 
     from pam_bench.models.sensors import LoadCellParams
