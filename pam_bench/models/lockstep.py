@@ -40,7 +40,7 @@ from typing import Any, TypeVar
 
 __all__ = ['InputSpec', 'input_window', 'take_inputs', 'prune', 'FLUSH_NS', 'flush_tick',
            'MIN_STEP_NS', 'request_ns', 'negotiate', 'EventStepRequest', 'StopRequest',
-           'ClockState', 'RunSummary']
+           'ClockState', 'RunSummary', 'Ack']
 
 M = TypeVar('M')
 N = TypeVar('N', int, float)
@@ -179,6 +179,23 @@ class StopRequest:
 
     exit_code: int
     reason: str
+
+
+@dataclasses.dataclass(frozen=True, slots=True)
+class Ack:
+    """A participant's acknowledgement of the tick ``t_ns`` (the StepAck message's content).
+
+    Attributes:
+        t_ns: the tick acknowledged, ns.
+        node: the participant's fully qualified name.
+        max_next_step_s: the longest next step it wants, s (0: any).
+        stop: its request to end the run, if any.
+    """
+
+    t_ns: int
+    node: str
+    max_next_step_s: float
+    stop: StopRequest | None
 
 
 class ClockState(enum.Enum):

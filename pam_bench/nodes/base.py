@@ -27,6 +27,7 @@ message changes nothing.
 
 from __future__ import annotations
 
+import functools
 import importlib
 import math
 import signal
@@ -48,13 +49,14 @@ from rosgraph_msgs.msg import Clock
 
 from pam_bench.config import topics
 from pam_bench.models.errors import ModelError
-from pam_bench.models.lockstep import InputSpec, StopRequest, prune, take_inputs
+from pam_bench.models.lockstep import Ack, InputSpec, StopRequest, prune, take_inputs
 from pam_bench.models.params import ParamInfo, check_known, describe, from_mapping, param_infos
 from pam_bench.nodes import intra
 
 __all__ = ['BenchNode', 'RELIABLE', 'LOCKSTEP', 'ns_of', 'stamp_of_cdr', 'time_of', 'run_node',
            'message_class', 'reject_undeclared', 'install_interrupt_handlers', 'fail_line',
-           'start_node', 'bus_publisher', 'bus_subscription', 'stamp_of_msg']
+           'start_node', 'bus_publisher', 'bus_subscription', 'stamp_of_msg', 'ack_message',
+           'ack_of']
 
 RELIABLE = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
                       history=HistoryPolicy.KEEP_LAST, durability=DurabilityPolicy.VOLATILE)
@@ -85,7 +87,10 @@ def message_class(msgtype: str) -> type:
 
 def stamp_of_msg(msg: Any) -> int:
     """Stamp (ns) of a message object with a Header (or of a Clock)."""
-    stamp = msg.header.stamp if hasattr(msg, 'header') else msg.clock
+    try:
+        stamp = msg.header.stamp
+    except AttributeError:
+        stamp = msg.clock
     return stamp.sec * 1_000_000_000 + stamp.nanosec
 
 
@@ -109,8 +114,27 @@ def bus_subscription(node: Node, msg_type: type, topic: str, callback: Callable[
         bus.subscribe(node, topic, callback)
 
 
+def ack_message(ack: Ack) -> StepAck:
+    """The StepAck message of an acknowledgement."""
+    msg = StepAck(node=ack.node, max_next_step=ack.max_next_step_s)
+    if ack.stop is not None:
+        msg.stop, msg.exit_code, msg.reason = True, ack.stop.exit_code, ack.stop.reason
+    msg.header.stamp = time_of(ack.t_ns)
+    return msg
+
+
+def ack_of(msg: Any) -> Ack:
+    """The acknowledgement a StepAck message (or, in process, the Ack itself) carries."""
+    if isinstance(msg, Ack):
+        return msg
+    stop = StopRequest(int(msg.exit_code), msg.reason) if msg.stop else None
+    return Ack(ns_of(msg.header.stamp), msg.node, float(msg.max_next_step), stop)
+
+
+@functools.lru_cache(maxsize=16)
 def time_of(ns: int) -> Time:
-    """Integer nanoseconds as a ROS time stamp."""
+    """Integer nanoseconds as a ROS time stamp. The nodes of one process that stamp the same
+    tick share one object (it is never changed after it is made)."""
     return Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
 
 
@@ -136,6 +160,7 @@ class BenchNode(Node):
         self.max_next_step_s = 0.0        # longest next exchange step wanted (0: any)
         self._sent: list[tuple[Callable[[Any], None], Any]] = []   # this step's outputs
         self._bus = intra.current()
+        self._fqn = self.get_fully_qualified_name()
         self._diag_pub = bus_publisher(self, DiagnosticArray, topics.DIAGNOSTICS, RELIABLE)
         self._ack_pub = None
 
@@ -299,13 +324,11 @@ class BenchNode(Node):
         self._ack(t)
 
     def _ack(self, t: int) -> None:
-        ack = StepAck(node=self.get_fully_qualified_name())
-        ack.max_next_step = float(self.max_next_step_s)
-        if self.stop_request is not None:
-            ack.stop = True
-            ack.exit_code, ack.reason = self.stop_request.exit_code, self.stop_request.reason
-        ack.header.stamp = time_of(t)
-        self._ack_pub.publish(ack)
+        ack = Ack(t, self._fqn, float(self.max_next_step_s), self.stop_request)
+        if self._bus is not None:                 # in process: the plain object
+            self._ack_pub.publish_local(ack, ack_message)
+        else:
+            self._ack_pub.publish(ack_message(ack))
 
     # --- to override -------------------------------------------------------------------
     def on_start(self, t_ns: int) -> None:

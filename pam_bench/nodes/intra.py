@@ -54,6 +54,15 @@ class BusPublisher:
         if self.external:
             self.dds.publish(msg)
 
+    def publish_local(self, obj: Any, to_msg: Callable[[Any], Any]) -> None:
+        """Queue a plain object for the in-process subscriptions (cheaper to build than a
+        message); publish ``to_msg(obj)`` on DDS when someone outside listens."""
+        queue = self.bus.queue
+        for cb in self._subs:
+            queue.append((cb, obj))
+        if self.external:
+            self.dds.publish(to_msg(obj))
+
     def get_subscription_count(self) -> int:
         """In-process and DDS subscriptions together."""
         return len(self._subs) + self.dds.get_subscription_count()

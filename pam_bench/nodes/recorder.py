@@ -38,6 +38,25 @@ KEEP_ALL = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE,
                       history=HistoryPolicy.KEEP_ALL, durability=DurabilityPolicy.VOLATILE)
 
 
+_NEVER, _ALWAYS = '', '*'
+_WIDE = ('sequence<double>', 'sequence<int64>', 'sequence<uint64>')
+_NARROW = ('boolean', 'byte', 'char', 'octet', 'float', 'double', 'string', 'int8', 'uint8',
+           'int16', 'uint16', 'int32', 'uint32', 'int64', 'uint64')
+
+
+def _trim_rule(cls: type) -> str:
+    """When a message of ``cls`` needs cutting (``Recorder._cdr``): never (its last field is
+    a number, a string or a sequence of narrow numbers), when its last field, a sequence of
+    8-byte numbers, is empty (that field's name), or always (measured)."""
+    name, kind = list(cls.get_fields_and_field_types().items())[-1]
+    if kind in _WIDE:
+        return name
+    if kind in _NARROW or kind.startswith('string') or (
+            kind.startswith('sequence<') and kind[9:-1] in _NARROW[:-2]):
+        return _NEVER
+    return _ALWAYS
+
+
 class Recorder(BenchNode):
     """Raw-bytes rosbag2 MCAP recorder."""
 
@@ -63,6 +82,7 @@ class Recorder(BenchNode):
         self.count = 0
         self.end_ns: int | None = None
         self.connections = {}
+        self._trim: dict[str, str] = {}
         for entry in list(step_topics) + list(event_topics):
             topic, msgtype = self._split(entry)
             self.connections[topic] = self.writer.add_connection(topic, msgtype,
@@ -100,10 +120,16 @@ class Recorder(BenchNode):
             self._write(topic, stamp_of_msg(data), self._cdr(topic, data))
 
     def _cdr(self, topic: str, msg: Any) -> bytes:
-        """CDR of a message object as DDS puts it on the wire: rclpy's serialisation pads the
-        end to 8 bytes, a reader wants at most 3 bytes of end padding (counted in the
-        encapsulation options), so the data is cut at its true end and padded to 4."""
+        """CDR of a message object as DDS puts it on the wire. rclpy's serialisation aligns
+        for the elements of an empty sequence of 8-byte numbers even when it is the last field
+        and nothing follows; a reader wants at most 3 bytes of end padding. Such a message is
+        cut at its true end (measured by the bag's typestore) and padded to 4."""
         raw = serialize_message(msg)
+        rule = self._trim.get(topic)
+        if rule is None:
+            rule = self._trim[topic] = _trim_rule(type(msg))
+        if rule is _NEVER or (rule is not _ALWAYS and len(getattr(msg, rule)) > 0):
+            return raw
         msgdef = self.store.get_msgdef(self.connections[topic].msgtype)
         end, _ = msgdef.getsize_cdr_to_ros1(memoryview(raw)[4:], 0, None, 0, self.store)
         pad = -end % 4

@@ -40,11 +40,11 @@ from pam_bench.models.lockstep import (
 from pam_bench.nodes.base import (
     RELIABLE,
     BenchNode,
+    ack_of,
     bus_publisher,
     bus_subscription,
     install_interrupt_handlers,
     lean_spin,
-    ns_of,
     start_node,
     time_of,
 )
@@ -232,14 +232,15 @@ class SimClock(Node):
         self.acks = set()
         self._publish()
 
-    def _on_ack(self, msg: StepAck) -> None:
-        if ns_of(msg.header.stamp) != self.tick_ns:
+    def _on_ack(self, msg: Any) -> None:
+        ack = ack_of(msg)
+        if ack.t_ns != self.tick_ns:
             return
-        self.acks.add(msg.node)
-        if msg.max_next_step > 0.0:
-            self.next_step_ns = negotiate(request_ns(msg.max_next_step), (self.next_step_ns,))
-        if msg.stop and not self.flushing:
-            self.stop_request = StopRequest(int(msg.exit_code), msg.reason)
+        self.acks.add(ack.node)
+        if ack.max_next_step_s > 0.0:
+            self.next_step_ns = negotiate(request_ns(ack.max_next_step_s), (self.next_step_ns,))
+        if ack.stop is not None and not self.flushing:
+            self.stop_request = ack.stop
         if not (self.state in (ClockState.RUNNING, ClockState.FLUSHING) and self.k > 0
                 and self.acks >= self.participants):
             return
