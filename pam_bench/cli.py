@@ -137,7 +137,12 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     if args.render:
         print(f'wrote {render_report(root)} from {root / "bench.json"}')
         return 0
-    run_benchmarks(args.quick, root, args.scene or None)
+    only = [s for part in args.only or [] for s in part.split(',') if s]
+    try:
+        run_benchmarks(args.quick, root, args.scene or None, only or None)
+    except ValueError as exc:
+        print(f'error: {exc}', file=sys.stderr)
+        return 2
     print(f'wrote {root / "BENCHMARKS.md"} and {root / "bench.json"}')
     return 0
 
@@ -195,6 +200,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument('--quick', action='store_true', help='a few minutes: quick grids and scenes')
     p.add_argument('--root', default='.', help='where to write the report (default: here)')
     p.add_argument('--scene', action='append', help='scene to time (repeatable)')
+    p.add_argument('--only', action='append', metavar='STUDY[,STUDY]',
+                   help='run only these studies (calibration, lockstep, layouts, profile, '
+                   'exchange_step, record_exchange, scenes, models) and keep the other figures '
+                   'of bench.json, each with the commit it was measured at')
     p.add_argument('--render', action='store_true', help='only render BENCHMARKS.md again from '
                    'bench.json and docs/long_runs.md (no measurement)')
     p.set_defaults(func=_cmd_bench)

@@ -52,9 +52,54 @@ def _campaign_max(r: dict[str, Any], unit: str) -> tuple[float, float | None] | 
     return worst['max_error'], worst['max_error_pct_fs']
 
 
+def commit_of(r: dict[str, Any], key: str) -> str:
+    """The commit the figures under ``key`` were measured at (``--only`` reruns some)."""
+    return str(r.get('measured', {}).get(key, {}).get('commit', r['commit']))
+
+
+def _layout_row(r: dict[str, Any], scene: str, layout: str) -> dict[str, Any] | None:
+    for row in r.get('layouts', {}).get('rows', []):
+        if row['scene'] == scene and row['layout'] == layout:
+            return dict(row)
+    return None
+
+
+def _layout_results(r: dict[str, Any]) -> list[Row]:
+    if not r.get('layouts'):
+        return []
+    commit = f"`{commit_of(r, 'layouts')}`"
+    pp = r['layouts']['pingpong_round_trips_per_s']
+    rows: list[Row] = []
+    for layout, goal in (('one process', '>= 1x real time'),
+                         ('separate processes', '>= 0.3x real time')):
+        row = _layout_row(r, 'servo_sin_t', layout)
+        if row:
+            rows.append((f'`servo_sin_t` (8 s, 1 ms exchanges), {layout}', goal,
+                         f"{row['real_time_factor']:.2f}x ({row['lockstep_rate_steps_per_s']:.0f}"
+                         ' exchanges/s)', commit))
+    row = _layout_row(r, 'campaign_quick', 'one process')
+    if row:
+        rows.append(('`campaign_quick` wall time with start-up, one process', '<= 6 s',
+                     f"{row['wall_s_total']:.1f} s ({row['real_time_factor']:.0f}x in "
+                     'lock-step)', commit))
+    row = _layout_row(r, 'campaign', 'one process')
+    if row:
+        rows.append(('full `campaign` lock-step, one process', '<= 150 s (>= 146x)',
+                     f"{row['wall_s_lockstep']:.0f} s ({row['real_time_factor']:.0f}x)",
+                     commit))
+    row = _layout_row(r, 'demo', 'separate processes')
+    if row:
+        rows.append(('demo lock-step against the ping-pong floor, separate processes',
+                     '>= 0.3', f"{row['lockstep_rate_steps_per_s'] / pp:.3f} "
+                     f"({row['lockstep_rate_steps_per_s']:.0f} exchanges/s, {pp:.0f} round "
+                     'trips/s)', commit))
+    return rows
+
+
 def key_results(r: dict[str, Any]) -> list[Row]:
     """(figure, goal, measured, commit) of every headline figure the data holds."""
-    c, ls, commit = r['calibration'], r['lockstep'], f"`{r['commit']}`"
+    c, ls = r['calibration'], r['lockstep']
+    commit = f"`{commit_of(r, 'calibration')}`"
     rows: list[Row] = [
         ('isometric gain at x = 0 mm', '284.3 N/V (004) +-10 %',
          f"{c['isometric_gain_N_per_V_at_0mm']:.1f} N/V", commit),
@@ -62,11 +107,15 @@ def key_results(r: dict[str, Any]) -> list[Row]:
          f"{c['isometric_gain_N_per_V_at_95mm']:.1f} N/V", commit),
         ('contraction at 6 V, 50 N', '>= 100 mm (004)',
          f"{c['contraction_mm_at_6V_50N']:.1f} mm", commit),
-        ('force at 6 V, x = 0', '>= 900 N (004)', f"{c['force_N_at_6V_0mm']:.0f} N", commit),
+        ('force at 6 V, x = 0', '>= 900 N (004)', f"{c['force_N_at_6V_0mm']:.0f} N", commit)]
+    commit = f"`{commit_of(r, 'lockstep')}`"
+    rows += [
         ('one lock-step exchange (demo, 7 participants)', 'a few round trips',
          f"{1 / ls['ratio_lockstep_to_pingpong']:.1f} round trips "
          f"({ls['demo_lockstep_steps_per_s']:.0f} exchanges/s against "
          f"{ls['pingpong_round_trips_per_s']:.0f} round trips/s)", commit)]
+    rows += _layout_results(r)
+    commit = f"`{commit_of(r, 'scenes')}`"
     for s in r.get('scenes', []):
         if s['scene'] in ('campaign', 'campaign_quick'):
             goal = '>= 36x real time' if s['scene'] == 'campaign' else '-'
@@ -81,22 +130,45 @@ def key_results(r: dict[str, Any]) -> list[Row]:
         rows.append(('campaign contraction readings against the 1 ms reference',
                      '<= 0.2 % of the 210 mm belt travel (0.42 mm)', f'{x[0]:.3f} mm', commit))
     wp = r.get('work_precision')
+    commit = f"`{commit_of(r, 'work_precision')}`"
     if wp:
         rows.append(('exact ZOH of the valve against its closed form', '<= 1e-12 relative',
                      f"{wp['zoh_max_relative_error']:.1e}", commit))
     ex = r.get('extraction')
+    commit = f"`{commit_of(r, 'extraction')}`"
     if ex:
         idf = ex['identification']
         rows.append(('extraction of a campaign-sized bag, figures included', '< 30 s',
                      f"{idf['campaign_extract_s']:.1f} s", commit))
         rows.append((f"step fits ({idf['records']} records)", '< 10 s',
                      f"{idf['fits_s']:.2f} s on {idf['workers']} cores", commit))
+    commit = f"`{commit_of(r, 'servo')}`"
     for row in r.get('servo', []):
         if row['scene'] == 'servo_sin_t' and row['controller'] == 'dynamic_inverse_pid':
             rows.append((f"servo_sin_t torque RMS, dynamic inverse + PID ({row['engine']})",
                          '-', f"{row['rms_error']:.3f} {row['unit']} at "
                          f"{row['real_time_factor']:.2f}x real time", commit))
     return rows
+
+
+def _layouts(r: dict[str, Any]) -> list[str]:
+    lay = r['layouts']
+    pp = lay['pingpong_round_trips_per_s']
+    return [f'rclpy ping-pong floor in the same run: {pp:.0f} round trips/s.', ''] + table(
+        ['scene', 'layout', 'sim time', 'exchanges', 'exchanges/s', 'real-time factor',
+         'wall s (lock-step)', 'wall s with start-up', 'round trips per exchange'],
+        [(row['scene'], row['layout'], f"{row['sim_s']:.0f} s", row['exchange_steps'],
+          f"{row['lockstep_rate_steps_per_s']:.0f}", f"{row['real_time_factor']:.2f}x",
+          f"{row['wall_s_lockstep']:.1f}", f"{row['wall_s_total']:.1f}",
+          _pct(row['round_trips_per_exchange'], 1)) for row in lay['rows']])
+
+
+def _profile(r: dict[str, Any]) -> list[str]:
+    from pam_bench.benchmarks.profile import CAUSES
+    head = ['scene', 'layout', 'wall us / exchange (profiled)'] + list(CAUSES)
+    return table(head, [(p['scene'], p['layout'], f"{p['wall_us_per_exchange']:.0f}")
+                        + tuple(f"{p['us_per_exchange'][c]:.0f}" for c in CAUSES)
+                        for p in r['profile']])
 
 
 def _calibration(r: dict[str, Any]) -> list[str]:
@@ -243,7 +315,8 @@ def _servo(r: dict[str, Any]) -> list[str]:
 
 
 SECTIONS: list[tuple[str, Callable[..., list[str]]]] = [
-    ('calibration', _calibration), ('lockstep', _lockstep), ('scenes', _scenes),
+    ('calibration', _calibration), ('lockstep', _lockstep), ('layouts', _layouts),
+    ('profile', _profile), ('scenes', _scenes),
     ('campaign', _campaign), ('exchange_step', _exchange_step),
     ('record_exchange', _record_exchange), ('extraction', _extraction),
     ('work_precision', _work_precision), ('fidelity', _fidelity),
@@ -256,16 +329,19 @@ def render(r: dict[str, Any], root: pathlib.Path) -> str:
     m = r['machine']
     lines = ['# pam_bench benchmarks', '',
              f"Measured in one run of `pam-bench bench{' --quick' if r['quick'] else ''}` on "
-             f"{m['platform']}, {m['cpus']} CPUs, Python {m['python']}, {r['date']}, commit "
-             f"`{r['commit']}`. Raw figures: `bench.json`. Each section says how its figures "
-             'are measured; code cites these sections by title instead of quoting figures.',
+             f"{m['platform']}, {m['cpus']} CPUs, Python {m['python']}, last run {r['date']} "
+             f"at commit `{r['commit']}`; a study rerun alone (`pam-bench bench --only`) "
+             'keeps its own commit, named in its section and in the key results. Raw figures: '
+             '`bench.json`. Each section says how its figures are measured; code cites these '
+             'sections by title instead of quoting figures.',
              '', '## Key results', ''] + table(['figure', 'goal', 'measured', 'commit'],
                                                key_results(r))
     for key, section in SECTIONS:
         if not r.get(key):
             continue
         text = methods()[key]
-        lines += ['', f"## {text['title']}", '', text['method'], '']
+        lines += ['', f"## {text['title']}", '',
+                  text['method'] + f' (Commit `{commit_of(r, key)}`.)', '']
         lines += section(r, root) if key == 'work_precision' else section(r)
     long_runs = root / LONG_RUNS
     if long_runs.exists():

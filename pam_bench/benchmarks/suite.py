@@ -33,7 +33,7 @@ from pam_bench.config.scene import load_scene
 from pam_bench.verify.calibration import calibration_figures
 from pam_bench.verify.reference_check import FULL_SCALE_N, run_against_twin, series_readings
 
-__all__ = ['run_benchmarks', 'render_report', 'exchange_step_error']
+__all__ = ['run_benchmarks', 'render_report', 'exchange_step_error', 'STUDIES']
 
 # (exchange step s, sub-step s) of the rows; the first is the characterisation scenes' own
 SCENE_STEPS = (3.0, 0.005)
@@ -68,9 +68,10 @@ def exchange_step_error(quick: bool) -> list[dict[str, Any]]:
     return rows
 
 
-def _scene_run(name: str, out: pathlib.Path) -> dict[str, Any]:
+def _scene_run(name: str, out: pathlib.Path, one_process: bool = False) -> dict[str, Any]:
     t0 = time.perf_counter()
-    res = run_scene(load_scene(name), str(out / name), quiet=True)
+    bag = out / f'{name}{"_one" if one_process else ""}'
+    res = run_scene(load_scene(name), str(bag), quiet=True, one_process=one_process)
     wall = time.perf_counter() - t0
     return {'scene': name, 'code': res.code, 'exchange_steps': res.steps, 'sim_s': res.sim_s,
             'wall_s_lockstep': res.wall_s, 'wall_s_total': wall,
@@ -156,19 +157,38 @@ def _commit() -> str:
         return 'unknown'
 
 
-def run_benchmarks(quick: bool, root: pathlib.Path, scenes: list[str] | None = None
-                   ) -> dict[str, Any]:
-    """Run the benchmarks and write BENCHMARKS.md and bench.json into ``root``."""
-    report: dict[str, Any] = {
-        'machine': {'platform': platform.platform(), 'cpus': os.cpu_count(),
-                    'python': platform.python_version()},
-        'date': datetime.datetime.now(datetime.UTC).isoformat(timespec='seconds'),
-        'commit': _commit(), 'quick': quick}
-    print('calibration ...', flush=True)
-    report['calibration'] = calibration_figures()
-    with tempfile.TemporaryDirectory(prefix='pam_bench_bench_') as tmp:
-        out = pathlib.Path(tmp)
-        print('ping-pong and demo lock-step ...', flush=True)
+def _layouts(out: pathlib.Path, quick: bool) -> dict[str, Any]:
+    """The same scenes in both layouts, next to the ping-pong floor measured with them."""
+    pp = pingpong_rate(3000)
+    rows = []
+    for name in ('demo', 'servo_sin_t', 'campaign_quick') + (() if quick else ('campaign',)):
+        for one in (False, True):
+            print(f'  {name}, {"one process" if one else "separate processes"} ...', flush=True)
+            row = _scene_run(name, out, one_process=one)
+            row['layout'] = 'one process' if one else 'separate processes'
+            row['round_trips_per_exchange'] = pp / row['lockstep_rate_steps_per_s'] \
+                if row['lockstep_rate_steps_per_s'] else None
+            rows.append(row)
+    return {'pingpong_round_trips_per_s': pp, 'rows': rows}
+
+
+def _profiles(out: pathlib.Path, quick: bool) -> list[dict[str, Any]]:
+    """servo_sin_t (2 s) in both layouts and campaign_quick composed, profiled."""
+    from pam_bench.benchmarks.profile import profile_scene
+    runs = [('servo_sin_t', 2.0, True), ('servo_sin_t', 2.0, False)]
+    if not quick:
+        runs.append(('campaign_quick', 0.0, True))
+    return [profile_scene(name, dur, one) for name, dur, one in runs]
+
+
+def _measure(name: str, quick: bool, out: pathlib.Path, scenes: list[str] | None,
+             report: dict[str, Any]) -> None:
+    """Run study ``name`` into ``report`` (its key, or the keys it fills)."""
+    campaign = 'campaign_quick' if quick else 'campaign'
+    names = scenes or [campaign]
+    if name == 'calibration':
+        report['calibration'] = calibration_figures()
+    elif name == 'lockstep':
         pp = pingpong_rate(3000)
         demo = _scene_run('demo', out)
         report['lockstep'] = {'pingpong_round_trips_per_s': pp,
@@ -176,16 +196,16 @@ def run_benchmarks(quick: bool, root: pathlib.Path, scenes: list[str] | None = N
                               'ratio_lockstep_to_pingpong':
                                   demo['lockstep_rate_steps_per_s'] / pp,
                               'participants': 7, 'demo': demo}
-        print('exchange step against error (numpy bench) ...', flush=True)
+    elif name == 'layouts':
+        report['layouts'] = _layouts(out, quick)
+    elif name == 'profile':
+        report['profile'] = _profiles(out, quick)
+    elif name == 'exchange_step':
         report['exchange_step'] = exchange_step_error(quick)
-        print('step records against the record exchange step (numpy bench) ...', flush=True)
+    elif name == 'record_exchange':
         report['record_exchange'] = record_exchange_table(quick)
-        campaign = 'campaign_quick' if quick else 'campaign'
-        names = scenes or [campaign]
-        report['scenes'] = []
-        for name in names:
-            print(f'scene {name} ...', flush=True)
-            report['scenes'].append(_scene_run(name, out))
+    elif name == 'scenes':
+        report['scenes'] = [_scene_run(n, out) for n in names]
         if campaign in names:
             print(f'{campaign} against its numpy twin (scene steps, then 1 ms) ...', flush=True)
             report['campaign'] = {'scene': campaign, 'twin_same_steps': run_against_twin(
@@ -193,8 +213,49 @@ def run_benchmarks(quick: bool, root: pathlib.Path, scenes: list[str] | None = N
                 out / campaign, campaign, 0.001, 0.001)}
         print('extraction against truth, identification speed ...', flush=True)
         report['extraction'] = _extraction(out, names, quick)
+    elif name == 'models':
         report.update(bench_sections.measure(quick, out))
-    (root / 'bench.json').write_text(json.dumps(report, indent=2) + '\n', encoding='utf-8')
+
+
+STUDIES = ('calibration', 'lockstep', 'layouts', 'profile', 'exchange_step', 'record_exchange',
+           'scenes', 'models')
+"""The studies of `pam-bench bench`, in the order they run; ``--only`` picks some."""
+FILLS = {'scenes': ('scenes', 'campaign', 'extraction'),
+         'models': ('work_precision', 'fidelity', 'ros_exchange_step', 'servo')}
+
+
+def run_benchmarks(quick: bool, root: pathlib.Path, scenes: list[str] | None = None,
+                   only: list[str] | None = None) -> dict[str, Any]:
+    """Run the benchmarks and write BENCHMARKS.md and bench.json into ``root``.
+
+    With ``only`` just those studies run; their figures replace the same keys of an existing
+    bench.json and every key records the commit and date it was measured at (``measured``).
+
+    Raises:
+        ValueError: an unknown study in ``only``.
+    """
+    unknown = sorted(set(only or ()) - set(STUDIES))
+    if unknown:
+        raise ValueError(f'unknown study {unknown[0]!r}; known: {", ".join(STUDIES)}')
+    now = datetime.datetime.now(datetime.UTC).isoformat(timespec='seconds')
+    head = {'machine': {'platform': platform.platform(), 'cpus': os.cpu_count(),
+                        'python': platform.python_version()},
+            'date': now, 'commit': _commit(), 'quick': quick}
+    path = root / 'bench.json'
+    report: dict[str, Any] = {}
+    if only and path.exists():
+        report = json.loads(path.read_text(encoding='utf-8'))
+    report.setdefault('measured', {})
+    report.update(head)
+    with tempfile.TemporaryDirectory(prefix='pam_bench_bench_') as tmp:
+        out = pathlib.Path(tmp)
+        for name in only or STUDIES:
+            print(f'{name} ...', flush=True)
+            _measure(name, quick, out, scenes, report)
+            for key in FILLS.get(name, (name,)):
+                report['measured'][key] = {'commit': head['commit'], 'date': now,
+                                           'quick': quick}
+    path.write_text(json.dumps(report, indent=2) + '\n', encoding='utf-8')
     render_report(root)
     return report
 

@@ -195,6 +195,7 @@ def _run_in_process(scene: Scene, params: dict[str, Any], domain_id: int | None,
     from pam_bench.models.errors import ParameterError
     from pam_bench.nodes import intra
     from pam_bench.nodes.base import fail_line, reject_undeclared
+    from pam_bench.nodes.profiling import profiled
 
     env = ros_env(domain_id)
     os.environ['ROS_DOMAIN_ID'] = env['ROS_DOMAIN_ID']
@@ -224,7 +225,8 @@ def _run_in_process(scene: Scene, params: dict[str, Any], domain_id: int | None,
             executor.add_node(node)
         with contextlib.redirect_stdout(buf if quiet else sys.stdout):
             try:
-                intra.spin_composed(bus, nodes, executor)
+                with profiled('composed'):
+                    intra.spin_composed(bus, nodes, executor)
             except SystemExit as exc:
                 code = int(exc.code or 0)
     finally:

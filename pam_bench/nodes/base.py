@@ -52,6 +52,7 @@ from pam_bench.models.errors import ModelError
 from pam_bench.models.lockstep import Ack, InputSpec, StopRequest, prune, take_inputs
 from pam_bench.models.params import ParamInfo, check_known, describe, from_mapping, param_infos
 from pam_bench.nodes import intra
+from pam_bench.nodes.profiling import profiled
 
 __all__ = ['BenchNode', 'RELIABLE', 'LOCKSTEP', 'ns_of', 'stamp_of_cdr', 'time_of', 'run_node',
            'message_class', 'reject_undeclared', 'install_interrupt_handlers', 'fail_line',
@@ -463,10 +464,12 @@ def run_node(cls: type[Node], args: list[str] | None = None) -> None:
         if node is None:
             code = 2
             return
-        if getattr(node, 'LEAN_SPIN', False) and os.environ.get('PAM_BENCH_EXECUTOR') != 'single':
-            lean_spin(node, graceful=getattr(node, 'GRACEFUL_STOP', False))
-        else:
-            rclpy.spin(node)
+        with profiled(node.get_name()):
+            if getattr(node, 'LEAN_SPIN', False) and \
+                    os.environ.get('PAM_BENCH_EXECUTOR') != 'single':
+                lean_spin(node, graceful=getattr(node, 'GRACEFUL_STOP', False))
+            else:
+                rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:

@@ -48,6 +48,7 @@ from pam_bench.nodes.base import (
     start_node,
     time_of,
 )
+from pam_bench.nodes.profiling import profiled
 
 __all__ = ['SimClock', 'windowed_rate', 'ETA_WINDOW_S', 'main']
 
@@ -297,10 +298,11 @@ def main(args: list[str] | None = None) -> None:
         node = start_node(SimClock, 'sim_clock')
         if node is None:
             raise SystemExit(2)
-        if node.lean:
-            lean_spin(node)
-        else:
-            rclpy.spin(node)
+        with profiled('sim_clock'):
+            if node.lean:
+                lean_spin(node)
+            else:
+                rclpy.spin(node)
     except SystemExit as exc:
         code = int(exc.code or 0)
     except KeyboardInterrupt:
