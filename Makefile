@@ -36,9 +36,9 @@ inverse-model: setup
 	{ sed -n '1,5p' config/inverse_model.yaml; cat reports/identification/inverse_model.yaml; } \
 		> config/inverse_model.yaml.new && mv config/inverse_model.yaml.new config/inverse_model.yaml
 
-# every servo scene x controller through the ROS nodes (about 40 min) -> reports/servo
+# every servo scene x controller through the ROS nodes, composed in one process -> reports/servo
 servo-compare: setup
-	$(VENV)/bin/pam-bench servo-compare --engine ros --out reports/servo
+	$(VENV)/bin/pam-bench servo-compare --engine ros --one-process --out reports/servo
 
 clean:
 	rm -rf bags/*/ .pytest_cache .ruff_cache

@@ -63,14 +63,14 @@ def scene_servo_setup(scene: Scene) -> dict[str, Any]:
 
 
 def _ros_run(scene: Scene, controller: ServoMode, duration_s: float | None,
-             tmp: pathlib.Path) -> tuple[ServoRun, float, float]:
+             tmp: pathlib.Path, one_process: bool = False) -> tuple[ServoRun, float, float]:
     from pam_bench.bringup.runner import run_scene
     params = {k: dict(v) for k, v in scene.parameters.items()}
     params.setdefault('torque_servo', {})['controller'] = controller.value
     sc = dataclasses.replace(scene, parameters=params,
                              duration_s=duration_s or scene.duration_s)
     out = tmp / f'{scene.name}_{controller.value}'
-    res = run_scene(sc, str(out), quiet=True)
+    res = run_scene(sc, str(out), quiet=True, one_process=one_process)
     if res.code != 0:
         raise RuntimeError(f'scene {scene.name} ({controller.value}) failed: exit {res.code}')
     s = read_servo_states(out)
@@ -84,8 +84,14 @@ def _ros_run(scene: Scene, controller: ServoMode, duration_s: float | None,
 
 
 def compare_servo(out_dir: pathlib.Path, engine: str = 'numpy', scenes: list[str] | None = None,
-                  duration_s: float | None = None) -> list[dict[str, Any]]:
-    """Run every scene x controller; write out_dir/metrics.json and one PNG per scene."""
+                  duration_s: float | None = None, one_process: bool = False
+                  ) -> list[dict[str, Any]]:
+    """Run every scene x controller; write out_dir/metrics.json and one PNG per scene.
+
+    ``engine``: 'numpy' (the twin) or 'ros' (the nodes; composed in one process with
+    ``one_process``, which gives the same bags faster).
+    """
+    label = 'ros, one process' if engine == 'ros' and one_process else engine
     out_dir.mkdir(parents=True, exist_ok=True)
     rows: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory(prefix='pam_bench_servo_') as tmp:
@@ -94,10 +100,11 @@ def compare_servo(out_dir: pathlib.Path, engine: str = 'numpy', scenes: list[str
             setup = scene_servo_setup(scene)
             runs = {}
             for ctl in ServoMode:
-                print(f'{name}: {ctl.value} ({engine}) ...', flush=True)
+                print(f'{name}: {ctl.value} ({label}) ...', flush=True)
                 t0 = time.perf_counter()
                 if engine == 'ros':
-                    run, wall, sim = _ros_run(scene, ctl, duration_s, pathlib.Path(tmp))
+                    run, wall, sim = _ros_run(scene, ctl, duration_s, pathlib.Path(tmp),
+                                              one_process)
                 else:
                     sim = duration_s or scene.duration_s
                     run = run_servo(ctl, setup['signal'], sim, setup['angle_rad'],
@@ -105,7 +112,7 @@ def compare_servo(out_dir: pathlib.Path, engine: str = 'numpy', scenes: list[str
                                     setup['params'])
                     wall = time.perf_counter() - t0
                 runs[ctl] = run
-                rows.append({'scene': name, 'controller': ctl.value, 'engine': engine,
+                rows.append({'scene': name, 'controller': ctl.value, 'engine': label,
                              **tracking_metrics(run), 'sim_s': sim, 'wall_s': wall,
                              'real_time_factor': sim / wall if wall else 0.0})
             _plot(name, runs, out_dir)
