@@ -1,0 +1,66 @@
+"""The intra-process bus by itself: order of delivery, no recursion, DDS only for outsiders."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pam_bench.nodes.intra import BusPublisher, IntraProcessBus
+
+
+class FakeDds:
+    """Stands for an rclpy publisher: counts what goes out over DDS."""
+
+    def __init__(self, outside: int = 0) -> None:
+        self.outside = outside
+        self.sent: list[Any] = []
+
+    def get_subscription_count(self) -> int:
+        return self.outside
+
+    def publish(self, msg: Any) -> None:
+        self.sent.append(msg)
+
+
+def test_deliveries_are_queued_in_publish_order_and_drained_in_order() -> None:
+    bus = IntraProcessBus()
+    got: list[tuple[str, Any]] = []
+    bus.subscribers('/a').append(lambda m: got.append(('a1', m)))
+    bus.subscribers('/a').append(lambda m: got.append(('a2', m)))
+    pub = BusPublisher(bus, '/a', FakeDds())
+    pub.publish(1)
+    pub.publish(2)
+    assert got == []                                   # queued, not called in place
+    assert bus.drain(10) == 4
+    assert got == [('a1', 1), ('a2', 1), ('a1', 2), ('a2', 2)]
+
+
+def test_a_chain_of_replies_runs_in_one_loop_without_recursion() -> None:
+    bus = IntraProcessBus()
+    ping, pong = BusPublisher(bus, '/ping', FakeDds()), BusPublisher(bus, '/pong', FakeDds())
+    seen = []
+    bus.subscribers('/ping').append(lambda n: pong.publish(n + 1))
+    bus.subscribers('/pong').append(lambda n: (seen.append(n), ping.publish(n + 1)
+                                               if n < 20000 else None))
+    ping.publish(0)
+    while bus.drain(1000):
+        pass
+    assert seen[-1] == 20001 and len(seen) == 10001   # deeper than Python's recursion limit
+
+
+def test_dds_only_when_someone_outside_listens() -> None:
+    bus = IntraProcessBus()
+    inside: list[Any] = []
+    bus.subscribers('/t').append(inside.append)
+    dds = FakeDds(outside=0)
+    pub = BusPublisher(bus, '/t', dds)
+    bus._publishers.append(pub)
+    bus.refresh()
+    pub.publish('x')
+    dds.outside = 1
+    bus.refresh()
+    pub.publish('y')
+    pub.publish_local('z', lambda obj: f'msg({obj})')
+    bus.drain(10)
+    assert inside == ['x', 'y', 'z']
+    assert dds.sent == ['y', 'msg(z)']
+    assert pub.get_subscription_count() == 2
