@@ -30,11 +30,11 @@ def node_processes(domain: int) -> list[int]:
     return pids
 
 
-def start_run(scene: str, bag: pathlib.Path, ignore_sigint: bool = False
-              ) -> tuple[subprocess.Popen, list[str]]:
+def start_run(scene: str, bag: pathlib.Path, ignore_sigint: bool = False,
+              extra: tuple[str, ...] = ()) -> tuple[subprocess.Popen, list[str]]:
     """``pam-bench run SCENE`` in a child process, returned once it is stepping."""
     proc = subprocess.Popen([sys.executable, '-m', 'pam_bench.cli', 'run', scene,
-                             '--out', str(bag)], stdout=subprocess.PIPE,
+                             '--out', str(bag), *extra], stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True,
                             preexec_fn=_ignore_sigint if ignore_sigint else None)
     lines = []
@@ -50,12 +50,16 @@ def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-@pytest.mark.parametrize('sig, inherited', [
-    (signal.SIGINT, 'default'), (signal.SIGTERM, 'default'), (signal.SIGINT, 'ignored')])
+@pytest.mark.parametrize('sig, inherited, layout', [
+    (signal.SIGINT, 'default', ()), (signal.SIGTERM, 'default', ()),
+    (signal.SIGINT, 'ignored', ()), (signal.SIGINT, 'ignored', ('--one-process',)),
+    (signal.SIGTERM, 'default', ('--one-process',))])
 def test_interrupted_run_leaves_a_valid_bag(tmp_path: pathlib.Path, ros_domain: int,
-                                            sig: signal.Signals, inherited: str) -> None:
+                                            sig: signal.Signals, inherited: str,
+                                            layout: tuple[str, ...]) -> None:
     bag = tmp_path / 'bag'
-    proc, lines = start_run('isometric', bag, ignore_sigint=inherited == 'ignored')
+    proc, lines = start_run('isometric', bag, ignore_sigint=inherited == 'ignored',
+                            extra=layout)
     try:
         assert proc.poll() is None, ''.join(lines)
         time.sleep(1.0)
