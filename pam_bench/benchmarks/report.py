@@ -74,9 +74,11 @@ def _layout_results(r: dict[str, Any]) -> list[Row]:
                          ('separate processes', '>= 0.3x real time')):
         row = _layout_row(r, 'servo_sin_t', layout)
         if row:
+            rms = (f", torque RMS {row['torque_rms_error_nm']:.4f} N m"
+                   if 'torque_rms_error_nm' in row else '')
             rows.append((f'`servo_sin_t` (8 s, 1 ms exchanges), {layout}', goal,
                          f"{row['real_time_factor']:.2f}x ({row['lockstep_rate_steps_per_s']:.0f}"
-                         ' exchanges/s)', commit))
+                         f' exchanges/s{rms})', commit))
     row = _layout_row(r, 'campaign_quick', 'one process')
     if row:
         rows.append(('`campaign_quick` wall time with start-up, one process', '<= 6 s',

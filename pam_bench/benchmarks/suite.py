@@ -166,6 +166,12 @@ def _layouts(out: pathlib.Path, quick: bool) -> dict[str, Any]:
             print(f'  {name}, {"one process" if one else "separate processes"} ...', flush=True)
             row = _scene_run(name, out, one_process=one)
             row['layout'] = 'one process' if one else 'separate processes'
+            if name.startswith('servo'):
+                from pam_bench.analysis.servo_bag import read_servo_states
+                s = read_servo_states(out / f'{name}{"_one" if one else ""}')
+                keep = s['t_s'] >= s['t_s'][0] + 1.0         # after the first second
+                err = (s['torque_setpoint'] - s['torque_measured'])[keep]
+                row['torque_rms_error_nm'] = float(np.sqrt(np.mean(err ** 2)))
             row['round_trips_per_exchange'] = pp / row['lockstep_rate_steps_per_s'] \
                 if row['lockstep_rate_steps_per_s'] else None
             rows.append(row)
@@ -245,6 +251,12 @@ def run_benchmarks(quick: bool, root: pathlib.Path, scenes: list[str] | None = N
     report: dict[str, Any] = {}
     if only and path.exists():
         report = json.loads(path.read_text(encoding='utf-8'))
+        old = {'commit': report.get('commit', 'unknown'), 'date': report.get('date', ''),
+               'quick': report.get('quick', False)}
+        measured = report.setdefault('measured', {})
+        for key in report:                    # figures of an earlier run keep its commit
+            if key not in head and key != 'measured' and key not in measured:
+                measured[key] = dict(old)
     report.setdefault('measured', {})
     report.update(head)
     with tempfile.TemporaryDirectory(prefix='pam_bench_bench_') as tmp:
