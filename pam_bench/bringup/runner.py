@@ -71,7 +71,7 @@ def _result(summary: RunSummary | None, code: int) -> RunResult:
 
 
 def node_error(log: str) -> str:
-    """The one-line error a node printed when it stopped (``nodes.base.run_node``), or ''."""
+    """The one-line error a node printed when it stopped (``nodes.process.run_node``), or ''."""
     for line in reversed(log.splitlines()):
         if ': error: ' in line:
             return line.strip()
@@ -194,7 +194,7 @@ def _run_in_process(scene: Scene, params: dict[str, Any], domain_id: int | None,
 
     from pam_bench.models.errors import ParameterError
     from pam_bench.nodes import intra
-    from pam_bench.nodes.base import fail_line, reject_undeclared
+    from pam_bench.nodes.process import fail_line, reject_undeclared
     from pam_bench.nodes.profiling import profiled
 
     env = ros_env(domain_id)

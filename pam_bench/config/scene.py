@@ -166,7 +166,7 @@ def _typed(where: str, data: dict[str, Any], key: str, default: Any = None) -> A
 
 def _check_parameters(where: str, nodes: list[str], parameters: dict[str, Any]) -> None:
     """Node names and model sections of a scene's ``parameters`` (plain node parameters are
-    checked by the node itself at start-up: ``nodes.base.reject_undeclared``)."""
+    checked by the node itself at start-up: ``nodes.process.reject_undeclared``)."""
     check_known(parameters, [*nodes, 'sim_clock'], f'{where}, parameters')
     for node, values in parameters.items():
         if not isinstance(values, dict):

@@ -1,12 +1,12 @@
 """Shared machinery of the bench nodes: typed parameters, diagnostics and the lock-step step.
 
-Lock-step (see ../shared/DESIGN.md, Time): ``sim_clock`` publishes /clock at t_k. A
-participant steps to t_k once it holds, for each of its synchronous inputs, the message
-stamped exactly t_(k-1) (every participant publishes every output at every step). It then
-publishes its outputs stamped t_k and a StepAck. Inputs are buffered by stamp, so a fast
-producer's t_k output never replaces the t_(k-1) one a slower consumer still needs: the run is
-deterministic whatever order DDS delivers messages in. At t_0 a participant only says it is
-ready (its inputs have publishers); step 1 uses the initial values. With its acknowledgement
+Lock-step (docs/design.md, "Time"; the rules are ``models.lockstep``): ``sim_clock`` publishes
+/clock at t_k. A participant steps to t_k once it holds, for each of its synchronous inputs,
+the message stamped exactly t_(k-1) (every participant publishes every output at every step).
+It then publishes its outputs stamped t_k and a StepAck. Inputs are buffered by stamp, so a
+fast producer's t_k output never replaces the t_(k-1) one a slower consumer still needs: the
+run is deterministic whatever order DDS delivers messages in. At t_0 a participant only says it
+is ready (its inputs have publishers); step 1 uses the initial values. With its acknowledgement
 a participant may ask for a shorter next step (``max_next_step_s``), so that events such as a
 reading or a 1 kHz record land exactly on the exchange grid.
 
@@ -27,37 +27,26 @@ message changes nothing.
 
 from __future__ import annotations
 
-import functools
-import importlib
 import math
-import signal
-import struct
 from collections.abc import Callable
 from typing import Any
 
-import rclpy
-from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from pam_bench_interfaces.msg import StepAck
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
-from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from rosgraph_msgs.msg import Clock
 
 from pam_bench.config import topics
-from pam_bench.models.errors import ModelError
 from pam_bench.models.lockstep import Ack, InputSpec, StopRequest, prune, take_inputs
-from pam_bench.models.params import ParamInfo, check_known, describe, from_mapping, param_infos
+from pam_bench.models.params import ParamInfo, describe, from_mapping, param_infos
 from pam_bench.nodes import intra
-from pam_bench.nodes.profiling import profiled
+from pam_bench.nodes.intra import bus_publisher, bus_subscription
+from pam_bench.nodes.messages import ack_message, ns_of, stamp_of_cdr, stamp_of_msg, time_of
 
-__all__ = ['BenchNode', 'RELIABLE', 'LOCKSTEP', 'ns_of', 'stamp_of_cdr', 'time_of', 'run_node',
-           'message_class', 'reject_undeclared', 'install_interrupt_handlers', 'fail_line',
-           'start_node', 'bus_publisher', 'bus_subscription', 'stamp_of_msg', 'ack_message',
-           'ack_of']
+__all__ = ['BenchNode', 'RELIABLE', 'LOCKSTEP']
 
 RELIABLE = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
                       history=HistoryPolicy.KEEP_LAST, durability=DurabilityPolicy.VOLATILE)
@@ -66,77 +55,6 @@ RELIABLE = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
 # take them (a reader on a wall clock wants the latest instead: RELIABLE).
 LOCKSTEP = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE,
                       history=HistoryPolicy.KEEP_ALL, durability=DurabilityPolicy.VOLATILE)
-
-
-def ns_of(stamp: Time) -> int:
-    """A ROS time stamp as integer nanoseconds."""
-    return stamp.sec * 1_000_000_000 + stamp.nanosec
-
-
-def stamp_of_cdr(data: bytes) -> int:
-    """Stamp (ns) of a CDR-serialised message that starts with a Header or a Time."""
-    order = '<' if data[1] == 1 else '>'
-    sec, nsec = struct.unpack_from(order + 'iI', data, 4)
-    return sec * 1_000_000_000 + nsec
-
-
-def message_class(msgtype: str) -> type:
-    """The rclpy message class of 'package/msg/Type'."""
-    pkg, kind, name = msgtype.split('/')
-    return getattr(importlib.import_module(f'{pkg}.{kind}'), name)
-
-
-def stamp_of_msg(msg: Any) -> int:
-    """Stamp (ns) of a message object with a Header (or of a Clock)."""
-    try:
-        stamp = msg.header.stamp
-    except AttributeError:
-        stamp = msg.clock
-    return stamp.sec * 1_000_000_000 + stamp.nanosec
-
-
-def bus_publisher(node: Node, msg_type: type, topic: str, qos: QoSProfile) -> Any:
-    """A publisher that goes through the process's intra-process bus when it composes nodes
-    (``nodes.intra``), else an ordinary DDS publisher."""
-    bus = intra.current()
-    if bus is None:
-        return node.create_publisher(msg_type, topic, qos)
-    return bus.publisher(node, msg_type, topic, qos)
-
-
-def bus_subscription(node: Node, msg_type: type, topic: str, callback: Callable[[Any], None],
-                     qos: QoSProfile, raw: bool = False) -> None:
-    """A subscription served by the intra-process bus when the process composes nodes (the
-    callback then gets message objects, also where ``raw`` asks for bytes), else by DDS."""
-    bus = intra.current()
-    if bus is None:
-        node.create_subscription(msg_type, topic, callback, qos, raw=raw)
-    else:
-        bus.subscribe(node, topic, callback)
-
-
-def ack_message(ack: Ack) -> StepAck:
-    """The StepAck message of an acknowledgement."""
-    msg = StepAck(node=ack.node, max_next_step=ack.max_next_step_s)
-    if ack.stop is not None:
-        msg.stop, msg.exit_code, msg.reason = True, ack.stop.exit_code, ack.stop.reason
-    msg.header.stamp = time_of(ack.t_ns)
-    return msg
-
-
-def ack_of(msg: Any) -> Ack:
-    """The acknowledgement a StepAck message (or, in process, the Ack itself) carries."""
-    if isinstance(msg, Ack):
-        return msg
-    stop = StopRequest(int(msg.exit_code), msg.reason) if msg.stop else None
-    return Ack(ns_of(msg.header.stamp), msg.node, float(msg.max_next_step), stop)
-
-
-@functools.lru_cache(maxsize=16)
-def time_of(ns: int) -> Time:
-    """Integer nanoseconds as a ROS time stamp. The nodes of one process that stamp the same
-    tick share one object (it is never changed after it is made)."""
-    return Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
 
 
 class BenchNode(Node):
@@ -344,137 +262,3 @@ class BenchNode(Node):
         """Put the device in its safe state after a failed step."""
 
 
-def lean_spin(node: Node, graceful: bool = False) -> None:
-    """Spin a node that has only subscriptions, cheaper than rclpy's executor.
-
-    One wait set over the node's subscriptions and the signal guard condition; at every wake-up
-    every ready subscription is drained. rclpy's SingleThreadedExecutor rebuilds its wait set
-    and schedules a task per callback, which dominates the cost of a lock-step exchange.
-    A node may define ``lean_poll()``: it is called after every wake-up and at least every
-    50 ms (the place for what timers would do). Returns when the context shuts down; SIGINT or
-    SIGTERM raise KeyboardInterrupt. With ``graceful`` they only set a flag that the loop reads
-    between messages, so a callback (a bag write) is never cut in the middle, and it returns.
-    """
-    import signal as _signal
-
-    from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
-    from rclpy.signals import SignalHandlerGuardCondition
-
-    ctx = node.context
-    subs = list(node.subscriptions)
-    by_ptr = {s.handle.pointer: s for s in subs}
-    guard = SignalHandlerGuardCondition(context=ctx)
-    wait_set = _rclpy.WaitSet(len(subs), 1, 0, 0, 0, 0, ctx.handle)
-    poll = getattr(node, 'lean_poll', None)
-    stop = []
-    if graceful:
-        for sig in (_signal.SIGINT, _signal.SIGTERM):
-            _signal.signal(sig, lambda *_: stop.append(True))
-    try:
-        while ctx.ok() and not stop:
-            wait_set.clear_entities()
-            for sub in subs:
-                wait_set.add_subscription(sub.handle)
-            wait_set.add_guard_condition(guard.handle)
-            wait_set.wait(50_000_000)
-            if guard.handle.pointer in wait_set.get_ready_entities('guard_condition'):
-                raise KeyboardInterrupt
-            for ptr in wait_set.get_ready_entities('subscription'):
-                sub = by_ptr[ptr]
-                while not stop:
-                    taken = sub.handle.take_message(sub.msg_type, sub.raw)
-                    if taken is None:
-                        break
-                    sub.callback(taken[0])
-            if poll is not None:
-                poll()
-    finally:
-        guard.destroy()
-
-
-def reject_undeclared(node: Node, overrides: list[Any] | None = None) -> None:
-    """Stop a node given a parameter it does not declare (a misspelt key in a params file or a
-    scene would otherwise be ignored and the default used).
-
-    Args:
-        node: a node after its constructor declared every parameter.
-        overrides: the ``Parameter`` overrides it was built with (default: those rclpy
-            resolved for it from ``--params-file`` and ``-p``).
-
-    Raises:
-        ParameterError: names the unknown key and the nearest declared one.
-    """
-    names = ([p.name for p in overrides] if overrides is not None
-             else list(getattr(node, '_parameter_overrides', {})))
-    declared = node.list_parameters([], 0).names
-    check_known(names, declared, f'node {node.get_name()}: parameters')
-
-
-def install_interrupt_handlers() -> None:
-    """SIGINT and SIGTERM raise KeyboardInterrupt, whatever the process inherited: a process
-    started in the background by a non-interactive shell inherits SIGINT ignored, and Python
-    then installs no handler of its own."""
-    signal.signal(signal.SIGINT, signal.default_int_handler)
-    signal.signal(signal.SIGTERM, signal.default_int_handler)
-
-
-def fail_line(name: str, exc: BaseException) -> str:
-    """The one line a node prints when it cannot start (``bringup.runner.node_error``)."""
-    text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-    return f'{name}: error: {text}'
-
-
-def _node_name(cls: type, args: list[str] | None) -> str:
-    import sys
-    for a in (args if args is not None else sys.argv):
-        if a.startswith('__node:='):
-            return a.split(':=', 1)[1]
-    return cls.__name__
-
-
-def start_node(cls: Callable[[], Node], name: str) -> Any:
-    """Build a node and refuse undeclared parameters; on a bad parameter print one line
-    (``fail_line``) and return None."""
-    import sys
-    try:
-        node = cls()
-        reject_undeclared(node)
-    except (ModelError, ParameterException) as exc:
-        print(fail_line(name, exc), file=sys.stderr, flush=True)
-        return None
-    return node
-
-
-def run_node(cls: type[Node], args: list[str] | None = None) -> None:
-    """The Jazzy ``main()``: init, spin, stop on Ctrl-C or external shutdown, clean up.
-
-    A node that cannot start (a bad, misspelt or out-of-range parameter) prints one line naming
-    the key and exits with code 2, no traceback. Nodes with only subscriptions
-    (``LEAN_SPIN``) use ``lean_spin`` unless ``PAM_BENCH_EXECUTOR=single`` asks for rclpy's
-    SingleThreadedExecutor.
-    """
-    import os
-    import sys
-    install_interrupt_handlers()
-    rclpy.init(args=args)
-    node = None
-    code = 0
-    try:
-        node = start_node(cls, _node_name(cls, args))
-        if node is None:
-            code = 2
-            return
-        with profiled(node.get_name()):
-            if getattr(node, 'LEAN_SPIN', False) and \
-                    os.environ.get('PAM_BENCH_EXECUTOR') != 'single':
-                lean_spin(node, graceful=getattr(node, 'GRACEFUL_STOP', False))
-            else:
-                rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-        if code:
-            sys.exit(code)

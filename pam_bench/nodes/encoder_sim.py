@@ -13,7 +13,9 @@ from sensor_msgs.msg import JointState
 
 from pam_bench.config import topics
 from pam_bench.models.sensors import EncoderModel, EncoderParams
-from pam_bench.nodes.base import BenchNode, run_node, time_of
+from pam_bench.nodes.base import BenchNode
+from pam_bench.nodes.messages import time_of
+from pam_bench.nodes.process import run_node
 
 __all__ = ['EncoderSim', 'main']
 
@@ -21,7 +23,7 @@ __all__ = ['EncoderSim', 'main']
 class EncoderSim(BenchNode):
     """Thin node over ``EncoderModel``."""
 
-    LEAN_SPIN = True    # subscriptions only: see nodes.base.lean_spin
+    LEAN_SPIN = True    # subscriptions only: see nodes.process.lean_spin
 
     def __init__(self, name: str = 'encoder', **kwargs: Any) -> None:
         super().__init__(name, **kwargs)

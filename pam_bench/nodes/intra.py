@@ -31,9 +31,10 @@ from collections.abc import Callable
 from typing import Any
 
 from rclpy.node import Node
+from rclpy.qos import QoSProfile
 
 __all__ = ['IntraProcessBus', 'BusPublisher', 'activate', 'deactivate', 'current',
-           'spin_composed']
+           'spin_composed', 'bus_publisher', 'bus_subscription']
 
 Callback = Callable[[Any], None]
 
@@ -157,3 +158,23 @@ def spin_composed(bus: IntraProcessBus, nodes: list[Node], executor: Any,
             poll()
         bus.refresh()
         executor.spin_once(timeout_sec=0.0 if bus.queue else refresh_s)
+
+
+def bus_publisher(node: Node, msg_type: type, topic: str, qos: QoSProfile) -> Any:
+    """A publisher that goes through the process's intra-process bus when it composes nodes
+    (this module), else an ordinary DDS publisher."""
+    bus = current()
+    if bus is None:
+        return node.create_publisher(msg_type, topic, qos)
+    return bus.publisher(node, msg_type, topic, qos)
+
+
+def bus_subscription(node: Node, msg_type: type, topic: str, callback: Callable[[Any], None],
+                     qos: QoSProfile, raw: bool = False) -> None:
+    """A subscription served by the intra-process bus when the process composes nodes (the
+    callback then gets message objects, also where ``raw`` asks for bytes), else by DDS."""
+    bus = current()
+    if bus is None:
+        node.create_subscription(msg_type, topic, callback, qos, raw=raw)
+    else:
+        bus.subscribe(node, topic, callback)

@@ -17,7 +17,9 @@ from pam_bench_interfaces.msg import MuscleSamples
 
 from pam_bench.config import topics
 from pam_bench.models.sensors import LoadCellModel, LoadCellParams
-from pam_bench.nodes.base import BenchNode, run_node, time_of
+from pam_bench.nodes.base import BenchNode
+from pam_bench.nodes.messages import time_of
+from pam_bench.nodes.process import run_node
 
 __all__ = ['LoadCellSim', 'main']
 
@@ -25,7 +27,7 @@ __all__ = ['LoadCellSim', 'main']
 class LoadCellSim(BenchNode):
     """Thin node over ``LoadCellModel``."""
 
-    LEAN_SPIN = True    # subscriptions only: see nodes.base.lean_spin
+    LEAN_SPIN = True    # subscriptions only: see nodes.process.lean_spin
 
     def __init__(self, name: str = 'load_cell_1', **kwargs: Any) -> None:
         super().__init__(name, **kwargs)

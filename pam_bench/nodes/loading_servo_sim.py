@@ -33,7 +33,9 @@ from sensor_msgs.msg import JointState
 
 from pam_bench.config import topics
 from pam_bench.models.loading_servo import LoadingServoModel, LoadingServoParams, LoadMode, law_of
-from pam_bench.nodes.base import RELIABLE, BenchNode, run_node, time_of
+from pam_bench.nodes.base import RELIABLE, BenchNode
+from pam_bench.nodes.messages import time_of
+from pam_bench.nodes.process import run_node
 
 __all__ = ['LoadingServoSim', 'main']
 
@@ -41,7 +43,7 @@ __all__ = ['LoadingServoSim', 'main']
 class LoadingServoSim(BenchNode):
     """Thin node over ``LoadingServoModel``."""
 
-    LEAN_SPIN = True    # subscriptions only: see nodes.base.lean_spin
+    LEAN_SPIN = True    # subscriptions only: see nodes.process.lean_spin
 
     def __init__(self, name: str = 'loading_servo', **kwargs: Any) -> None:
         super().__init__(name, **kwargs)

@@ -20,7 +20,9 @@ from pam_bench.models.coupling import solve_substeps
 from pam_bench.models.errors import ModelError
 from pam_bench.models.loading_servo import IdealHold, drive_from_law
 from pam_bench.models.muscle import MuscleModel, MuscleParams
-from pam_bench.nodes.base import BenchNode, run_node, time_of
+from pam_bench.nodes.base import BenchNode
+from pam_bench.nodes.messages import time_of
+from pam_bench.nodes.process import run_node
 
 __all__ = ['MuscleSim', 'main']
 
@@ -28,7 +30,7 @@ __all__ = ['MuscleSim', 'main']
 class MuscleSim(BenchNode):
     """Thin node over ``MuscleModel`` and the coupled sub-step solve."""
 
-    LEAN_SPIN = True    # subscriptions only: see nodes.base.lean_spin
+    LEAN_SPIN = True    # subscriptions only: see nodes.process.lean_spin
 
     def __init__(self, name: str = 'muscle_1', **kwargs: Any) -> None:
         super().__init__(name, **kwargs)

@@ -22,15 +22,10 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from rosgraph_msgs.msg import Clock
 
 from pam_bench.analysis.types import bench_typestore
-from pam_bench.nodes.base import (
-    BenchNode,
-    bus_subscription,
-    message_class,
-    run_node,
-    stamp_of_cdr,
-    stamp_of_msg,
-    time_of,
-)
+from pam_bench.nodes.base import BenchNode
+from pam_bench.nodes.intra import bus_subscription
+from pam_bench.nodes.messages import message_class, stamp_of_cdr, stamp_of_msg, time_of
+from pam_bench.nodes.process import run_node
 
 __all__ = ['Recorder', 'main']
 
@@ -60,7 +55,7 @@ def _trim_rule(cls: type) -> str:
 class Recorder(BenchNode):
     """Raw-bytes rosbag2 MCAP recorder."""
 
-    LEAN_SPIN = True        # subscriptions only: see nodes.base.lean_spin
+    LEAN_SPIN = True        # subscriptions only: see nodes.process.lean_spin
     GRACEFUL_STOP = True    # SIGINT/SIGTERM end the loop between writes, never inside one
 
 

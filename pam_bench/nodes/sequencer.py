@@ -54,14 +54,10 @@ from pam_bench.models.protocols import (
     Sequencer,
     StepRecord,
 )
-from pam_bench.nodes.base import (
-    RELIABLE,
-    BenchNode,
-    bus_publisher,
-    ns_of,
-    run_node,
-    time_of,
-)
+from pam_bench.nodes.base import RELIABLE, BenchNode
+from pam_bench.nodes.intra import bus_publisher
+from pam_bench.nodes.messages import ns_of, time_of
+from pam_bench.nodes.process import run_node
 
 __all__ = ['SequencerNode', 'main']
 
@@ -138,7 +134,7 @@ class SequencerNode(BenchNode):
         self._goal: Any = None
         self._goal_done: Future | None = None
         # a lock-step scene that starts its protocol by itself takes no goals: no action
-        # server, and the node spins on subscriptions only (nodes.base.lean_spin), which costs a
+        # server, and the node spins on subscriptions only (nodes.process.lean_spin), which costs a
         # fraction of rclpy's executor per message (1 kHz records arrive 1000 samples a second)
         self.LEAN_SPIN = self.lockstep and self.autostart
         self.action = None

@@ -37,17 +37,10 @@ from pam_bench.models.lockstep import (
     negotiate,
     request_ns,
 )
-from pam_bench.nodes.base import (
-    RELIABLE,
-    BenchNode,
-    ack_of,
-    bus_publisher,
-    bus_subscription,
-    install_interrupt_handlers,
-    lean_spin,
-    start_node,
-    time_of,
-)
+from pam_bench.nodes.base import RELIABLE, BenchNode
+from pam_bench.nodes.intra import bus_publisher, bus_subscription
+from pam_bench.nodes.messages import ack_of, time_of
+from pam_bench.nodes.process import install_interrupt_handlers, lean_spin, start_node
 from pam_bench.nodes.profiling import profiled
 
 __all__ = ['SimClock', 'windowed_rate', 'ETA_WINDOW_S', 'main']

@@ -31,7 +31,9 @@ from pam_bench.models.torque_servo import (
     TorqueServoController,
     TorqueServoParams,
 )
-from pam_bench.nodes.base import RELIABLE, BenchNode, ns_of, run_node, time_of
+from pam_bench.nodes.base import RELIABLE, BenchNode
+from pam_bench.nodes.messages import ns_of, time_of
+from pam_bench.nodes.process import run_node
 
 __all__ = ['TorqueServoNode', 'main']
 

@@ -23,7 +23,9 @@ from pam_bench.config import topics
 from pam_bench.models.constants import ATMOSPHERE_PA, SUB_STEP_S
 from pam_bench.models.coupling import substep_grid
 from pam_bench.models.valve import ValveModel, ValveParams, VolumeEvidence
-from pam_bench.nodes.base import RELIABLE, BenchNode, run_node, time_of
+from pam_bench.nodes.base import RELIABLE, BenchNode
+from pam_bench.nodes.messages import time_of
+from pam_bench.nodes.process import run_node
 
 __all__ = ['ValveSim', 'main']
 
@@ -32,7 +34,7 @@ __all__ = ['ValveSim', 'main']
 class ValveSim(BenchNode):
     """Thin node over ``ValveModel``."""
 
-    LEAN_SPIN = True    # subscriptions only: see nodes.base.lean_spin
+    LEAN_SPIN = True    # subscriptions only: see nodes.process.lean_spin
 
     def __init__(self, name: str = 'valve_1', **kwargs: Any) -> None:
         super().__init__(name, **kwargs)

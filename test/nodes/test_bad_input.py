@@ -11,7 +11,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import FluidPressure
 
 from pam_bench.models.constants import ATMOSPHERE_PA
-from pam_bench.nodes.base import time_of
+from pam_bench.nodes.messages import time_of
 from pam_bench.nodes.valve_sim import ValveSim
 from test.nodes.harness import Harness
 

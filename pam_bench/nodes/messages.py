@@ -1,0 +1,68 @@
+"""Message helpers of the bench nodes: stamps as integer nanoseconds, message classes by name,
+acknowledgements between their plain form (``models.lockstep.Ack``) and StepAck."""
+
+from __future__ import annotations
+
+import functools
+import importlib
+import struct
+from typing import Any
+
+from builtin_interfaces.msg import Time
+from pam_bench_interfaces.msg import StepAck
+
+from pam_bench.models.lockstep import Ack, StopRequest
+
+__all__ = ['ns_of', 'stamp_of_cdr', 'stamp_of_msg', 'message_class', 'time_of', 'ack_message',
+           'ack_of']
+
+
+def ns_of(stamp: Time) -> int:
+    """A ROS time stamp as integer nanoseconds."""
+    return stamp.sec * 1_000_000_000 + stamp.nanosec
+
+
+def stamp_of_cdr(data: bytes) -> int:
+    """Stamp (ns) of a CDR-serialised message that starts with a Header or a Time."""
+    order = '<' if data[1] == 1 else '>'
+    sec, nsec = struct.unpack_from(order + 'iI', data, 4)
+    return sec * 1_000_000_000 + nsec
+
+
+def message_class(msgtype: str) -> type:
+    """The rclpy message class of 'package/msg/Type'."""
+    pkg, kind, name = msgtype.split('/')
+    return getattr(importlib.import_module(f'{pkg}.{kind}'), name)
+
+
+def stamp_of_msg(msg: Any) -> int:
+    """Stamp (ns) of a message object with a Header (or of a Clock)."""
+    try:
+        stamp = msg.header.stamp
+    except AttributeError:
+        stamp = msg.clock
+    return stamp.sec * 1_000_000_000 + stamp.nanosec
+
+
+def ack_message(ack: Ack) -> StepAck:
+    """The StepAck message of an acknowledgement."""
+    msg = StepAck(node=ack.node, max_next_step=ack.max_next_step_s)
+    if ack.stop is not None:
+        msg.stop, msg.exit_code, msg.reason = True, ack.stop.exit_code, ack.stop.reason
+    msg.header.stamp = time_of(ack.t_ns)
+    return msg
+
+
+def ack_of(msg: Any) -> Ack:
+    """The acknowledgement a StepAck message (or, in process, the Ack itself) carries."""
+    if isinstance(msg, Ack):
+        return msg
+    stop = StopRequest(int(msg.exit_code), msg.reason) if msg.stop else None
+    return Ack(ns_of(msg.header.stamp), msg.node, float(msg.max_next_step), stop)
+
+
+@functools.lru_cache(maxsize=16)
+def time_of(ns: int) -> Time:
+    """Integer nanoseconds as a ROS time stamp. The nodes of one process that stamp the same
+    tick share one object (it is never changed after it is made)."""
+    return Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
