@@ -19,10 +19,12 @@ publish sub-step samples between grid points, and the last one always sits on th
 step 1 needs it like every later step.
 
 A message lost at start-up (a reader matched after the writer's first publish) would stall the
-lock-step: when a tick is not acknowledged within ``nudge_s`` the clock publishes it again, and
-a participant that already stepped to it publishes that step's outputs again (those of
-``create_step_publisher``) with its acknowledgement. Inputs are keyed by stamp, so a repeated
-message changes nothing.
+lock-step: when a tick is not acknowledged within ``nudge_s`` the clock publishes it again; a
+participant that already stepped to it publishes that step's outputs again (those of
+``create_step_publisher``) with its acknowledgement, and one still waiting for its inputs
+publishes its previous step's outputs again (the t_0 outputs of ``on_start`` among them), which
+is what a consumer waiting on it may lack. Inputs are keyed by stamp, so a repeated message
+changes nothing.
 """
 
 from __future__ import annotations
@@ -207,6 +209,12 @@ class BenchNode(Node):
                 self.on_start(t)
                 self._ack(t)
             return
+        if self._pending_ns == t:
+            # the clock publishes a tick again when it is not acknowledged in time: a consumer
+            # may still miss what this participant sent at its last step (a reader matched
+            # late drops a writer's first messages), so that goes out again
+            for send, out in self._sent:
+                send(out)
         self._pending_ns = t
         self._try_step()
 
