@@ -58,9 +58,10 @@ def commit_of(r: dict[str, Any], key: str) -> str:
 
 
 def _layout_row(r: dict[str, Any], scene: str, layout: str) -> dict[str, Any] | None:
+    """The layouts study's row of ``scene`` in ``layout``, if it was measured."""
     for row in r.get('layouts', {}).get('rows', []):
         if row['scene'] == scene and row['layout'] == layout:
-            return dict(row)
+            return row
     return None
 
 

@@ -73,14 +73,17 @@ def _ros_run(scene: Scene, controller: ServoMode, duration_s: float | None,
     res = run_scene(sc, str(out), quiet=True, one_process=one_process)
     if res.code != 0:
         raise RuntimeError(f'scene {scene.name} ({controller.value}) failed: exit {res.code}')
-    s = read_servo_states(out)
+    return servo_run_of_bag(out, 2 if 'valve_2' in scene.nodes else 1), res.wall_s, res.sim_s
+
+
+def servo_run_of_bag(bag: pathlib.Path, muscles: int) -> ServoRun:
+    """The servo's time series recorded in ``bag`` (``torque_servo/state``), time from 0."""
+    s = read_servo_states(bag)
     t = s['t_s'] - s['t_s'][0]
-    muscles = 2 if 'valve_2' in scene.nodes else 1
-    run = ServoRun(t, s['torque_setpoint'], s['torque_measured'],
-                   np.gradient(s['torque_setpoint'], t), s['force_setpoint'][:, :muscles],
-                   s['force_measured'][:, :muscles], s['voltage'][:, :muscles],
-                   s['u_feedforward'][:, :muscles], 'N m' if muscles == 2 else 'N')
-    return run, res.wall_s, res.sim_s
+    return ServoRun(t, s['torque_setpoint'], s['torque_measured'],
+                    np.gradient(s['torque_setpoint'], t), s['force_setpoint'][:, :muscles],
+                    s['force_measured'][:, :muscles], s['voltage'][:, :muscles],
+                    s['u_feedforward'][:, :muscles], 'N m' if muscles == 2 else 'N')
 
 
 def compare_servo(out_dir: pathlib.Path, engine: str = 'numpy', scenes: list[str] | None = None,

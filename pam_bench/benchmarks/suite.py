@@ -167,11 +167,10 @@ def _layouts(out: pathlib.Path, quick: bool) -> dict[str, Any]:
             row = _scene_run(name, out, one_process=one)
             row['layout'] = 'one process' if one else 'separate processes'
             if name.startswith('servo'):
-                from pam_bench.analysis.servo_bag import read_servo_states
-                s = read_servo_states(out / f'{name}{"_one" if one else ""}')
-                keep = s['t_s'] >= s['t_s'][0] + 1.0         # after the first second
-                err = (s['torque_setpoint'] - s['torque_measured'])[keep]
-                row['torque_rms_error_nm'] = float(np.sqrt(np.mean(err ** 2)))
+                from pam_bench.benchmarks.servo_compare import servo_run_of_bag
+                from pam_bench.twin.servo_bench import tracking_metrics
+                run = servo_run_of_bag(out / f'{name}{"_one" if one else ""}', 2)
+                row['torque_rms_error_nm'] = tracking_metrics(run)['rms_error']
             row['round_trips_per_exchange'] = pp / row['lockstep_rate_steps_per_s'] \
                 if row['lockstep_rate_steps_per_s'] else None
             rows.append(row)
@@ -257,7 +256,8 @@ def run_benchmarks(quick: bool, root: pathlib.Path, scenes: list[str] | None = N
         for key in report:                    # figures of an earlier run keep its commit
             if key not in head and key != 'measured' and key not in measured:
                 measured[key] = dict(old)
-    report.setdefault('measured', {})
+    else:
+        report['measured'] = {}
     report.update(head)
     with tempfile.TemporaryDirectory(prefix='pam_bench_bench_') as tmp:
         out = pathlib.Path(tmp)

@@ -13,7 +13,7 @@ from typing import Any
 
 from pam_bench.config.paths import config_dir
 from pam_bench.config.yaml_io import ConfigError, parse_yaml, read_yaml
-from pam_bench.models.params import nearest
+from pam_bench.models.params import hint
 from pam_bench.models.schedules import Reading, check_protocol, schedule_from_config
 
 __all__ = ['load_protocols', 'protocol_config', 'protocol_schedule', 'parse_overrides']
@@ -48,9 +48,7 @@ def protocol_config(name: str, overrides: Mapping[str, Any] | None = None,
     """
     table = load_protocols() if table is None else table
     if name not in table:
-        near = nearest(name, table)
-        hint = f'did you mean {near!r}?' if near else f'known: {", ".join(sorted(table))}'
-        raise ConfigError(f'unknown protocol {name!r} ({hint})')
+        raise ConfigError(f'unknown protocol {name!r} ({hint(name, table)})')
     cfg = dict(table[name])
     cfg.update(overrides or {})
     check_protocol(name, cfg)

@@ -29,7 +29,7 @@ from pam_bench.models.constants import SUB_STEP_S
 from pam_bench.models.errors import ParameterError
 from pam_bench.models.loading_servo import LoadingServoParams
 from pam_bench.models.muscle import MuscleParams
-from pam_bench.models.params import check_known, from_mapping, nearest
+from pam_bench.models.params import check_known, from_mapping, hint, nearest
 from pam_bench.models.sensors import EncoderParams, LoadCellParams
 from pam_bench.models.torque_servo import TorqueServoParams
 from pam_bench.models.valve import ValveParams
@@ -194,10 +194,7 @@ def load_scene(name: str) -> Scene:
     if not path.suffix:
         path = scenes_dir() / f'{name}.yaml'
     if not path.exists():
-        names = scene_names()
-        near = nearest(name, names)
-        hint = f'did you mean {near!r}?' if near else f'known: {", ".join(names)}'
-        raise ConfigError(f'no scene {name!r} ({hint})')
+        raise ConfigError(f'no scene {name!r} ({hint(name, scene_names())})')
     try:
         return _parse_scene(path, read_yaml(path))
     except ConfigError:

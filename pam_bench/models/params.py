@@ -15,7 +15,7 @@ from typing import Any, TypeVar
 from pam_bench.models.errors import ParameterError
 
 __all__ = ['field', 'from_mapping', 'describe', 'ParamInfo', 'param_infos', 'validate',
-           'check_known', 'nearest']
+           'check_known', 'nearest', 'hint']
 
 T = TypeVar('T')
 
@@ -109,6 +109,14 @@ def nearest(name: str, known: Iterable[str]) -> str | None:
     return close[0] if close else None
 
 
+def hint(name: str, known: Iterable[str], prefix: str = '') -> str:
+    """What to tell a user who wrote ``name``: the nearest known name, else all of them."""
+    known = list(known)
+    near = nearest(name, known)
+    return (f"did you mean '{prefix}{near}'?" if near
+            else f'known: {", ".join(sorted(known))}')
+
+
 def check_known(keys: Iterable[str], known: Iterable[str], where: str, prefix: str = '') -> None:
     """Raise on the first key (sorted) that is not in ``known``.
 
@@ -126,10 +134,7 @@ def check_known(keys: Iterable[str], known: Iterable[str], where: str, prefix: s
     if not unknown:
         return
     key = unknown[0]
-    near = nearest(key, known)
-    hint = (f"did you mean '{prefix}{near}'?" if near
-            else f'known: {", ".join(sorted(known))}')
-    raise ParameterError(f"{where}: unknown key '{prefix}{key}' ({hint})")
+    raise ParameterError(f"{where}: unknown key '{prefix}{key}' ({hint(key, known, prefix)})")
 
 
 def from_mapping(cls: type[T], values: Mapping[str, Any] | None, prefix: str = '') -> T:

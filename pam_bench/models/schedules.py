@@ -17,7 +17,7 @@ import numpy as np
 
 from pam_bench.models.errors import ParameterError
 from pam_bench.models.loading_servo import LoadMode
-from pam_bench.models.params import check_known, nearest
+from pam_bench.models.params import check_known, hint
 
 __all__ = ['Direction', 'Reading', 'sweep', 'schedule_from_config', 'resume_index',
            'PROTOCOL_KEYS', 'check_protocol']
@@ -128,9 +128,8 @@ def check_protocol(name: str, cfg: Mapping[str, Any]) -> None:
     """
     kind = cfg.get('kind')
     if kind not in PROTOCOL_KEYS:
-        near = nearest(str(kind), PROTOCOL_KEYS)
-        hint = f'did you mean {near!r}?' if near else f'known: {", ".join(PROTOCOL_KEYS)}'
-        raise ParameterError(f'protocol {name!r}: unknown kind {kind!r} ({hint})')
+        raise ParameterError(f'protocol {name!r}: unknown kind {kind!r} '
+                             f'({hint(str(kind), PROTOCOL_KEYS)})')
     check_known(cfg, PROTOCOL_KEYS[kind], f'protocol {name!r} ({kind})')
     for key in ('up', 'down'):
         if isinstance(cfg.get(key), Mapping):

@@ -253,7 +253,7 @@ class BenchNode(Node):
     def _ack(self, t: int) -> None:
         ack = Ack(t, self._fqn, float(self.max_next_step_s), self.stop_request)
         if self._bus is not None:                 # in process: the plain object
-            self._ack_pub.publish_local(ack, ack_message)
+            self._ack_pub.publish(ack, ack_message)
         else:
             self._ack_pub.publish(ack_message(ack))
 

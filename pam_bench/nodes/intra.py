@@ -47,22 +47,15 @@ class BusPublisher:
         self.external = False
         self._subs = bus.subscribers(topic)
 
-    def publish(self, msg: Any) -> None:
-        """Queue ``msg`` for every in-process subscription; publish on DDS when listened to."""
+    def publish(self, msg: Any, to_msg: Callable[[Any], Any] | None = None) -> None:
+        """Queue ``msg`` for every in-process subscription; publish it on DDS when someone
+        outside listens. With ``to_msg``, ``msg`` may be a plain object (cheaper to build than
+        a message) and ``to_msg(msg)`` is what goes on DDS."""
         queue = self.bus.queue
         for cb in self._subs:
             queue.append((cb, msg))
         if self.external:
-            self.dds.publish(msg)
-
-    def publish_local(self, obj: Any, to_msg: Callable[[Any], Any]) -> None:
-        """Queue a plain object for the in-process subscriptions (cheaper to build than a
-        message); publish ``to_msg(obj)`` on DDS when someone outside listens."""
-        queue = self.bus.queue
-        for cb in self._subs:
-            queue.append((cb, obj))
-        if self.external:
-            self.dds.publish(to_msg(obj))
+            self.dds.publish(msg if to_msg is None else to_msg(msg))
 
     def get_subscription_count(self) -> int:
         """In-process and DDS subscriptions together."""

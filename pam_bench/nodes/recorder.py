@@ -13,6 +13,7 @@ SIGINT or SIGTERM.
 
 from __future__ import annotations
 
+import functools
 import pathlib
 from typing import Any
 
@@ -91,8 +92,8 @@ class Recorder(BenchNode):
             self.sync_input(message_class(msgtype), topic, raw=True, samples=True)
         for entry in event_topics:
             topic, msgtype = self._split(entry)
-            bus_subscription(self, message_class(msgtype), topic, self._event_writer(topic),
-                             KEEP_ALL, raw=True)
+            bus_subscription(self, message_class(msgtype), topic,
+                             functools.partial(self._write_any, topic), KEEP_ALL, raw=True)
         self.start_lockstep()
 
     @staticmethod
@@ -129,11 +130,6 @@ class Recorder(BenchNode):
         end, _ = msgdef.getsize_cdr_to_ros1(memoryview(raw)[4:], 0, None, 0, self.store)
         pad = -end % 4
         return raw[:2] + bytes((0, pad)) + raw[4:4 + end] + bytes(pad)
-
-    def _event_writer(self, topic: str) -> Any:
-        def write(data: Any) -> None:
-            self._write_any(topic, data)
-        return write
 
     def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
         """Write /clock and every step topic of the previous tick t_(k-1)."""

@@ -59,7 +59,7 @@ def test_dds_only_when_someone_outside_listens() -> None:
     dds.outside = 1
     bus.refresh()
     pub.publish('y')
-    pub.publish_local('z', lambda obj: f'msg({obj})')
+    pub.publish('z', lambda obj: f'msg({obj})')
     bus.drain(10)
     assert inside == ['x', 'y', 'z']
     assert dds.sent == ['y', 'msg(z)']
