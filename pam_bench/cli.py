@@ -44,15 +44,41 @@ def _cmd_run(args: argparse.Namespace) -> int:
               f'series of {args.resume})')
     print(f'scene {scene.name}: {scene.description}\n  exchange step {scene.exchange_step_s} s, '
           f'nodes {", ".join(scene.nodes)}, bag {out}', flush=True)
+    if args.wallclock and (args.one_process or args.realtime or args.resume):
+        print('error: --wallclock runs the devices in the emulator on the wall clock: drop '
+              '--one-process, --realtime and --resume', file=sys.stderr)
+        return 2
     res = run_scene(scene, str(out), seed=args.seed, realtime=args.realtime,
-                    one_process=args.one_process)
+                    one_process=args.one_process, wallclock=args.wallclock,
+                    device_processes=args.device_processes)
+    if res.code == 130:
+        print(f'interrupted: nodes stopped, bag closed in {out}', file=sys.stderr)
+        return 130
     if res.code != 0:
         print(f'error: scene {scene.name} failed (exit code {res.code})', file=sys.stderr)
         return res.code
+    if args.wallclock:
+        _print_wall_stats(res.stats)
+        print(f'done: {res.wall_s:.1f} s on the wall clock; bag in {out}')
+        return 0
     print(f'done: {res.steps} exchange steps, {res.sim_s:.2f} s sim in {res.wall_s:.2f} s wall '
           f'({res.rate:.0f} steps/s, x{res.sim_s / res.wall_s if res.wall_s else 0:.1f} real '
           f'time); bag in {out}')
     return 0
+
+
+def _print_wall_stats(stats: dict) -> None:
+    """Period statistics per ticking node and the recorder's delivery table."""
+    from pam_bench.analysis.delivery import delivery_table, format_delivery
+    for name, st in stats.items():
+        per = st.get('periods')
+        if per:
+            print(f'{name:14s} period mean {per["mean_s"] * 1e3:.3f} ms, p50 '
+                  f'{per["p50_s"] * 1e3:.3f}, p99 {per["p99_s"] * 1e3:.3f}, max '
+                  f'{per["max_s"] * 1e3:.3f} ms, late {per["late_share"] * 100:.2f} %')
+    if 'recorder' in stats:
+        print(format_delivery(delivery_table(
+            [v for k, v in stats.items() if k != 'recorder'], stats['recorder'])))
 
 
 def _cmd_calibration(args: argparse.Namespace) -> int:
@@ -168,6 +194,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument('--one-process', action='store_true', help='compose all nodes in one process')
     p.add_argument('--resume', metavar='BAG', help='bag of an interrupted run of this scene: '
                    'start at the first series it did not complete (into a new --out)')
+    p.add_argument('--wallclock', action='store_true', help='run on the wall clock as on a '
+                   'real bench: devices free-running in one emulator process, controllers and '
+                   'recorder in their own')
+    p.add_argument('--device-processes', action='store_true', help='with --wallclock: each '
+                   'device in its own process instead of the emulator')
     p.set_defaults(func=_cmd_run)
     p = sub.add_parser('calibration', help='figures the simulated bench implies')
     p.add_argument('--json', action='store_true')

@@ -2,5 +2,6 @@
 
 from __future__ import annotations
 
-__all__ = ['bagread', 'bagwrite', 'extract', 'force_models', 'identify', 'inverse_export',
-           'plots', 'report', 'servo_bag', 'smoothing', 'static', 'types']
+__all__ = ['bagread', 'bagwrite', 'delivery', 'extract', 'force_models', 'identify',
+           'inverse_export', 'plots', 'report', 'servo_bag', 'smoothing', 'static', 'timing',
+           'types']

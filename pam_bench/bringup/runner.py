@@ -6,6 +6,14 @@ runs never see each other. Separate processes are stopped with SIGINT (then SIGT
 after a timeout), devices first and the recorder last, so the bag is always closed. A node
 that stops at start-up (a bad parameter) ends the run at once with that node's one-line error.
 The clock's ``RunSummary`` comes back as JSON (``summary_file``), not as text to parse.
+
+On a wall clock (``wallclock``) there is no sim clock: the recorder starts first, then the
+devices (by default composed in one emulator process, ``bringup.emulator``; with
+``device_processes`` one process each), then the sequencer and the torque servo, every node
+with ``lockstep: false``. The run ends when the sequencer or the servo exits (end of the
+protocol, ``duration_s`` of the servo) or on Ctrl-C; the other nodes are then stopped, the
+recorder last. Every node writes its publish counts and tick periods (``stats_file``), which
+come back in ``RunResult.stats`` with the recorder's delivery table.
 """
 
 from __future__ import annotations
@@ -16,6 +24,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from typing import Any
 
@@ -37,6 +46,7 @@ class RunResult:
     wall_s: float = 0.0
     rate: float = 0.0
     summary: str = ''
+    stats: dict[str, Any] = dataclasses.field(default_factory=dict)   # wall clock: per node
 
 
 def ros_env(domain_id: int | None = None) -> dict[str, str]:
@@ -94,9 +104,15 @@ def _watch(procs: dict[str, subprocess.Popen], clock: subprocess.Popen,
 
 def run_scene(scene: Scene, out_dir: str, seed: int = 0, realtime: bool = False,
               one_process: bool = False, domain_id: int | None = None,
-              quiet: bool = False) -> RunResult:
+              quiet: bool = False, wallclock: bool = False,
+              device_processes: bool = False) -> RunResult:
     """Run ``scene``, recording into ``out_dir``; return the clock's summary."""
     params = scene.node_parameters(out_dir, seed, realtime)
+    if wallclock:
+        if one_process:
+            raise ValueError('a wall-clock run composes the devices only (the emulator); '
+                             'drop --one-process')
+        return _run_wallclock(scene, params, domain_id, quiet, device_processes)
     if one_process:
         return _run_in_process(scene, params, domain_id, quiet)
     return _run_processes(scene, params, domain_id, quiet)
@@ -104,8 +120,6 @@ def run_scene(scene: Scene, out_dir: str, seed: int = 0, realtime: bool = False,
 
 def _run_processes(scene: Scene, params: dict[str, Any], domain_id: int | None,
                    quiet: bool) -> RunResult:
-    import threading
-
     env = ros_env(domain_id)
     procs: dict[str, subprocess.Popen] = {}
     failed: list[str] = []
@@ -162,6 +176,102 @@ def _run_processes(scene: Scene, params: dict[str, Any], domain_id: int | None,
     return result
 
 
+CONTROLLERS = ('sequencer', 'torque_servo')
+
+
+def _run_wallclock(scene: Scene, params: dict[str, Any], domain_id: int | None, quiet: bool,
+                   device_processes: bool) -> RunResult:
+    import json
+
+    from pam_bench.bringup.emulator import CHAIN
+    env = ros_env(domain_id)
+    devices = [n for n in scene.nodes if n in CHAIN]
+    controllers = [n for n in scene.nodes if n in CONTROLLERS]
+    if not controllers:
+        raise ValueError(f'scene {scene.name}: a wall-clock run needs a sequencer or a servo')
+    procs: dict[str, subprocess.Popen] = {}
+    t0 = time.monotonic()
+    code = 0
+    with tempfile.TemporaryDirectory(prefix='pam_bench_') as tmp:
+        for name in scene.nodes:
+            p = params[name]['ros__parameters']
+            p.update(lockstep=False, stats_file=os.path.join(tmp, f'{name}.json'))
+        if 'torque_servo' in params:
+            params['torque_servo']['ros__parameters']['duration_s'] = scene.duration_s
+        pfile = os.path.join(tmp, 'params.yaml')
+        with open(pfile, 'w', encoding='utf-8') as fh:
+            yaml.safe_dump({k: v for k, v in params.items() if k != 'sim_clock'}, fh)
+        log = open(os.path.join(tmp, 'nodes.log'), 'w+', encoding='utf-8')
+
+        def start(name: str, cmd: list[str], pipe: bool = False) -> subprocess.Popen:
+            procs[name] = subprocess.Popen(
+                cmd, env=env, stdout=subprocess.PIPE if pipe else log,
+                stderr=subprocess.STDOUT, text=True, preexec_fn=_die_with_parent)
+            return procs[name]
+
+        def node_cmd(name: str) -> list[str]:
+            return [sys.executable, '-m', NODE_TYPES[name].module, '--ros-args',
+                    '-r', f'__node:={name}', '--params-file', pfile]
+
+        try:
+            if 'recorder' in scene.nodes:
+                rec = start('recorder', node_cmd('recorder'), pipe=True)
+                for line in rec.stdout:      # wait until it has subscribed to its topics
+                    log.write(line)
+                    if line.startswith('recorder: recording') or rec.poll() is not None:
+                        break
+                threading.Thread(target=_copy, args=(rec.stdout, log), daemon=True).start()
+            if device_processes:
+                for name in devices:
+                    start(name, node_cmd(name))
+            elif devices:
+                start('emulator', [sys.executable, '-m', 'pam_bench.bringup.emulator', pfile,
+                                   *devices])
+            main_name = controllers[0]
+            for name in controllers:
+                start(name, node_cmd(name), pipe=name == main_name)
+            main = procs[main_name]
+            for line in main.stdout:
+                log.write(line)
+                if not quiet and line.startswith('[wall'):
+                    print(line, end='', flush=True)
+                dead = [n for n, p in procs.items() if p.poll() is not None and p.returncode == 2]
+                if dead:
+                    break
+            code = main.wait(timeout=10.0) if main.poll() is None and not dead else \
+                (main.poll() or 0)
+            dead = [n for n, p in procs.items() if p.poll() is not None and p.returncode == 2]
+        except KeyboardInterrupt:
+            code = 130
+            dead = []
+        finally:
+            _stop(procs)
+            log.flush()
+            log.seek(0)
+            node_log = log.read()
+            log.close()
+        stats = {}
+        for name in scene.nodes:
+            path = os.path.join(tmp, f'{name}.json')
+            if os.path.exists(path):
+                with open(path, encoding='utf-8') as fh:
+                    stats[name] = json.load(fh)
+    wall = time.monotonic() - t0
+    result = RunResult(code, 0, wall, wall, 1.0, f'wall clock, {wall:.1f} s', stats)
+    if dead:
+        result.code = 2
+        result.summary = node_error(node_log) or f'node {dead[0]} stopped'
+        sys.stderr.write(f'error: {result.summary}\n')
+    elif code not in (0, 130):
+        sys.stderr.write(node_log[-4000:])
+    return result
+
+
+def _copy(src: Any, dst: Any) -> None:
+    for line in src:
+        dst.write(line)
+
+
 def _stop(procs: dict[str, subprocess.Popen]) -> None:
     """SIGINT the clock and the devices, then the recorder; escalate after timeouts."""
     devices = [n for n in procs if n != 'recorder']
@@ -214,7 +324,7 @@ def _run_in_process(scene: Scene, params: dict[str, Any], domain_id: int | None,
             t = NODE_TYPES[name]
             cls = getattr(importlib.import_module(t.module), t.cls)
             overrides = [Parameter(k, value=v) for k, v in
-                         _flatten(params[name]['ros__parameters']).items()]
+                         flatten(params[name]['ros__parameters']).items()]
             extra = {'lean': True} if name == 'sim_clock' else {}    # polled by the loop
             try:
                 node = cls(name, context=context, parameter_overrides=overrides, **extra)
@@ -245,11 +355,11 @@ def _run_in_process(scene: Scene, params: dict[str, Any], domain_id: int | None,
     return _result(summary, code)
 
 
-def _flatten(d: dict[str, Any], prefix: str = '') -> dict[str, Any]:
+def flatten(d: dict[str, Any], prefix: str = '') -> dict[str, Any]:
     out = {}
     for k, v in d.items():
         if isinstance(v, dict):
-            out.update(_flatten(v, f'{prefix}{k}.'))
+            out.update(flatten(v, f'{prefix}{k}.'))
         else:
             out[f'{prefix}{k}'] = v
     return out

@@ -25,11 +25,23 @@ participant that already stepped to it publishes that step's outputs again (thos
 publishes its previous step's outputs again (the t_0 outputs of ``on_start`` among them), which
 is what a consumer waiting on it may lack. Inputs are keyed by stamp, so a repeated message
 changes nothing.
+
+Wall clock (``lockstep: false``, a real bench or ``pam-bench run --wallclock``): a device node
+steps itself every ``1 / rate_hz`` seconds of its own clock (``on_wall_tick``, driven by
+``nodes.process.deadline_spin`` or by the emulator process that composes the devices). Each
+synchronous input is then simply the latest message received (``wall_inputs`` adapts
+sub-step sample lists to the device's own step); outputs are stamped with the node's clock and
+published with ``DRIVER`` QoS. The node keeps its parameter services (``ros2 param get`` works
+on a wall clock; in lock-step they stay off for speed), counts what it publishes on DDS and
+writes those counts and its tick times to ``stats_file`` when it stops.
 """
 
 from __future__ import annotations
 
+import json
 import math
+import time
+from array import array
 from collections.abc import Callable
 from typing import Any
 
@@ -37,7 +49,13 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from pam_bench_interfaces.msg import StepAck
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import (
+    DurabilityPolicy,
+    HistoryPolicy,
+    QoSProfile,
+    ReliabilityPolicy,
+    qos_profile_sensor_data,
+)
 from rclpy.serialization import deserialize_message
 from rosgraph_msgs.msg import Clock
 
@@ -48,7 +66,7 @@ from pam_bench.nodes import intra
 from pam_bench.nodes.intra import bus_publisher, bus_subscription
 from pam_bench.nodes.messages import ack_message, ns_of, stamp_of_cdr, stamp_of_msg, time_of
 
-__all__ = ['BenchNode', 'RELIABLE', 'LOCKSTEP']
+__all__ = ['BenchNode', 'RELIABLE', 'LOCKSTEP', 'DRIVER', 'SENSOR']
 
 RELIABLE = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
                       history=HistoryPolicy.KEEP_LAST, durability=DurabilityPolicy.VOLATILE)
@@ -57,6 +75,13 @@ RELIABLE = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
 # take them (a reader on a wall clock wants the latest instead: RELIABLE).
 LOCKSTEP = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE,
                       history=HistoryPolicy.KEEP_ALL, durability=DurabilityPolicy.VOLATILE)
+# On a wall clock, as REP-2003 asks of sensor drivers: publish reliable (any subscriber can
+# match, a recorder gets every message) with a history of 100 ms at 1 kHz, volatile; consumers
+# that want the latest reading subscribe with the sensor-data profile (best effort, depth 5).
+DRIVER = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
+                    history=HistoryPolicy.KEEP_LAST, durability=DurabilityPolicy.VOLATILE)
+SENSOR = QoSProfile(depth=100, reliability=qos_profile_sensor_data.reliability,
+                    history=HistoryPolicy.KEEP_LAST, durability=DurabilityPolicy.VOLATILE)
 
 
 class BenchNode(Node):
@@ -84,6 +109,17 @@ class BenchNode(Node):
         self._fqn = self.get_fully_qualified_name()
         self._diag_pub = bus_publisher(self, DiagnosticArray, topics.DIAGNOSTICS, RELIABLE)
         self._ack_pub = None
+        self.stats_file = self.declare_typed('stats_file', '', 'write the DDS publish counts '
+                                             'and wall-clock tick times here at the end (JSON)')
+        # wall clock (module docstring)
+        self.wall_period_s: float | None = None     # set: ticked by on_wall_tick
+        self._latest: dict[str, Any] = {}
+        self._tick_ns = array('q')                  # monotonic ns of every wall tick
+        self.published: dict[str, int] = {}         # topic -> messages published on DDS
+        self.exit_code: int | None = None    # set: the node's work is done, its process exits
+        if not self.lockstep:
+            from rclpy.parameter_service import ParameterService
+            self._parameter_service = ParameterService(self)
 
     # --- parameters --------------------------------------------------------------------
     def declare_typed(self, name: str, default: Any, text: str, unit: str = '',
@@ -147,14 +183,30 @@ class BenchNode(Node):
     def create_step_publisher(self, msg_type: type, topic: str) -> Any:
         """A publisher of a step output: what it publishes in a step is sent again when the
         clock repeats that tick (module docstring)."""
-        pub = bus_publisher(self, msg_type, topic, LOCKSTEP if self.lockstep else RELIABLE)
+        pub = bus_publisher(self, msg_type, topic, LOCKSTEP if self.lockstep else DRIVER)
         if not self.lockstep:
-            return pub
+            return self.counted(pub, topic)
         send = pub.publish
 
         def publish(msg: Any) -> None:
             self._sent.append((send, msg))
             send(msg)
+
+        pub.publish = publish
+        return pub
+
+    def counted(self, pub: Any, topic: str) -> Any:
+        """Count what ``pub`` puts on DDS (``published``; with the sequence numbers the
+        recorder sees, the count says whether a message was lost). Returns ``pub``."""
+        name = self.resolve_topic_name(topic)
+        self.published.setdefault(name, 0)
+        send = pub.publish
+        dds = getattr(pub, 'dds', None)               # a bus publisher: DDS only when external
+
+        def publish(msg: Any, *args: Any) -> None:
+            if dds is None or pub.external:
+                self.published[name] += 1
+            send(msg, *args)
 
         pub.publish = publish
         return pub
@@ -171,6 +223,14 @@ class BenchNode(Node):
         buf: dict[int, Any] = {}
         self._sync[topic] = buf
         self._specs[topic] = InputSpec(same_step, samples, from_start)
+        if not self.lockstep:                # wall clock: the latest message
+            latest = self._latest
+
+            def on_latest(msg: Any) -> None:
+                latest[topic] = msg
+
+            bus_subscription(self, msg_type, topic, on_latest, SENSOR)
+            return
         if self._bus is not None:            # message objects, in process
 
             def on_object(msg: Any) -> None:
@@ -189,6 +249,31 @@ class BenchNode(Node):
             self._try_step()
 
         self.create_subscription(msg_type, topic, on_msg, LOCKSTEP, raw=True)
+
+    def start_stepping(self, default_rate_hz: float = 1000.0) -> None:
+        """Start stepping (call after all sync_input): in lock-step on /clock, else on the
+        node's own clock at ``rate_hz`` (declared here, used on a wall clock only)."""
+        rate_hz = self.declare_typed('rate_hz', default_rate_hz, 'update rate on a wall clock '
+                                     '(lockstep false)', 'Hz', 1.0, 10000.0)
+        if self.lockstep:
+            self.start_lockstep()
+        else:
+            self.start_wall_ticks(1.0 / rate_hz)
+
+    def start_wall_ticks(self, period_s: float) -> None:
+        """Tick ``on_wall_tick`` every ``period_s``: on an rclpy timer under any executor,
+        until a lean loop takes the ticking over (``take_wall_ticks``)."""
+        self.wall_period_s = period_s
+        self.wall_timer = self.create_timer(period_s, self.on_wall_tick)
+
+    def take_wall_ticks(self) -> float:
+        """Stop the node's own timer: the caller ticks ``on_wall_tick`` from now on (on a
+        monotonic deadline, ``nodes.process.deadline_spin``). Returns the period (s)."""
+        if getattr(self, 'wall_timer', None) is not None:
+            self.destroy_timer(self.wall_timer)
+            self.wall_timer = None
+        assert self.wall_period_s is not None
+        return self.wall_period_s
 
     def start_lockstep(self) -> None:
         """Subscribe to /clock and create the ack publisher (call after all sync_input)."""
@@ -256,6 +341,59 @@ class BenchNode(Node):
             self._ack_pub.publish(ack, ack_message)
         else:
             self._ack_pub.publish(ack_message(ack))
+
+    # --- wall clock ----------------------------------------------------------------------
+    def now_ns(self) -> int:
+        """The node's clock (ROS time: the system clock unless use_sim_time), ns."""
+        return int(self.get_clock().now().nanoseconds)
+
+    def on_wall_tick(self) -> None:
+        """One wall-clock step of a device: on_start at the first tick, then, once every
+        synchronous input has arrived, on_step over the time since the last tick with the
+        latest inputs (``wall_inputs``). A step that raises puts the device in its safe state
+        (``on_fault``) and the node goes on."""
+        t = self.now_ns()
+        self._tick_ns.append(time.monotonic_ns())
+        prev = self._last_ns
+        self._last_ns = t
+        if prev is None:
+            self.on_start(t)
+            return
+        if len(self._latest) < len(self._sync):   # a producer has not started yet
+            return
+        dt_s = min(max(t - prev, 0) * 1e-9, 1.0)
+        try:
+            self.on_step(t, dt_s, self.wall_inputs(dict(self._latest), dt_s))
+        except Exception as exc:  # noqa: BLE001 - a callback must never let an exception out
+            self.diagnose(DiagnosticStatus.ERROR, f'step failed: {exc}')
+            self.on_fault(str(exc))
+
+    def wall_inputs(self, inputs: dict[str, Any], dt_s: float) -> dict[str, Any]:
+        """On a wall clock: adapt the latest inputs to a step of ``dt_s`` (default: as they
+        are)."""
+        return inputs
+
+    def wall_stats(self) -> dict[str, Any]:
+        """What this node published on DDS (topic -> count) and its tick periods."""
+        from pam_bench.analysis.timing import period_stats
+        out: dict[str, Any] = {'node': self._fqn, 'published': dict(self.published)}
+        if self.wall_period_s is not None and len(self._tick_ns) > 2:
+            out['periods'] = period_stats(self._tick_ns, self.wall_period_s)
+        return out
+
+    def write_stats(self) -> None:
+        """Write ``wall_stats`` to ``stats_file`` (when set)."""
+        if self.stats_file:
+            with open(self.stats_file, 'w', encoding='utf-8') as fh:
+                json.dump(self.wall_stats(), fh)
+
+    def destroy_node(self) -> None:
+        """Write the stats file, then go."""
+        try:
+            self.write_stats()
+        except OSError as exc:
+            self.get_logger().error(f'stats file: {exc}')
+        super().destroy_node()
 
     # --- to override -------------------------------------------------------------------
     def on_start(self, t_ns: int) -> None:

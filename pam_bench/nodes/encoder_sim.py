@@ -2,7 +2,7 @@
 
 Input ``sim/pulley/state`` of the same exchange (joint ``pulley``, rad); output
 ``encoder/joint_state`` (JointState, joint ``pulley``: quantised angle in rad and its
-finite-difference rate in rad/s).
+finite-difference rate in rad/s). On a wall clock it reads the latest angle at ``rate_hz``.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ class EncoderSim(BenchNode):
         self.angle_rad = 0.0
         self.pub = self.create_step_publisher(JointState, topics.ENCODER)
         self.sync_input(JointState, self.topic, same_step=True)
-        self.start_lockstep()
+        self.start_stepping()
 
     def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
         """Read the pulley angle at the end of the exchange."""

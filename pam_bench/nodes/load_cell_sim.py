@@ -4,6 +4,7 @@ Input ``sim/muscle_N/samples`` of the same exchange (the true tension at every s
 output ``load_cell_N/force`` (WrenchStamped, force.x in N, 16-bit quantised, seeded noise,
 saturating at +-2 kN with a diagnostic): one reading at the end of the exchange, or, while a
 1 kHz record is on (the samples' ``record``), one per sample, stamped at the sample's time.
+On a wall clock it reads the latest tension at ``rate_hz``.
 """
 
 from __future__ import annotations
@@ -40,7 +41,13 @@ class LoadCellSim(BenchNode):
         self._was_saturated = False
         self.pub = self.create_step_publisher(WrenchStamped, topics.load_cell_force(self.channel))
         self.sync_input(MuscleSamples, self.topic, same_step=True)
-        self.start_lockstep()
+        self.start_stepping()
+
+    def wall_inputs(self, inputs: dict[str, Any], dt_s: float) -> dict[str, Any]:
+        """One reading per tick of its own (the samples' record flag is lock-step only)."""
+        m: MuscleSamples = inputs[self.topic]
+        inputs[self.topic] = MuscleSamples(step=[dt_s], force=[m.force[-1]], record=False)
+        return inputs
 
     def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
         """Measure the true tension at the end of the exchange (every sample during a record)."""

@@ -21,6 +21,9 @@ With ``muscles = 2`` (the torque servo of 004 section 3.2) the drive holds the p
 as 004's tests use the drive): muscle 1 sits at x1 = x0 + r theta + F1 / k_b, muscle 2 at
 x2 = x0 - r theta + F2 / k_b (the law's ``hold_contraction``), the holding torque r (F1 - F2)
 goes out as the motor effort.
+
+On a wall clock (``lockstep: false``) its control loop steps at ``rate_hz`` (1 kHz) with the
+latest command and the latest muscle force held over its own sub-steps.
 """
 
 from __future__ import annotations
@@ -32,6 +35,8 @@ from pam_bench_interfaces.msg import DriveLaw, LoadCommand, MuscleSamples
 from sensor_msgs.msg import JointState
 
 from pam_bench.config import topics
+from pam_bench.models.constants import SUB_STEP_S
+from pam_bench.models.coupling import substep_grid
 from pam_bench.models.loading_servo import LoadingServoModel, LoadingServoParams, LoadMode, law_of
 from pam_bench.nodes.base import RELIABLE, BenchNode
 from pam_bench.nodes.messages import time_of
@@ -75,13 +80,13 @@ class LoadingServoSim(BenchNode):
         self.pulley_pub = self.create_step_publisher(JointState, topics.PULLEY_STATE)
         self.state_pub = self.create_step_publisher(JointState, topics.LOAD_STATE)
         self.law_pub = self.create_step_publisher(DriveLaw, topics.PULLEY_LAW)
-        if self.sync_command:
+        if self.sync_command and self.lockstep:
             self.sync_input(LoadCommand, self.cmd_topic)
         else:
             self.create_subscription(LoadCommand, self.cmd_topic, self.apply_command, RELIABLE)
         for topic in self.muscle_topics:
             self.sync_input(MuscleSamples, topic, same_step=True)
-        self.start_lockstep()
+        self.start_stepping()
 
     def apply_command(self, msg: LoadCommand) -> None:
         """Accept a valid mode and set value, else keep the last valid command."""
@@ -98,6 +103,15 @@ class LoadingServoSim(BenchNode):
             return
         if (LoadMode(msg.mode), sp) != (self.model.mode, self.model.setpoint):
             self.model.command(LoadMode(msg.mode), sp)
+
+    def wall_inputs(self, inputs: dict[str, Any], dt_s: float) -> dict[str, Any]:
+        """The latest muscle force held over this step's own sub-steps."""
+        for topic in self.muscle_topics:
+            m: MuscleSamples = inputs[topic]
+            steps = substep_grid(dt_s, SUB_STEP_S)
+            inputs[topic] = MuscleSamples(step=steps, force=[m.force[-1]] * len(steps),
+                                          contraction=[m.contraction[-1]] * len(steps))
+        return inputs
 
     def on_start(self, t_ns: int) -> None:
         """Publish the law of the first exchange."""

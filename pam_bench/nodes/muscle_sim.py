@@ -6,7 +6,8 @@ end under a force). The muscle and the drive are solved together at every sub-st
 (``pam_bench.models.coupling``). Outputs: ``sim/muscle_N/state`` (MuscleState at the end of the
 exchange: pressure, force, contraction, chamber volume for the valve) and
 ``sim/muscle_N/samples`` (MuscleSamples: every sub-step's force and contraction, which the
-loading servo replays and the load cell measures).
+loading servo replays and the load cell measures). On a wall clock it steps at ``rate_hz``
+over its own sub-steps with the latest valve pressure held and the latest drive law.
 """
 
 from __future__ import annotations
@@ -16,7 +17,8 @@ from typing import Any
 from pam_bench_interfaces.msg import DriveLaw, MuscleSamples, MuscleState, PressureSamples
 
 from pam_bench.config import topics
-from pam_bench.models.coupling import solve_substeps
+from pam_bench.models.constants import SUB_STEP_S
+from pam_bench.models.coupling import solve_substeps, substep_grid
 from pam_bench.models.errors import ModelError
 from pam_bench.models.loading_servo import IdealHold, drive_from_law
 from pam_bench.models.muscle import MuscleModel, MuscleParams
@@ -49,13 +51,21 @@ class MuscleSim(BenchNode):
                                                       topics.muscle_samples(self.channel))
         self.sync_input(PressureSamples, self.p_topic, same_step=True)
         self.sync_input(DriveLaw, self.law_topic, from_start=True)
-        self.start_lockstep()
+        self.start_stepping()
 
     def on_start(self, t_ns: int) -> None:
         """Publish the state at t_0 (the valve needs the chamber volume of step 1); the muscle
         is mounted, relaxed, where the holder's law of t_0 puts its end (first step)."""
         out = self.model.step(self.pressure_pa, self.contraction_m)
         self._publish(t_ns, out.stiffness_n_per_m, out.friction_n)
+
+    def wall_inputs(self, inputs: dict[str, Any], dt_s: float) -> dict[str, Any]:
+        """The latest valve pressure held over this step's own sub-steps."""
+        last: PressureSamples = inputs[self.p_topic]
+        steps = substep_grid(dt_s, SUB_STEP_S)
+        inputs[self.p_topic] = PressureSamples(step=steps,
+                                               pressure=[last.pressure[-1]] * len(steps))
+        return inputs
 
     def _holder(self, law: DriveLaw) -> Any:
         if len(law.hold_contraction):

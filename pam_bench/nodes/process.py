@@ -2,13 +2,15 @@
 
 ``run_node`` is every node's ``main()``: interrupt handlers installed whatever the process
 inherited, the node built and checked (an unknown, mistyped or out-of-range parameter gives one
-line and exit code 2), then spun (``lean_spin`` for nodes with subscriptions only) until Ctrl-C,
-SIGTERM or an external shutdown, and cleaned up.
+line and exit code 2), then spun (``lean_spin`` for nodes with subscriptions only,
+``deadline_spin`` for a node ticking on a wall clock) until Ctrl-C, SIGTERM or an external
+shutdown, and cleaned up.
 """
 
 from __future__ import annotations
 
 import signal
+import time
 from collections.abc import Callable
 from typing import Any
 
@@ -21,20 +23,101 @@ from pam_bench.models.errors import ModelError
 from pam_bench.models.params import check_known
 from pam_bench.nodes.profiling import profiled
 
-__all__ = ['lean_spin', 'reject_undeclared', 'install_interrupt_handlers', 'fail_line',
-           'start_node', 'run_node']
+__all__ = ['lean_spin', 'deadline_spin', 'serve_services', 'reject_undeclared',
+           'install_interrupt_handlers', 'fail_line', 'start_node', 'run_node']
 
 
-def lean_spin(node: Node, graceful: bool = False) -> None:
+def serve_services(node: Node) -> Callable[[], None]:
+    """A poll that answers ``node``'s pending service requests (parameter services) without
+    blocking and without an executor, so the lean loops below keep their subscriptions to
+    themselves."""
+
+    def serve() -> None:
+        for srv in node.services:
+            while True:
+                request, header = srv.handle.service_take_request(srv.srv_type.Request)
+                if header is None:
+                    break
+                srv.send_response(srv.callback(request, srv.srv_type.Response()), header)
+
+    return serve
+
+
+def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
+                  poll: Callable[[], None] | None = None, poll_period_s: float = 0.005,
+                  should_stop: Callable[[], bool] | None = None) -> None:
+    """Call ``tick`` every ``period_s`` on a monotonic deadline and serve the nodes'
+    subscriptions in between (one wait set, as ``lean_spin``).
+
+    The loop sleeps in the wait set until the next deadline or message; a message is handled
+    at once. A tick that ends late keeps the phase (the next deadline is one period after the
+    missed one); a loop more than a period behind starts again from now, dropping the ticks it
+    missed, as a driver's control loop does. ``poll`` (services, a bus refresh) runs every
+    ``poll_period_s``. Returns when ``should_stop()`` is true after a tick. rclpy's timer
+    measured here: ``BENCHMARKS.md``, "The torque servo on a
+    wall clock". SIGINT or SIGTERM raise KeyboardInterrupt.
+    """
+    from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+    from rclpy.signals import SignalHandlerGuardCondition
+
+    ctx = nodes[0].context
+    subs = [s for n in nodes for s in n.subscriptions]
+    by_ptr = {s.handle.pointer: s for s in subs}
+    guard = SignalHandlerGuardCondition(context=ctx)
+    wait_set = _rclpy.WaitSet(len(subs), 1, 0, 0, 0, 0, ctx.handle)
+    period = max(round(period_s * 1e9), 1)
+    poll_period = round(poll_period_s * 1e9)
+    now = time.monotonic_ns()
+    deadline, next_poll = now + period, now + poll_period
+    try:
+        while ctx.ok():
+            now = time.monotonic_ns()
+            if now >= deadline:
+                tick()
+                if should_stop is not None and should_stop():
+                    return
+                deadline += period
+                if deadline <= now:
+                    deadline = now + period
+                continue
+            if poll is not None and now >= next_poll:
+                poll()
+                next_poll = now + poll_period
+                continue
+            wait_set.clear_entities()
+            for sub in subs:
+                wait_set.add_subscription(sub.handle)
+            wait_set.add_guard_condition(guard.handle)
+            wake = deadline if poll is None else min(deadline, next_poll)
+            wait_set.wait(max(wake - now, 0))
+            if guard.handle.pointer in wait_set.get_ready_entities('guard_condition'):
+                raise KeyboardInterrupt
+            for ptr in wait_set.get_ready_entities('subscription'):
+                sub = by_ptr[ptr]
+                while True:
+                    taken = sub.handle.take_message(sub.msg_type, sub.raw)
+                    if taken is None:
+                        break
+                    sub.callback(taken[0])
+    finally:
+        guard.destroy()
+
+
+def lean_spin(node: Node, graceful: bool = False,
+              poll: Callable[[], None] | None = None) -> None:
     """Spin a node that has only subscriptions, cheaper than rclpy's executor.
 
     One wait set over the node's subscriptions and the signal guard condition; at every wake-up
     every ready subscription is drained. rclpy's SingleThreadedExecutor rebuilds its wait set
     and schedules a task per callback, which dominates the cost of a lock-step exchange.
     A node may define ``lean_poll()``: it is called after every wake-up and at least every
-    50 ms (the place for what timers would do). Returns when the context shuts down; SIGINT or
-    SIGTERM raise KeyboardInterrupt. With ``graceful`` they only set a flag that the loop reads
-    between messages, so a callback (a bag write) is never cut in the middle, and it returns.
+    50 ms (the place for what timers would do), as is ``poll`` (services: ``serve_services``).
+    A subscription whose callback has ``with_info`` set gets ``(message, info)``: the
+    message info of the middleware (receive time, publication sequence number). A node that
+    creates or destroys subscriptions while it spins bumps ``subscriptions_version``.
+    Returns when the context shuts down; SIGINT or SIGTERM raise KeyboardInterrupt. With
+    ``graceful`` they only set a flag that the loop reads between messages, so a callback (a
+    bag write) is never cut in the middle, and it returns.
     """
     import signal as _signal
 
@@ -46,13 +129,22 @@ def lean_spin(node: Node, graceful: bool = False) -> None:
     by_ptr = {s.handle.pointer: s for s in subs}
     guard = SignalHandlerGuardCondition(context=ctx)
     wait_set = _rclpy.WaitSet(len(subs), 1, 0, 0, 0, 0, ctx.handle)
-    poll = getattr(node, 'lean_poll', None)
+    polls = [p for p in (getattr(node, 'lean_poll', None), poll) if p is not None]
+    with_info = {s.handle.pointer for s in subs if getattr(s.callback, 'with_info', False)}
+    version = getattr(node, 'subscriptions_version', 0)
     stop = []
     if graceful:
         for sig in (_signal.SIGINT, _signal.SIGTERM):
             _signal.signal(sig, lambda *_: stop.append(True))
     try:
         while ctx.ok() and not stop:
+            if getattr(node, 'subscriptions_version', 0) != version:   # came or went
+                version = node.subscriptions_version
+                subs = list(node.subscriptions)
+                by_ptr = {s.handle.pointer: s for s in subs}
+                with_info = {s.handle.pointer for s in subs
+                             if getattr(s.callback, 'with_info', False)}
+                wait_set = _rclpy.WaitSet(len(subs), 1, 0, 0, 0, 0, ctx.handle)
             wait_set.clear_entities()
             for sub in subs:
                 wait_set.add_subscription(sub.handle)
@@ -62,13 +154,17 @@ def lean_spin(node: Node, graceful: bool = False) -> None:
                 raise KeyboardInterrupt
             for ptr in wait_set.get_ready_entities('subscription'):
                 sub = by_ptr[ptr]
+                info = ptr in with_info
                 while not stop:
                     taken = sub.handle.take_message(sub.msg_type, sub.raw)
                     if taken is None:
                         break
-                    sub.callback(taken[0])
-            if poll is not None:
-                poll()
+                    if info:
+                        sub.callback(taken[0], taken[1])
+                    else:
+                        sub.callback(taken[0])
+            for p in polls:
+                p()
     finally:
         guard.destroy()
 
@@ -146,10 +242,18 @@ def run_node(cls: type[Node], args: list[str] | None = None) -> None:
             code = 2
             return
         with profiled(node.get_name()):
-            if getattr(node, 'LEAN_SPIN', False) and \
-                    os.environ.get('PAM_BENCH_EXECUTOR') != 'single':
-                lean_spin(node, graceful=getattr(node, 'GRACEFUL_STOP', False))
-            else:
+            period = getattr(node, 'wall_period_s', None)
+            lockstep = getattr(node, 'lockstep', True)
+            lean = os.environ.get('PAM_BENCH_EXECUTOR') != 'single'
+            if period is not None and getattr(node, 'action', None) is None and lean:
+                deadline_spin([node], node.on_wall_tick, node.take_wall_ticks(),
+                              serve_services(node),
+                              should_stop=lambda: node.exit_code is not None)
+                code = node.exit_code or 0
+            elif getattr(node, 'LEAN_SPIN', False) and lean:
+                lean_spin(node, graceful=getattr(node, 'GRACEFUL_STOP', False),
+                          poll=None if lockstep else serve_services(node))
+            else:                                # rclpy's executor (and its timers)
                 rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

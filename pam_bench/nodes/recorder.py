@@ -9,12 +9,23 @@ flush tick t_N + 1 ns makes it write the t_N data and then drop anything stamped
 recorded payloads of a scene are the same in every run. Event topics (points, status,
 diagnostics) are written as they come. The bag is closed valid at the end of the scene and on
 SIGINT or SIGTERM.
+
+On a wall clock (``lockstep: false``; ``pam-bench record``) every topic is written as it
+arrives: log time = receive time on the wall clock (the middleware's receive stamp), header
+stamps untouched. Each subscription matches its publishers' QoS (reliable unless a publisher
+is best effort, checked every ``discovery_period_s``); with ``record_all`` every topic that
+appears is recorded, like ``ros2 bag record -a``. Per topic the recorder counts what it wrote
+and the publication sequence numbers it saw, so a gap (a lost message) is counted, not
+guessed (``stats_file``). The pending chunk is flushed to disk every ``flush_period_s``: after a
+SIGKILL at most that much is lost and ``pam-bench bag-repair`` rebuilds the index and
+metadata.yaml.
 """
 
 from __future__ import annotations
 
 import functools
 import pathlib
+import time
 from typing import Any
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -68,6 +79,14 @@ class Recorder(BenchNode):
         event_topics = self.declare_typed('event_topics', ['/diagnostics:diagnostic_msgs/msg/'
                                                            'DiagnosticArray'],
                                           'topic:type recorded as they come')
+        self.record_all = self.declare_typed('record_all', False, 'record every topic that '
+                                             'appears (wall clock only; like ros2 bag -a)')
+        self.flush_period_s = self.declare_typed('flush_period_s', 1.0, 'wall clock: write the '
+                                                 'pending chunk to disk this often', 's', 0.01,
+                                                 3600.0)
+        self.discovery_period_s = self.declare_typed('discovery_period_s', 0.5, 'wall clock: '
+                                                     'look for new topics and publishers QoS '
+                                                     'this often', 's', 0.05, 60.0)
         self.store = bench_typestore()
         path = pathlib.Path(out)
         if path.exists():
@@ -79,11 +98,26 @@ class Recorder(BenchNode):
         self.end_ns: int | None = None
         self.connections = {}
         self._trim: dict[str, str] = {}
-        for entry in list(step_topics) + list(event_topics):
+        for entry in list(step_topics) + list(event_topics) if self.lockstep else []:
             topic, msgtype = self._split(entry)
             self.connections[topic] = self.writer.add_connection(topic, msgtype,
                                                                  typestore=self.store)
         self.step_order = []
+        self.written: dict[str, int] = {}
+        self.sequence: dict[str, list[int]] = {}   # topic -> [first, last, count] seen
+        self._wall_subs: dict[str, tuple[Any, str, bool]] = {}   # topic -> (sub, type, BE)
+        self.subscriptions_version = 0
+        if not self.lockstep:
+            for entry in list(step_topics) + list(event_topics):
+                topic, msgtype = self._split(entry)
+                if topic != '/clock':
+                    self._subscribe(topic, msgtype, best_effort=False)
+            self._next_discovery = 0.0
+            self._next_flush = time.monotonic() + self.flush_period_s
+            print(f'recorder: recording {len(self._wall_subs)} topics'
+                  + (' and every topic that appears' if self.record_all else '')
+                  + f' into {path}', flush=True)
+            return
         for entry in step_topics:
             topic, msgtype = self._split(entry)
             if topic == '/clock':
@@ -95,6 +129,85 @@ class Recorder(BenchNode):
             bus_subscription(self, message_class(msgtype), topic,
                              functools.partial(self._write_any, topic), KEEP_ALL, raw=True)
         self.start_lockstep()
+
+    # --- wall clock ---------------------------------------------------------------------
+    def _subscribe(self, topic: str, msgtype: str, best_effort: bool) -> None:
+        """(Re)subscribe ``topic`` raw, reliable or best effort, keeping up to 1000."""
+        old = self._wall_subs.pop(topic, None)
+        if old is not None:
+            self.destroy_subscription(old[0])
+        if topic not in self.connections:
+            self.connections[topic] = self.writer.add_connection(topic, msgtype,
+                                                                 typestore=self.store)
+        qos = QoSProfile(depth=1000, history=HistoryPolicy.KEEP_LAST,
+                         durability=DurabilityPolicy.VOLATILE,
+                         reliability=ReliabilityPolicy.BEST_EFFORT if best_effort
+                         else ReliabilityPolicy.RELIABLE)
+        callback = functools.partial(self._on_wall, topic)
+        callback.with_info = True        # type: ignore[attr-defined]
+        sub = self.create_subscription(message_class(msgtype), topic, callback, qos, raw=True)
+        self._wall_subs[topic] = (sub, msgtype, best_effort)
+        self.written.setdefault(topic, 0)
+        self.subscriptions_version += 1
+
+    def _on_wall(self, topic: str, data: bytes, info: dict[str, Any] | None = None) -> None:
+        """Write one message at its receive time; keep its publication sequence number."""
+        if self.writer is None:
+            return
+        t = (info or {}).get('received_timestamp') or time.time_ns()
+        self.writer.write(self.connections[topic], int(t), bytes(data))
+        self.count += 1
+        self.written[topic] += 1
+        seq = (info or {}).get('publication_sequence_number')
+        if seq:
+            s = self.sequence.get(topic)
+            if s is None:
+                self.sequence[topic] = [seq, seq, 1]
+            else:
+                s[0], s[1], s[2] = min(s[0], seq), max(s[1], seq), s[2] + 1
+
+    def lean_poll(self) -> None:
+        """Wall clock: discovery (new topics, publishers' QoS) and the periodic flush."""
+        if self.lockstep or self.writer is None:
+            return
+        now = time.monotonic()
+        if now >= self._next_flush:
+            self._next_flush = now + self.flush_period_s
+            self.flush()
+        if now < self._next_discovery:
+            return
+        self._next_discovery = now + self.discovery_period_s
+        if self.record_all:
+            for topic, types in self.get_topic_names_and_types():
+                if topic not in self._wall_subs and types and not topic.startswith('/_'):
+                    try:
+                        self._subscribe(topic, types[0], best_effort=False)
+                    except Exception as exc:  # noqa: BLE001 - an unknown type: say it, go on
+                        self.connections.pop(topic, None)
+                        self._wall_subs[topic] = (None, types[0], False)
+                        self.get_logger().warning(f'not recording {topic} ({types[0]}): {exc}')
+        for topic, (sub, msgtype, best_effort) in list(self._wall_subs.items()):
+            if sub is None:
+                continue
+            infos = self.get_publishers_info_by_topic(topic)
+            be = any(i.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT for i in infos)
+            if infos and be != best_effort:
+                self._subscribe(topic, msgtype, best_effort=be)
+
+    def flush(self) -> None:
+        """Write the pending chunk and flush the file: a SIGKILL loses at most what came
+        since (``pam-bench bag-repair`` rebuilds the rest)."""
+        storage = getattr(self.writer, 'storage', None)
+        if storage is not None and hasattr(storage, 'close_chunk') and storage.chunk.bio.tell():
+            storage.close_chunk()
+            storage.bio.flush()
+
+    def wall_stats(self) -> dict[str, Any]:
+        """Written counts and the publication sequence numbers seen, per topic."""
+        out = super().wall_stats()
+        out.update(written=dict(self.written),
+                   sequence={k: list(v) for k, v in self.sequence.items()})
+        return out
 
     @staticmethod
     def _split(entry: str) -> tuple[str, str]:

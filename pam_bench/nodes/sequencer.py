@@ -16,13 +16,17 @@ exchange (the devices form a chain that ends here), asking the clock for a step 
 the next reading or on the end of a record (the valve and the load cell then report every
 1 kHz sample inside the exchange), and for ``command_step_s`` at every new reading or phase
 (the loading servo takes a new set value one exchange after it is sent); with ``lockstep:
-false`` (real bench) on a timer of ``tick_period_s``, aborting when a measured topic is older
-than ``stale_timeout_s``.
+false`` (real bench) every ``tick_period_s`` of its own clock (``nodes.process.deadline_spin``),
+aborting when a measured topic is older than ``stale_timeout_s``. On a wall clock the autostart
+protocol begins once every measured topic has arrived, and with ``stop_on_end`` the node exits
+``end_linger_s`` after the protocol ends (code 0 done, 4 aborted, 5 cancelled), venting
+meanwhile, so that a recorder gets the last points and status.
 """
 
 from __future__ import annotations
 
 import math
+import time
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticStatus
@@ -54,13 +58,15 @@ from pam_bench.models.protocols import (
     Sequencer,
     StepRecord,
 )
-from pam_bench.nodes.base import RELIABLE, BenchNode
+from pam_bench.nodes.base import RELIABLE, SENSOR, BenchNode
 from pam_bench.nodes.intra import bus_publisher
 from pam_bench.nodes.messages import ns_of, time_of
 from pam_bench.nodes.process import run_node
 
 __all__ = ['SequencerNode', 'main']
 
+PROGRESS_PERIOD_S = 2.0
+"""On a wall clock, a progress line on stdout this often (s)."""
 END_CODES = {Phase.DONE: 0, Phase.ABORTED: 4, Phase.CANCELLED: 5}
 STATE_OF = {Phase.IDLE: ProtocolStatus.STATE_IDLE, Phase.SETTLE: ProtocolStatus.STATE_RUNNING,
             Phase.LEAD: ProtocolStatus.STATE_RUNNING, Phase.DWELL: ProtocolStatus.STATE_RUNNING,
@@ -89,6 +95,9 @@ class SequencerNode(BenchNode):
                                1e-4, 1.0)
         self.stale_timeout_s = d('stale_timeout_s', 0.5, 'abort when a measured topic is '
                                  'older than this (without lock-step)', 's', 1e-3, 60.0)
+        self.end_linger_s = d('end_linger_s', 0.5, 'without lock-step: time between the end '
+                              'of the protocol and the exit of the node (stop_on_end)', 's',
+                              0.0, 60.0)
         self.record_exchange_s = d('record_exchange_s', RECORD_EXCHANGE_S, 'longest exchange '
                                    'step asked for during a step record (0: the whole record in '
                                    'one; the devices report every sample inside it)', 's', 0.0,
@@ -124,9 +133,14 @@ class SequencerNode(BenchNode):
         self.valve_pub = self.create_step_publisher(ValveCommand, topics.valve_command(ch))
         self.load_pub = self.create_step_publisher(LoadCommand, topics.LOAD_COMMAND)
         self.point_pub = bus_publisher(self, CharacteristicPoint, topics.POINT, RELIABLE)
-        self.record_pub = bus_publisher(self, StepResponseRecord, topics.RECORD,
-                                                RELIABLE)
+        self.record_pub = bus_publisher(self, StepResponseRecord, topics.RECORD, RELIABLE)
         self.status_pub = bus_publisher(self, ProtocolStatus, topics.STATUS, RELIABLE)
+        if not self.lockstep:
+            for pub, topic in ((self.point_pub, topics.POINT), (self.record_pub, topics.RECORD),
+                               (self.status_pub, topics.STATUS)):
+                self.counted(pub, topic)
+        self._end_ns: int | None = None       # wall clock: when the node exits
+        self._next_progress_s = 0.0
         self.step_request = EventStepRequest(self.command_step_s)
         self._last_status_t = -math.inf
         self._last_phase: Phase | None = None
@@ -149,13 +163,13 @@ class SequencerNode(BenchNode):
             self.start_lockstep()
         else:
             self.create_subscription(WrenchStamped, self.cell_topic,
-                                     lambda m: self._measured(self.cell_topic, m), RELIABLE)
+                                     lambda m: self._measured(self.cell_topic, m), SENSOR)
             self.create_subscription(JointState, self.enc_topic,
-                                     lambda m: self._measured(self.enc_topic, m), RELIABLE)
+                                     lambda m: self._measured(self.enc_topic, m), SENSOR)
             self.create_subscription(FluidPressure, self.p_topic,
-                                     lambda m: self._measured(self.p_topic, m), RELIABLE)
-            self._start_pending = self.core is not None       # autostart at the first tick
-            self.create_timer(self.tick_period_s, self._on_timer)
+                                     lambda m: self._measured(self.p_topic, m), SENSOR)
+            self._start_pending = self.core is not None   # autostart once measurements came
+            self.start_wall_ticks(self.tick_period_s)
 
     def _make(self, name: str, overrides_yaml: str, start_index: int = 0) -> Sequencer:
         readings, settle = protocol_schedule(name, parse_overrides(overrides_yaml), self.table)
@@ -197,9 +211,22 @@ class SequencerNode(BenchNode):
             self._update(topic, msg)
         self._tick(t_ns)
 
-    def _on_timer(self) -> None:
-        t_ns = self.get_clock().now().nanoseconds
+    def on_wall_tick(self) -> None:
+        """Wall-clock tick: check the measurements' age, tick the protocol; start the
+        autostart protocol once every measured topic has arrived; exit after the end."""
+        t_ns = self.now_ns()
         t = t_ns * 1e-9
+        self._tick_ns.append(time.monotonic_ns())
+        if self._end_ns is not None and t_ns >= self._end_ns:
+            self.exit_code = END_CODES.get(self.core.phase, 4) if self.core else 0
+        if self._start_pending and len(self.stamps) < 3:
+            self._publish_commands(time_of(t_ns), 0.0, 0, 0.0)      # vented until then
+            return
+        if self.core is not None and self.core.running and t >= self._next_progress_s:
+            self._next_progress_s = t + PROGRESS_PERIOD_S
+            c = self.core
+            print(f'[wall] {c.name}: {c.points_done}/{len(c.readings)} readings, '
+                  f'{t - c.t_start:.0f} s, ETA {c.remaining_s(t):.0f} s', flush=True)
         if self.core is not None and self.core.running:
             for topic in (self.cell_topic, self.enc_topic, self.p_topic):
                 age = t - self.stamps.get(topic, -math.inf)
@@ -236,7 +263,10 @@ class SequencerNode(BenchNode):
                                                          (core.index, core.phase))
         if not core.running and core.phase != Phase.IDLE:
             self._finish_goal()
-            if self.stop_on_end and self.autostart:
+            if self.stop_on_end and self.autostart and not self.lockstep:
+                if self._end_ns is None:
+                    self._end_ns = t_ns + round(self.end_linger_s * 1e9)
+            elif self.stop_on_end and self.autostart:
                 self.stop_request = StopRequest(
                     END_CODES[core.phase], f'protocol {core.name} {core.phase.value}'
                     + (f': {core.reason}' if core.reason else ''))

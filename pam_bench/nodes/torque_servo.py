@@ -10,11 +10,18 @@ Safety: a set point beyond +-max_torque is clamped (warned once per excursion); 
 point is rejected (the last valid one is kept); a measured force that is not finite, or (without
 lock-step) a measured topic older than ``stale_timeout_s``, vents both valves (0 V) and says why
 in the state's ``status`` until fresh finite data arrive.
+
+On a wall clock (``lockstep: false``) the control loop runs every ``control_period_s`` of the
+node's clock on a monotonic deadline (``nodes.process.deadline_spin``); the valves stay vented
+and the set point's time stays at zero until every measured topic has arrived, and with
+``duration_s`` > 0 the node exits (code 0) that long after its first control step. Its period
+statistics are in ``stats_file`` (``analysis.timing``).
 """
 
 from __future__ import annotations
 
 import math
+import time
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticStatus
@@ -31,7 +38,7 @@ from pam_bench.models.torque_servo import (
     TorqueServoController,
     TorqueServoParams,
 )
-from pam_bench.nodes.base import RELIABLE, BenchNode
+from pam_bench.nodes.base import RELIABLE, SENSOR, BenchNode
 from pam_bench.nodes.messages import ns_of, time_of
 from pam_bench.nodes.process import run_node
 
@@ -61,6 +68,8 @@ class TorqueServoNode(BenchNode):
                                   'lock-step', 's', 1e-4, 1.0)
         self.stale_timeout_s = d('stale_timeout_s', 0.05, 'vent when a measured topic is older '
                                  'than this (without lock-step)', 's', 1e-3, 60.0)
+        self.duration_s = d('duration_s', 0.0, 'without lock-step: exit this long after the '
+                            'first control step (0: run until stopped)', 's', 0.0, 1e6)
         params = self.declare_model('servo', TorqueServoParams)
         inverse = InverseModel.load(model_file) if model_file else None
         self.ctl = TorqueServoController(params, ServoMode(mode), inverse, self.muscles)
@@ -88,9 +97,11 @@ class TorqueServoNode(BenchNode):
             for tp in [*self.cell_topics, self.enc_topic]:
                 self.create_subscription(
                     JointState if tp == self.enc_topic else WrenchStamped, tp,
-                    lambda m, tp=tp: self._measured(tp, m), RELIABLE)
+                    lambda m, tp=tp: self._measured(tp, m), SENSOR)
+            self.counted(self.state_pub, topics.SERVO_STATE)
             self._last_tick_ns: int | None = None
-            self.create_timer(self.control_period_s, self._on_timer)
+            self._next_progress_ns = 0
+            self.start_wall_ticks(self.control_period_s)
 
     # --- inputs ---------------------------------------------------------------------------
     def _on_setpoint(self, msg: TorqueSetpoint) -> None:
@@ -116,8 +127,25 @@ class TorqueServoNode(BenchNode):
             self._update(topic, msg)
         self._tick(t_ns, dt_s, '')
 
-    def _on_timer(self) -> None:
-        t_ns = self.get_clock().now().nanoseconds
+    def on_wall_tick(self) -> None:
+        """Wall-clock control step: vent while a measured topic is stale (or has never come),
+        else control over the time since the last step."""
+        t_ns = self.now_ns()
+        self._tick_ns.append(time.monotonic_ns())
+        if len(self.stamps) < len(self.cell_topics) + 1:          # not every device is up yet
+            stamp = time_of(t_ns)
+            for pub in self.valve_pubs:
+                msg = ValveCommand(voltage=0.0)
+                msg.header.stamp = stamp
+                pub.publish(msg)
+            return
+        if self.t0_ns is not None and self.duration_s > 0.0 and \
+                t_ns - self.t0_ns >= round(self.duration_s * 1e9):
+            self.exit_code = 0
+        if self.t0_ns is not None and t_ns >= self._next_progress_ns:
+            self._next_progress_ns = t_ns + 2_000_000_000
+            print(f'[wall] torque_servo: {(t_ns - self.t0_ns) * 1e-9:.0f} s of '
+                  f'{self.duration_s:.0f} s', flush=True)
         dt = 0.0 if self._last_tick_ns is None else (t_ns - self._last_tick_ns) * 1e-9
         self._last_tick_ns = t_ns
         stale = ''

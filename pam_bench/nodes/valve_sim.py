@@ -8,7 +8,8 @@ which the muscle follows sample by sample. A NaN, infinite or out-of-range volta
 counted on /diagnostics and the valve vents (u = 0 V) until a valid command arrives. While the
 pressure is in transient, until an exchange since its last command change has shown the
 chamber volume standing still, the valve asks for exchange steps of at most
-``transient_step_s`` (it integrates an exchange at the volume of its start).
+``transient_step_s`` (it integrates an exchange at the volume of its start). On a wall clock
+(``lockstep: false``) it steps at ``rate_hz`` with the latest command and chamber volume.
 """
 
 from __future__ import annotations
@@ -58,9 +59,8 @@ class ValveSim(BenchNode):
             self.sync_input(ValveCommand, self.cmd_topic)
         else:
             self.create_subscription(ValveCommand, self.cmd_topic, self.apply_command, RELIABLE)
-        if self.lockstep:
-            self.sync_input(MuscleState, self.muscle_topic, from_start=True)
-            self.start_lockstep()
+        self.sync_input(MuscleState, self.muscle_topic, from_start=True)
+        self.start_stepping()
 
     def apply_command(self, msg: ValveCommand) -> None:
         """Accept a voltage in [0, u_max] V; anything else vents the valve."""

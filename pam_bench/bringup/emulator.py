@@ -1,0 +1,119 @@
+"""The device emulator: the simulated devices of a scene composed in one process on a wall clock.
+
+Beside real drivers the sequencer, the torque servo and the recorder run in their own
+processes; on 2 cores five device processes ticking at 1 kHz each would compete with them for
+the CPU. The emulator builds the device nodes (separate ``Node`` objects with their own
+parameters and parameter services) on one intra-process bus and ticks them on one monotonic
+deadline in the chain order valve -> muscle -> loading servo -> load cell -> encoder, each at
+its own ``rate_hz``: every device steps on what the one before it published in the same tick,
+as the physics of one bench is one system. The measured topics and the commands cross DDS, as
+a driver's would. Run as ``python -m pam_bench.bringup.emulator PARAMS_FILE NODE [NODE ...]``.
+"""
+
+from __future__ import annotations
+
+import pathlib
+import sys
+from typing import Any
+
+__all__ = ['CHAIN', 'chain_order', 'run_emulator', 'main']
+
+CHAIN = ('valve_1', 'valve_2', 'muscle_1', 'muscle_2', 'loading_servo', 'load_cell_1',
+         'load_cell_2', 'encoder')
+"""Device nodes in the order they step within one tick."""
+
+
+def chain_order(names: list[str]) -> list[str]:
+    """``names`` in the chain order (``CHAIN``); anything else is not a device."""
+    unknown = [n for n in names if n not in CHAIN]
+    if unknown:
+        raise ValueError(f'not a device node: {", ".join(unknown)}')
+    return [n for n in CHAIN if n in names]
+
+
+def run_emulator(names: list[str], params: dict[str, Any]) -> int:
+    """Build the device nodes ``names`` with ``params`` (params-file layout) and tick them
+    until SIGINT or SIGTERM; return the exit code (2: a bad parameter, one line printed)."""
+    import importlib
+
+    import rclpy
+    from rclpy.exceptions import ParameterException
+    from rclpy.parameter import Parameter
+
+    from pam_bench.bringup.runner import flatten
+    from pam_bench.config.scene import NODE_TYPES
+    from pam_bench.models.errors import ModelError
+    from pam_bench.nodes import intra
+    from pam_bench.nodes.process import (
+        deadline_spin,
+        fail_line,
+        install_interrupt_handlers,
+        reject_undeclared,
+        serve_services,
+    )
+    from pam_bench.nodes.profiling import profiled
+
+    install_interrupt_handlers()
+    rclpy.init()
+    nodes: list[Any] = []
+    bus = intra.activate()
+    try:
+        for name in chain_order(names):
+            t = NODE_TYPES[name]
+            cls = getattr(importlib.import_module(t.module), t.cls)
+            overrides = [Parameter(k, value=v) for k, v in
+                         flatten(params.get(name, {}).get('ros__parameters', {})).items()]
+            try:
+                node = cls(name, parameter_overrides=overrides)
+                reject_undeclared(node, overrides)
+            except (ModelError, ParameterException) as exc:
+                print(fail_line(name, exc), file=sys.stderr, flush=True)
+                return 2
+            if node.wall_period_s is None:
+                print(f'{name}: error: the emulator runs devices on a wall clock: set lockstep '
+                      'false', file=sys.stderr, flush=True)
+                return 2
+            nodes.append(node)
+        periods = [round(n.take_wall_ticks() * 1e9) for n in nodes]
+        due = [0] * len(nodes)
+        services = [serve_services(n) for n in nodes]
+        now_ns = nodes[0].now_ns
+
+        def tick() -> None:
+            t = now_ns()
+            for i, node in enumerate(nodes):
+                if t >= due[i]:
+                    due[i] = max(due[i] + periods[i], t - periods[i] // 2)
+                    node.on_wall_tick()
+                    bus.drain(1 << 30)
+
+        def poll() -> None:
+            bus.refresh()
+            for serve in services:
+                serve()
+
+        with profiled('emulator'):
+            deadline_spin(nodes, tick, min(periods) * 1e-9, poll)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        intra.deactivate()
+        for node in nodes:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+def main(argv: list[str] | None = None) -> None:
+    """``python -m pam_bench.bringup.emulator PARAMS_FILE NODE [NODE ...]``."""
+    from pam_bench.config.yaml_io import read_yaml
+    args = sys.argv[1:] if argv is None else argv
+    if len(args) < 2:
+        print('usage: python -m pam_bench.bringup.emulator PARAMS_FILE NODE [NODE ...]',
+              file=sys.stderr)
+        sys.exit(2)
+    sys.exit(run_emulator(args[1:], read_yaml(pathlib.Path(args[0]))))
+
+
+if __name__ == '__main__':
+    main()
