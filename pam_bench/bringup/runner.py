@@ -253,9 +253,11 @@ def _run_wallclock(scene: Scene, params: dict[str, Any], domain_id: int | None, 
         stats = {}
         for name in scene.nodes:
             path = os.path.join(tmp, f'{name}.json')
-            if os.path.exists(path):
+            try:
                 with open(path, encoding='utf-8') as fh:
                     stats[name] = json.load(fh)
+            except (OSError, ValueError):
+                sys.stderr.write(f'warning: no statistics from {name}\n')
     wall = time.monotonic() - t0
     result = RunResult(code, 0, wall, wall, 1.0, f'wall clock, {wall:.1f} s', stats)
     if dead:

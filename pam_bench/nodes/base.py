@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import time
 from array import array
 from collections.abc import Callable
@@ -384,8 +385,10 @@ class BenchNode(Node):
     def write_stats(self) -> None:
         """Write ``wall_stats`` to ``stats_file`` (when set)."""
         if self.stats_file:
-            with open(self.stats_file, 'w', encoding='utf-8') as fh:
+            tmp = f'{self.stats_file}.part'
+            with open(tmp, 'w', encoding='utf-8') as fh:
                 json.dump(self.wall_stats(), fh)
+            os.replace(tmp, self.stats_file)
 
     def destroy_node(self) -> None:
         """Write the stats file, then go."""

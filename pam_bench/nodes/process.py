@@ -254,7 +254,12 @@ def run_node(cls: type[Node], args: list[str] | None = None) -> None:
                 lean_spin(node, graceful=getattr(node, 'GRACEFUL_STOP', False),
                           poll=None if lockstep else serve_services(node))
             else:                                # rclpy's executor (and its timers)
-                rclpy.spin(node)
+                from rclpy.executors import SingleThreadedExecutor
+                executor = SingleThreadedExecutor(context=node.context)
+                executor.add_node(node)
+                while node.context.ok() and getattr(node, 'exit_code', None) is None:
+                    executor.spin_once(timeout_sec=0.1)
+                code = getattr(node, 'exit_code', None) or 0
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:

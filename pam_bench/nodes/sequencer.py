@@ -9,7 +9,8 @@ and ``protocol/status``. The protocol logic is the pure
 Start: with ``autostart`` the protocol named by ``protocol`` begins at t_0; otherwise (and at
 any time when idle) a ``protocol/run`` RunProtocol goal starts one, with optional YAML
 overrides. Cancelling the goal stops the run and vents the valve. A lock-step sequencer with
-``autostart`` (a scene) serves no goals and spins on its subscriptions only.
+``autostart`` (a scene) serves no goals and spins on its subscriptions only; on a wall clock
+an autostart sequencer serves no goals either.
 
 Ticks: in lock-step (simulated bench) on every /clock tick, with the measurements of the same
 exchange (the devices form a chain that ends here), asking the clock for a step that lands on
@@ -152,7 +153,7 @@ class SequencerNode(BenchNode):
         # fraction of rclpy's executor per message (1 kHz records arrive 1000 samples a second)
         self.LEAN_SPIN = self.lockstep and self.autostart
         self.action = None
-        if not self.LEAN_SPIN:
+        if not self.autostart:
             self.action = ActionServer(self, RunProtocol, topics.RUN, self._execute,
                                        goal_callback=self._on_goal,
                                        cancel_callback=lambda _: CancelResponse.ACCEPT)
