@@ -75,7 +75,8 @@ def _print_wall_stats(stats: dict) -> None:
         if per:
             print(f'{name:14s} period mean {per["mean_s"] * 1e3:.3f} ms, p50 '
                   f'{per["p50_s"] * 1e3:.3f}, p99 {per["p99_s"] * 1e3:.3f}, max '
-                  f'{per["max_s"] * 1e3:.3f} ms, late {per["late_share"] * 100:.2f} %')
+                  f'{per["max_s"] * 1e3:.3f} ms (at {per["max_at_s"]:.1f} s), late '
+                  f'{per["late_share"] * 100:.2f} %')
     if 'recorder' in stats:
         print(format_delivery(delivery_table(
             [v for k, v in stats.items() if k != 'recorder'], stats['recorder'])))

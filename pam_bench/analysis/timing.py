@@ -29,7 +29,8 @@ def period_stats(times_ns: Sequence[int] | np.ndarray, period_s: float,
 
     Returns:
         ``ticks`` (n), ``period_s`` (T), ``mean_s``, ``p50_s``, ``p99_s``, ``max_s`` of the
-        periods and ``late_share`` (fraction of periods longer than T + late_s).
+        periods, ``max_at_s`` (when the longest one ended, from the first tick) and
+        ``late_share`` (fraction of periods longer than T + late_s).
 
     Raises:
         ValueError: fewer than two ticks.
@@ -41,4 +42,5 @@ def period_stats(times_ns: Sequence[int] | np.ndarray, period_s: float,
     return {'ticks': float(t.size), 'period_s': float(period_s), 'mean_s': float(dt.mean()),
             'p50_s': float(np.percentile(dt, 50)), 'p99_s': float(np.percentile(dt, 99)),
             'max_s': float(dt.max()),
+            'max_at_s': float((t[int(dt.argmax()) + 1] - t[0]) * 1e-9),
             'late_share': float(np.mean(dt > period_s + late_s))}
