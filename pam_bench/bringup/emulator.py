@@ -84,7 +84,7 @@ def run_emulator(names: list[str], params: dict[str, Any]) -> int:
             for i, node in enumerate(nodes):
                 if t >= due[i]:
                     due[i] = max(due[i] + periods[i], t - periods[i] // 2)
-                    node.on_wall_tick()
+                    node.on_wall_tick(t)
                     bus.drain(1 << 30)
 
         def poll() -> None:
@@ -93,7 +93,7 @@ def run_emulator(names: list[str], params: dict[str, Any]) -> int:
                 serve()
 
         with profiled('emulator'):
-            deadline_spin(nodes, tick, min(periods) * 1e-9, poll)
+            deadline_spin(nodes, tick, min(periods) * 1e-9, poll, poll_period_s=0.02)
     except KeyboardInterrupt:
         pass
     finally:

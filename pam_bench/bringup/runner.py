@@ -12,7 +12,8 @@ devices (by default composed in one emulator process, ``bringup.emulator``; with
 ``device_processes`` one process each), then the sequencer and the torque servo, every node
 with ``lockstep: false``. The run ends when the sequencer or the servo exits (end of the
 protocol, ``duration_s`` of the servo) or on Ctrl-C; the other nodes are then stopped, the
-recorder last. Every node writes its publish counts and tick periods (``stats_file``), which
+recorder last. The recorder records the topics a real bench has (no ``sim/`` ground truth,
+which would double what crosses DDS). Every node writes its publish counts and tick periods (``stats_file``), which
 come back in ``RunResult.stats`` with the recorder's delivery table.
 """
 
@@ -198,6 +199,9 @@ def _run_wallclock(scene: Scene, params: dict[str, Any], domain_id: int | None, 
             p.update(lockstep=False, stats_file=os.path.join(tmp, f'{name}.json'))
         if 'torque_servo' in params:
             params['torque_servo']['ros__parameters']['duration_s'] = scene.duration_s
+        if 'recorder' in params:       # what a real bench has: no sim/ ground truth
+            rp = params['recorder']['ros__parameters']
+            rp['step_topics'] = [t for t in rp['step_topics'] if not t.startswith('/sim/')]
         pfile = os.path.join(tmp, 'params.yaml')
         with open(pfile, 'w', encoding='utf-8') as fh:
             yaml.safe_dump({k: v for k, v in params.items() if k != 'sim_clock'}, fh)

@@ -115,9 +115,11 @@ class BenchNode(Node):
         # wall clock (module docstring)
         self.wall_period_s: float | None = None     # set: ticked by on_wall_tick
         self._latest: dict[str, Any] = {}
+        self._model_ns = 0                          # wall clock: the model's time
         self._tick_ns = array('q')                  # monotonic ns of every wall tick
         self.published: dict[str, int] = {}         # topic -> messages published on DDS
         self.exit_code: int | None = None    # set: the node's work is done, its process exits
+        self._counted_pubs: list[Any] = []
         if not self.lockstep:
             from rclpy.parameter_service import ParameterService
             self._parameter_service = ParameterService(self)
@@ -210,6 +212,7 @@ class BenchNode(Node):
             send(msg, *args)
 
         pub.publish = publish
+        self._counted_pubs.append(pub)
         return pub
 
     def sync_input(self, msg_type: type, topic: str, raw: bool = False,
@@ -348,23 +351,35 @@ class BenchNode(Node):
         """The node's clock (ROS time: the system clock unless use_sim_time), ns."""
         return int(self.get_clock().now().nanoseconds)
 
-    def on_wall_tick(self) -> None:
-        """One wall-clock step of a device: on_start at the first tick, then, once every
-        synchronous input has arrived, on_step over the time since the last tick with the
-        latest inputs (``wall_inputs``). A step that raises puts the device in its safe state
+    def on_wall_tick(self, t_ns: int | None = None) -> None:
+        """One wall-clock step of a device at ``t_ns`` (default: now on the node's clock).
+
+        At the first tick ``on_start``; then, once every synchronous input has arrived,
+        ``on_step`` with the latest inputs (``wall_inputs``) over the whole periods that have
+        passed: the model runs on a fixed grid of ``wall_period_s`` that follows the clock to
+        within half a period (a late tick steps two periods at once), so its exact
+        discretisations (ZOH) are computed once, not at every jittered step. Outputs are
+        stamped ``t_ns``. A step that raises puts the device in its safe state
         (``on_fault``) and the node goes on."""
-        t = self.now_ns()
+        t = self.now_ns() if t_ns is None else t_ns
         self._tick_ns.append(time.monotonic_ns())
-        prev = self._last_ns
-        self._last_ns = t
-        if prev is None:
+        period = round(self.wall_period_s * 1e9)
+        if self._last_ns is None:
+            self._last_ns = self._model_ns = t
             self.on_start(t)
             return
-        if len(self._latest) < len(self._sync):   # a producer has not started yet
+        self._last_ns = t
+        n = (t - self._model_ns + period // 2) // period
+        if n <= 0:
             return
-        dt_s = min(max(t - prev, 0) * 1e-9, 1.0)
+        if len(self._latest) < len(self._sync):   # a producer has not started yet
+            self._model_ns = t
+            return
+        n = min(n, 1000)
+        self._model_ns = max(self._model_ns + n * period, t - period)
         try:
-            self.on_step(t, dt_s, self.wall_inputs(dict(self._latest), dt_s))
+            self.on_step(t, n * period * 1e-9, self.wall_inputs(dict(self._latest),
+                                                                 n * period * 1e-9))
         except Exception as exc:  # noqa: BLE001 - a callback must never let an exception out
             self.diagnose(DiagnosticStatus.ERROR, f'step failed: {exc}')
             self.on_fault(str(exc))
@@ -391,7 +406,15 @@ class BenchNode(Node):
             os.replace(tmp, self.stats_file)
 
     def destroy_node(self) -> None:
-        """Write the stats file, then go."""
+        """Let subscribers acknowledge what was published (a recorder gets the last
+        messages), write the stats file, then go."""
+        from rclpy.duration import Duration
+        for pub in self._counted_pubs:
+            dds = getattr(pub, 'dds', pub)
+            try:
+                dds.wait_for_all_acked(Duration(seconds=0.5))
+            except Exception:  # noqa: BLE001 - best effort at shutdown
+                pass
         try:
             self.write_stats()
         except OSError as exc:

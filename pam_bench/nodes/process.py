@@ -10,6 +10,7 @@ shutdown, and cleaned up.
 from __future__ import annotations
 
 import gc
+import os
 import signal
 import time
 from collections.abc import Callable
@@ -24,7 +25,8 @@ from pam_bench.models.errors import ModelError
 from pam_bench.models.params import check_known
 from pam_bench.nodes.profiling import profiled
 
-__all__ = ['lean_spin', 'deadline_spin', 'serve_services', 'reject_undeclared',
+__all__ = ['lean_spin', 'deadline_spin', 'serve_services', 'set_realtime_priority',
+           'reject_undeclared',
            'install_interrupt_handlers', 'fail_line', 'start_node', 'run_node']
 
 
@@ -42,6 +44,19 @@ def serve_services(node: Node) -> Callable[[], None]:
                 srv.send_response(srv.callback(request, srv.srv_type.Response()), header)
 
     return serve
+
+
+def set_realtime_priority(priority: int) -> str:
+    """Put this process in the SCHED_FIFO class at ``priority`` (1..99) where the machine
+    allows it (root or CAP_SYS_NICE, an rtprio limit): a loop that sleeps most of its period
+    then wakes ahead of every ordinary process. Returns what happened, for the log."""
+    if priority <= 0:
+        return 'ordinary scheduling'
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+    except (PermissionError, OSError, AttributeError) as exc:
+        return f'SCHED_FIFO {priority} refused ({exc}): ordinary scheduling'
+    return f'SCHED_FIFO priority {priority}'
 
 
 def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
@@ -171,8 +186,37 @@ def lean_spin(node: Node, graceful: bool = False,
                         sub.callback(taken[0])
             for p in polls:
                 p()
+        if stop:
+            _drain(subs, wait_set, with_info)
     finally:
         guard.destroy()
+
+
+def _drain(subs: list[Any], wait_set: Any, with_info: set[int], quiet_s: float = 0.05,
+           limit_s: float = 1.0) -> None:
+    """After a graceful stop: take what is still in flight until nothing came for
+    ``quiet_s`` (at most ``limit_s``), so the last messages a publisher sent before it
+    stopped are not lost."""
+    end = time.monotonic() + limit_s
+    by_ptr = {s.handle.pointer: s for s in subs}
+    while time.monotonic() < end:
+        wait_set.clear_entities()
+        for sub in subs:
+            wait_set.add_subscription(sub.handle)
+        wait_set.wait(round(quiet_s * 1e9))
+        ready = wait_set.get_ready_entities('subscription')
+        if not ready:
+            return
+        for ptr in ready:
+            sub = by_ptr[ptr]
+            while True:
+                taken = sub.handle.take_message(sub.msg_type, sub.raw)
+                if taken is None:
+                    break
+                if ptr in with_info:
+                    sub.callback(taken[0], taken[1])
+                else:
+                    sub.callback(taken[0])
 
 
 def reject_undeclared(node: Node, overrides: list[Any] | None = None) -> None:
@@ -252,6 +296,9 @@ def run_node(cls: type[Node], args: list[str] | None = None) -> None:
             lockstep = getattr(node, 'lockstep', True)
             lean = os.environ.get('PAM_BENCH_EXECUTOR') != 'single'
             if period is not None and getattr(node, 'action', None) is None and lean:
+                priority = getattr(node, 'realtime_priority', 0)
+                if priority:
+                    node.get_logger().info(f'control loop: {set_realtime_priority(priority)}')
                 deadline_spin([node], node.on_wall_tick, node.take_wall_ticks(),
                               serve_services(node),
                               should_stop=lambda: node.exit_code is not None)

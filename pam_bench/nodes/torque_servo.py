@@ -68,6 +68,9 @@ class TorqueServoNode(BenchNode):
                                   'lock-step', 's', 1e-4, 1.0)
         self.stale_timeout_s = d('stale_timeout_s', 0.05, 'vent when a measured topic is older '
                                  'than this (without lock-step)', 's', 1e-3, 60.0)
+        self.realtime_priority = d('realtime_priority', 0, 'without lock-step: run the control '
+                                   'loop SCHED_FIFO at this priority where allowed (0: off)',
+                                   '-', 0, 99)
         self.duration_s = d('duration_s', 0.0, 'without lock-step: exit this long after the '
                             'first control step (0: run until stopped)', 's', 0.0, 1e6)
         params = self.declare_model('servo', TorqueServoParams)
@@ -98,7 +101,6 @@ class TorqueServoNode(BenchNode):
                 self.create_subscription(
                     JointState if tp == self.enc_topic else WrenchStamped, tp,
                     lambda m, tp=tp: self._measured(tp, m), SENSOR)
-            self.counted(self.state_pub, topics.SERVO_STATE)
             self._last_tick_ns: int | None = None
             self._next_progress_ns = 0
             self.start_wall_ticks(self.control_period_s)
