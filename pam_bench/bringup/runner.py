@@ -13,8 +13,8 @@ devices (by default composed in one emulator process, ``bringup.emulator``; with
 with ``lockstep: false``. The run ends when the sequencer or the servo exits (end of the
 protocol, ``duration_s`` of the servo) or on Ctrl-C; the other nodes are then stopped, the
 recorder last. The recorder records the topics a real bench has (no ``sim/`` ground truth,
-which would double what crosses DDS). Every node writes its publish counts and tick periods (``stats_file``), which
-come back in ``RunResult.stats`` with the recorder's delivery table.
+which would double what crosses DDS). Every node writes its publish counts and tick periods
+(``stats_file``), which come back in ``RunResult.stats`` with the recorder's delivery table.
 """
 
 from __future__ import annotations

@@ -1,0 +1,136 @@
+"""`pam-bench run --wallclock` as on a real bench: readings against lock-step, the recorder's
+counts, two bag readers, and a device process killed in the middle."""
+
+from __future__ import annotations
+
+import os
+import pathlib
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from pam_bench.analysis.delivery import delivery_table
+from pam_bench.bringup.runner import run_scene
+from pam_bench.config.scene import load_scene
+from pam_bench.verify.wallclock import CONTRACTION_BOUND_M, FORCE_BOUND_N, compare_readings
+from test.helpers import bag_messages
+
+# Settled readings: x = 40 mm, u = 0 -> 2 -> 0 V in 1 V steps, 1.5 s dwell (6 readings, 11 s).
+SETTLED = """description: short isometric series for the wall-clock tests
+exchange_step_s: 1.5
+protocol: isometric_quick
+protocol_overrides: {x_m: [0.04, 0.04, 0.01], voltage_v: [0.0, 2.0, 1.0], dwell_s: 1.5}
+nodes: [valve_1, muscle_1, load_cell_1, encoder, loading_servo, sequencer, recorder]
+"""
+
+
+@pytest.fixture
+def settled_scene(tmp_path: pathlib.Path) -> pathlib.Path:
+    path = tmp_path / 'settled.yaml'
+    path.write_text(SETTLED)
+    return path
+
+
+def test_wallclock_readings_land_on_the_lockstep_ones(tmp_path: pathlib.Path, ros_domain: int,
+                                                      settled_scene: pathlib.Path) -> None:
+    scene = load_scene(str(settled_scene))
+    lock = run_scene(scene, str(tmp_path / 'lock'), one_process=True, quiet=True)
+    assert lock.code == 0
+    wall = run_scene(scene, str(tmp_path / 'wall'), wallclock=True, quiet=True)
+    assert wall.code == 0, wall.summary
+    diff = compare_readings(tmp_path / 'wall', tmp_path / 'lock')
+    assert diff.matched == 6 and diff.only_a == diff.only_b == 0
+    assert diff.max_force_n <= FORCE_BOUND_N, diff
+    assert diff.max_contraction_m <= CONTRACTION_BOUND_M, diff
+    # every node ticked and the recorder lost nothing it could have had
+    assert {'valve_1', 'muscle_1', 'sequencer', 'recorder'} <= set(wall.stats)
+    rows = delivery_table([v for k, v in wall.stats.items() if k != 'recorder'],
+                          wall.stats['recorder'])
+    counted = {r.topic: r for r in rows if r.lost is not None}
+    assert '/load_cell_1/force' in counted and '/protocol/point' in counted
+    assert all(r.lost == 0 for r in counted.values()), rows
+    assert counted['/protocol/point'].written == 6
+    # the bag reads with rosbags and with mcap + mcap_ros2, log time = receive time
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+    mcap_file = next((tmp_path / 'wall').glob('*.mcap'))
+    with open(mcap_file, 'rb') as fh:
+        decoded = [(m.log_time, ros) for _, _, m, ros in
+                   make_reader(fh, decoder_factories=[DecoderFactory()]).iter_decoded_messages(
+                       topics=['/load_cell_1/force'])]
+    assert len(decoded) == counted['/load_cell_1/force'].written
+    stamp_ns = [d[1].header.stamp.sec * 10**9 + d[1].header.stamp.nanosec for d in decoded]
+    lag_s = [(log - st) * 1e-9 for (log, _), st in zip(decoded, stamp_ns, strict=True)]
+    assert 0.0 <= min(lag_s) and sorted(lag_s)[len(lag_s) // 2] < 0.05
+    assert len(bag_messages(tmp_path / 'wall', '/protocol/point')) == 6
+
+
+def _readings_done(line: str) -> int:
+    """n of a progress line '[wall] NAME: n/N readings, ...' (else -1)."""
+    if not line.startswith('[wall]') or 'readings' not in line:
+        return -1
+    return int(line.split(': ', 1)[1].split('/', 1)[0])
+
+
+def _ns(msg: object) -> int:
+    return msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+
+
+def _wall_run(scene: pathlib.Path, out: pathlib.Path, extra: list[str]) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, '-m', 'pam_bench.cli', 'run', str(scene),
+                             '--wallclock', '--out', str(out), *extra],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            start_new_session=True)
+
+
+def _pid_of(parent: int, pattern: str, timeout_s: float = 20.0) -> int:
+    """The child of ``parent`` whose command line matches ``pattern``."""
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        out = subprocess.run(['pgrep', '-P', str(parent), '-f', pattern], capture_output=True,
+                             text=True).stdout
+        pids = [int(p) for p in out.split()]
+        if pids:
+            return pids[0]
+        time.sleep(0.1)
+    raise TimeoutError(pattern)
+
+
+def test_killed_device_process_aborts_vents_and_keeps_the_points(
+        tmp_path: pathlib.Path, ros_domain: int, settled_scene: pathlib.Path) -> None:
+    bag = tmp_path / 'bag'
+    proc = _wall_run(settled_scene, bag, [])
+    try:
+        pid = _pid_of(proc.pid, 'pam_bench.bringup.emulator')
+        deadline = time.monotonic() + 25.0
+        out = []
+        for line in proc.stdout:        # wait for the second reading, then kill the devices
+            out.append(line)
+            if _readings_done(line) >= 2 or time.monotonic() > deadline:
+                break
+        t_kill = time.time_ns()
+        os.kill(pid, signal.SIGKILL)
+        rest, _ = proc.communicate(timeout=30)
+        out.append(rest)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 4, ''.join(out)       # the protocol aborted
+    status = bag_messages(bag, '/protocol/status')
+    aborted = [m for m in status if m.state == 3]
+    assert aborted and 'stale' in aborted[-1].reason and 'force' in aborted[-1].reason, \
+        [m.reason for m in status]
+    # vented within the stale timeout (0.5 s) and a few ticks: from then on 0 V and drive off
+    load = bag_messages(bag, '/loading_servo/command')
+    off = [_ns(m) for m in load if m.mode == 0 and _ns(m) > t_kill]
+    assert off, 'the drive was never turned off'
+    latency_s = (min(off) - t_kill) * 1e-9
+    print(f'kill-to-vent latency {latency_s * 1e3:.0f} ms')
+    # stale_timeout_s (0.5 s) counts from the last reading's stamp, up to a tick before the kill
+    assert 0.5 - 0.02 <= latency_s < 0.5 + 0.1
+    assert all(m.voltage == 0.0 for m in bag_messages(bag, '/valve_1/command')
+               if _ns(m) >= min(off))
+    assert 2 <= len(bag_messages(bag, '/protocol/point')) < 6
