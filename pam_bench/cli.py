@@ -82,6 +82,33 @@ def _print_wall_stats(stats: dict) -> None:
             [v for k, v in stats.items() if k != 'recorder'], stats['recorder'])))
 
 
+def _cmd_emulate(args: argparse.Namespace) -> int:
+    from pam_bench.bringup.runner import run_scene
+    from pam_bench.config.scene import load_scene
+    res = run_scene(load_scene(args.scene), '', seed=args.seed, wallclock=True,
+                    devices_only=True)
+    return 0 if res.code in (0, 130) else res.code
+
+
+def _cmd_check_drivers(args: argparse.Namespace) -> int:
+    from pam_bench.config.scene import load_scene
+    from pam_bench.nodes.driver_probe import probe_drivers
+    nodes = load_scene(args.scene).nodes
+    controllers = [n for n in ('sequencer', 'torque_servo') if n in nodes]
+    if not controllers:
+        print(f'error: scene {args.scene} has no sequencer or torque servo: nothing reads '
+              'drivers', file=sys.stderr)
+        return 2
+    verdicts = probe_drivers(controllers, args.duration)
+    print(f'{"topic":26s} {"expected":44s} {"seen":36s} result')
+    for v in verdicts:
+        print(f'{v.topic:26s} {v.expected:44s} {v.seen:36s} '
+              + ('pass' if v.ok else 'FAIL') + (f': {v.reason}' if v.reason else ''))
+    failed = [v for v in verdicts if not v.ok]
+    print(f'{len(verdicts) - len(failed)} of {len(verdicts)} pass')
+    return 1 if failed else 0
+
+
 def _cmd_calibration(args: argparse.Namespace) -> int:
     from pam_bench.verify.calibration import calibration_figures
     fig = calibration_figures(h_s=args.step)
@@ -201,6 +228,17 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument('--device-processes', action='store_true', help='with --wallclock: each '
                    'device in its own process instead of the emulator')
     p.set_defaults(func=_cmd_run)
+    p = sub.add_parser('emulate', help="run only a scene's simulated devices on the wall "
+                       'clock, until Ctrl-C (a bench for your own controllers)')
+    p.add_argument('scene', nargs='?', default='demo')
+    p.add_argument('--seed', type=int, default=0, help='seed of the sensor noise')
+    p.set_defaults(func=_cmd_emulate)
+    p = sub.add_parser('check-drivers', help="join a running bench and check that its drivers "
+                       "meet the contract (docs/drivers.md)")
+    p.add_argument('scene', nargs='?', default='demo', help='scene whose controllers will read '
+                   'the drivers (default demo: the sequencer)')
+    p.add_argument('--duration', type=float, default=3.0, help='listening time, s')
+    p.set_defaults(func=_cmd_check_drivers)
     p = sub.add_parser('calibration', help='figures the simulated bench implies')
     p.add_argument('--json', action='store_true')
     p.add_argument('--step', type=float, default=0.01, help='exchange step, s')

@@ -106,14 +106,16 @@ def _watch(procs: dict[str, subprocess.Popen], clock: subprocess.Popen,
 def run_scene(scene: Scene, out_dir: str, seed: int = 0, realtime: bool = False,
               one_process: bool = False, domain_id: int | None = None,
               quiet: bool = False, wallclock: bool = False,
-              device_processes: bool = False) -> RunResult:
-    """Run ``scene``, recording into ``out_dir``; return the clock's summary."""
+              device_processes: bool = False, devices_only: bool = False) -> RunResult:
+    """Run ``scene``, recording into ``out_dir``; return the clock's summary. With
+    ``devices_only`` (wall clock) only the simulated devices run, until Ctrl-C: a bench to
+    point a lab's own controllers or ``check-drivers`` at."""
     params = scene.node_parameters(out_dir, seed, realtime)
     if wallclock:
         if one_process:
             raise ValueError('a wall-clock run composes the devices only (the emulator); '
                              'drop --one-process')
-        return _run_wallclock(scene, params, domain_id, quiet, device_processes)
+        return _run_wallclock(scene, params, domain_id, quiet, device_processes, devices_only)
     if one_process:
         return _run_in_process(scene, params, domain_id, quiet)
     return _run_processes(scene, params, domain_id, quiet)
@@ -181,14 +183,18 @@ CONTROLLERS = ('sequencer', 'torque_servo')
 
 
 def _run_wallclock(scene: Scene, params: dict[str, Any], domain_id: int | None, quiet: bool,
-                   device_processes: bool) -> RunResult:
+                   device_processes: bool, devices_only: bool = False) -> RunResult:
     import json
 
     from pam_bench.bringup.emulator import CHAIN
     env = ros_env(domain_id)
     devices = [n for n in scene.nodes if n in CHAIN]
     controllers = [n for n in scene.nodes if n in CONTROLLERS]
-    if not controllers:
+    if devices_only:
+        scene = dataclasses.replace(scene, nodes=devices)
+        controllers = []
+        device_processes = False
+    elif not controllers:
         raise ValueError(f'scene {scene.name}: a wall-clock run needs a sequencer or a servo')
     procs: dict[str, subprocess.Popen] = {}
     t0 = time.monotonic()
@@ -231,11 +237,15 @@ def _run_wallclock(scene: Scene, params: dict[str, Any], domain_id: int | None, 
             elif devices:
                 start('emulator', [sys.executable, '-m', 'pam_bench.bringup.emulator', pfile,
                                    *devices])
-            main_name = controllers[0]
             for name in controllers:
-                start(name, node_cmd(name), pipe=name == main_name)
-            main = procs[main_name]
-            for line in main.stdout:
+                start(name, node_cmd(name), pipe=name == controllers[0])
+            main = procs[controllers[0] if controllers else 'emulator']
+            if devices_only and not quiet:
+                print(f'devices {", ".join(devices)} running on the wall clock in one process '
+                      f'(ROS_DOMAIN_ID {env["ROS_DOMAIN_ID"]}); Ctrl-C stops them', flush=True)
+            if main.stdout is None:
+                main.wait()
+            for line in main.stdout or ():
                 log.write(line)
                 if not quiet and line.startswith('[wall'):
                     print(line, end='', flush=True)

@@ -2,4 +2,4 @@
 
 from __future__ import annotations
 
-__all__ = ['paths', 'protocols', 'scene', 'topics', 'yaml_io']
+__all__ = ['drivers', 'paths', 'protocols', 'scene', 'topics', 'yaml_io']

@@ -1,0 +1,87 @@
+"""driver_probe: joins a running graph and listens to the measured topics of the driver
+contract (``config.drivers``) for a while, for ``pam-bench check-drivers``.
+
+Per topic it records the publishers' types and reliability and, per message, the receive time,
+the header stamp and the contract's value; ``config.drivers.judge`` says pass or fail. It also
+looks whether each command topic of the controllers has a subscriber (a driver that listens).
+It subscribes with the sensor-data profile (best effort), as the controllers do, so it matches
+any publisher.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import rclpy
+from geometry_msgs.msg import WrenchStamped
+from rclpy.node import Node
+from rclpy.qos import ReliabilityPolicy
+from sensor_msgs.msg import FluidPressure, JointState
+
+from pam_bench.config.drivers import COMMANDS, Seen, Verdict, contract, judge
+from pam_bench.nodes.base import SENSOR
+from pam_bench.nodes.messages import ns_of
+from pam_bench.nodes.process import deadline_spin
+
+__all__ = ['probe_drivers']
+
+_CLASSES = {'sensor_msgs/msg/FluidPressure': FluidPressure,
+            'geometry_msgs/msg/WrenchStamped': WrenchStamped,
+            'sensor_msgs/msg/JointState': JointState}
+
+
+def _value(msg: Any) -> float:
+    if isinstance(msg, FluidPressure):
+        return float(msg.fluid_pressure)
+    if isinstance(msg, WrenchStamped):
+        return float(msg.wrench.force.x)
+    names = list(msg.name)
+    return float(msg.position[names.index('pulley')]) if 'pulley' in names else float('nan')
+
+
+def probe_drivers(controllers: list[str], duration_s: float, settle_s: float = 5.0
+                  ) -> list[Verdict]:
+    """Listen ``duration_s`` (after up to ``settle_s`` of discovery) and judge every topic.
+
+    Returns one ``Verdict`` per measured topic, then one per command topic (a subscriber
+    present or not)."""
+    rclpy.init()
+    node = Node('pam_bench_check_drivers')
+    expects = contract(controllers)
+    seen: dict[str, Seen] = {}
+    try:
+        end = time.monotonic() + settle_s        # discovery: wait until every topic is seen
+        while time.monotonic() < end:
+            names = dict(node.get_topic_names_and_types())
+            if all(e.topic in names for e in expects):
+                break
+            rclpy.spin_once(node, timeout_sec=0.1)
+        names = dict(node.get_topic_names_and_types())
+        for e in expects:
+            infos = node.get_publishers_info_by_topic(e.topic)
+            s = Seen([t for t in names.get(e.topic, [])],
+                     [i.qos_profile.reliability == ReliabilityPolicy.RELIABLE for i in infos],
+                     [], [], [], duration_s)
+            seen[e.topic] = s
+            if e.msgtype in s.types:
+                node.create_subscription(_CLASSES[e.msgtype], e.topic,
+                                         lambda m, s=s: _take(s, m), SENSOR)
+        end = time.monotonic() + duration_s      # one wait set: keeps up with 1 kHz topics
+        deadline_spin([node], lambda: None, 0.05, should_stop=lambda: time.monotonic() > end)
+        verdicts = [judge(e, seen[e.topic]) for e in expects]
+        for name in controllers:
+            for topic in COMMANDS.get(name, []):
+                n = node.count_subscribers(topic)
+                verdicts.append(Verdict(topic, 'a driver subscribed', f'{n} subscriber(s)',
+                                        n > 0, '' if n else 'no driver listens to the command'))
+        return verdicts
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+
+
+def _take(s: Seen, msg: Any) -> None:
+    s.recv_ns.append(time.time_ns())
+    s.stamp_ns.append(ns_of(msg.header.stamp))
+    s.values.append(_value(msg))

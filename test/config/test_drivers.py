@@ -1,0 +1,68 @@
+"""The driver contract's rules on what a probe saw: each broken driver fails for its reason."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pam_bench.config.drivers import Seen, contract, judge
+from pam_bench.models.constants import ATMOSPHERE_PA
+
+WINDOW_S = 2.0
+
+
+def _seen(rate_hz: float, values: np.ndarray, msgtype: str, frozen: bool = False,
+          age_s: float = 0.0005) -> Seen:
+    n = int(rate_hz * WINDOW_S)
+    stamps = (np.arange(n) * 1e9 / rate_hz).astype(np.int64) + 10**18
+    if frozen:
+        stamps[:] = stamps[0]
+    recv = stamps + int(age_s * 1e9)
+    return Seen([msgtype], [True], recv.tolist(), stamps.tolist(),
+                np.resize(values, n).tolist(), WINDOW_S)
+
+
+def _expect(topic: str):
+    return next(e for e in contract(['sequencer', 'torque_servo']) if e.topic == topic)
+
+
+rng = np.random.default_rng(0)
+FORCE = np.round((300.0 + rng.normal(0, 0.2, 5000)) / 0.061) * 0.061      # N, 16-bit quantum
+PRESSURE = ATMOSPHERE_PA + 2e5 + rng.normal(0, 50, 5000)
+ANGLE = np.full(5000, 0.1)
+WRENCH, FLUID, JOINT = ('geometry_msgs/msg/WrenchStamped', 'sensor_msgs/msg/FluidPressure',
+                        'sensor_msgs/msg/JointState')
+
+
+@pytest.mark.parametrize('topic, seen', [
+    ('/load_cell_1/force', _seen(1000, FORCE, WRENCH)),
+    ('/valve_1/pressure', _seen(1000, PRESSURE, FLUID)),
+    ('/encoder/joint_state', _seen(1000, ANGLE, JOINT)),
+])
+def test_a_good_driver_passes(topic: str, seen: Seen) -> None:
+    v = judge(_expect(topic), seen)
+    assert v.ok, v
+
+
+@pytest.mark.parametrize('topic, seen, words', [
+    ('/encoder/joint_state', _seen(1000, ANGLE, 'std_msgs/msg/Float64'), ['type', 'Float64']),
+    ('/load_cell_1/force', _seen(10, FORCE, WRENCH), ['rate 10 Hz', 'below 900']),
+    ('/encoder/joint_state', _seen(1000, ANGLE, JOINT, frozen=True), ['stamps not increasing']),
+    # a vented valve read as gauge pressure: about 0 Pa instead of one atmosphere
+    ('/valve_1/pressure', _seen(1000, PRESSURE - ATMOSPHERE_PA - 2e5, FLUID), ['gauge']),
+    ('/load_cell_1/force', _seen(1000, FORCE / 1000.0, WRENCH), ['kN']),
+    ('/load_cell_1/force', _seen(1000, FORCE, WRENCH, age_s=2.0), ['stamp age']),
+    ('/load_cell_1/force', Seen([], [], [], [], [], WINDOW_S), ['not published']),
+])
+def test_a_broken_driver_fails_with_its_reason(topic: str, seen: Seen,
+                                               words: list[str]) -> None:
+    v = judge(_expect(topic), seen)
+    assert not v.ok
+    assert all(w in v.reason for w in words), v.reason
+
+
+def test_best_effort_passes_with_a_note() -> None:
+    s = _seen(1000, FORCE, WRENCH)
+    s.reliable = [False]
+    v = judge(_expect('/load_cell_1/force'), s)
+    assert v.ok and 'best effort' in v.reason
