@@ -233,8 +233,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument('scene', nargs='?', default='demo')
     p.add_argument('--seed', type=int, default=0, help='seed of the sensor noise')
     p.set_defaults(func=_cmd_emulate)
-    p = sub.add_parser('check-drivers', help="join a running bench and check that its drivers "
-                       "meet the contract (docs/drivers.md)")
+    p = sub.add_parser('check-drivers', help='join a running bench and check that its drivers '
+                       'meet the contract (docs/drivers.md)')
     p.add_argument('scene', nargs='?', default='demo', help='scene whose controllers will read '
                    'the drivers (default demo: the sequencer)')
     p.add_argument('--duration', type=float, default=3.0, help='listening time, s')

@@ -2,5 +2,6 @@
 
 from __future__ import annotations
 
-__all__ = ['base', 'driver_probe', 'encoder_sim', 'intra', 'load_cell_sim', 'loading_servo_sim', 'muscle_sim',
-           'profiling', 'recorder', 'sequencer', 'sim_clock', 'torque_servo', 'valve_sim']
+__all__ = ['base', 'driver_probe', 'encoder_sim', 'intra', 'load_cell_sim', 'loading_servo_sim',
+           'muscle_sim', 'profiling', 'recorder', 'sequencer', 'sim_clock', 'torque_servo',
+           'valve_sim']
