@@ -82,6 +82,36 @@ def _print_wall_stats(stats: dict) -> None:
             [v for k, v in stats.items() if k != 'recorder'], stats['recorder'])))
 
 
+def _cmd_record(args: argparse.Namespace) -> int:
+    from pam_bench.nodes.recorder import record
+    if not args.topics and not args.all:
+        print('error: name the topics to record or give --all', file=sys.stderr)
+        return 2
+    out = pathlib.Path(args.out)
+    if out.exists():
+        print(f'error: {out} exists', file=sys.stderr)
+        return 2
+    return record(str(out), args.topics, args.all)
+
+
+def _cmd_bag_repair(args: argparse.Namespace) -> int:
+    from pam_bench.analysis.bag_repair import repair_bag
+    from pam_bench.analysis.bagread import BagError
+    try:
+        rep = repair_bag(args.bag)
+    except BagError as exc:
+        print(f'error: {exc}', file=sys.stderr)
+        return 2
+    if not rep.needed:
+        print(f'{args.bag} is a valid bag: nothing to repair')
+        return 0
+    print(f'{args.bag} rebuilt from its complete records ({rep.lost_bytes} bytes of a torn '
+          f'chunk unreadable); the old folder is {rep.broken_copy}')
+    for topic, n in sorted(rep.kept.items()):
+        print(f'  {topic:34s} {n:8d} messages kept')
+    return 0
+
+
 def _cmd_emulate(args: argparse.Namespace) -> int:
     from pam_bench.bringup.runner import run_scene
     from pam_bench.config.scene import load_scene
@@ -228,6 +258,15 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument('--device-processes', action='store_true', help='with --wallclock: each '
                    'device in its own process instead of the emulator')
     p.set_defaults(func=_cmd_run)
+    p = sub.add_parser('record', help='record topics of a running graph on the wall clock '
+                       '(like ros2 bag record), until Ctrl-C')
+    p.add_argument('topics', nargs='*', help='topic names (types are discovered)')
+    p.add_argument('--all', action='store_true', help='every topic that appears')
+    p.add_argument('--out', required=True, help='bag directory to create')
+    p.set_defaults(func=_cmd_record)
+    p = sub.add_parser('bag-repair', help='rebuild a bag whose recorder was killed')
+    p.add_argument('bag', help='rosbag2 folder')
+    p.set_defaults(func=_cmd_bag_repair)
     p = sub.add_parser('emulate', help="run only a scene's simulated devices on the wall "
                        'clock, until Ctrl-C (a bench for your own controllers)')
     p.add_argument('scene', nargs='?', default='demo')

@@ -2,6 +2,6 @@
 
 from __future__ import annotations
 
-__all__ = ['bagread', 'bagwrite', 'delivery', 'extract', 'force_models', 'identify',
+__all__ = ['bag_repair', 'bagread', 'bagwrite', 'delivery', 'extract', 'force_models', 'identify',
            'inverse_export', 'plots', 'report', 'servo_bag', 'smoothing', 'static', 'timing',
            'types']

@@ -84,6 +84,9 @@ class Recorder(BenchNode):
         self.flush_period_s = self.declare_typed('flush_period_s', 1.0, 'wall clock: write the '
                                                  'pending chunk to disk this often', 's', 0.01,
                                                  3600.0)
+        self.topic_names = list(self.declare_typed(
+            'topic_names', [''], 'wall clock: record these topics (names; their types are '
+            'discovered) besides step_topics and event_topics'))
         self.discovery_period_s = self.declare_typed('discovery_period_s', 0.5, 'wall clock: '
                                                      'look for new topics and publishers QoS '
                                                      'this often', 's', 0.05, 60.0)
@@ -98,6 +101,8 @@ class Recorder(BenchNode):
         self.end_ns: int | None = None
         self.connections = {}
         self._trim: dict[str, str] = {}
+        step_topics = [e for e in step_topics if e]
+        event_topics = [e for e in event_topics if e]
         for entry in list(step_topics) + list(event_topics) if self.lockstep else []:
             topic, msgtype = self._split(entry)
             self.connections[topic] = self.writer.add_connection(topic, msgtype,
@@ -177,9 +182,11 @@ class Recorder(BenchNode):
         if now < self._next_discovery:
             return
         self._next_discovery = now + self.discovery_period_s
-        if self.record_all:
+        wanted = {n if n.startswith('/') else '/' + n for n in self.topic_names if n}
+        if self.record_all or wanted - set(self._wall_subs):
             for topic, types in self.get_topic_names_and_types():
-                if topic not in self._wall_subs and types and not topic.startswith('/_'):
+                if topic not in self._wall_subs and types and (
+                        topic in wanted or self.record_all and not topic.startswith('/_')):
                     try:
                         self._subscribe(topic, types[0], best_effort=False)
                     except Exception as exc:  # noqa: BLE001 - an unknown type: say it, go on
@@ -258,16 +265,50 @@ class Recorder(BenchNode):
             self.end_ns = prev            # the clock's flush tick: nothing later is recorded
 
     def close(self) -> None:
-        """Close the bag (idempotent)."""
+        """Close the bag (idempotent); on a wall clock print what was written per topic and
+        the gaps in the publication sequence numbers (lost messages)."""
         if self.writer is not None:
             self.writer.close()
             self.writer = None
             print(f'recorder: bag closed with {self.count} messages', flush=True)
+            if not self.lockstep:
+                for topic, n in sorted(self.written.items()):
+                    seq = self.sequence.get(topic)
+                    gaps = seq[1] - seq[0] + 1 - seq[2] if seq else 0
+                    print(f'  {topic:34s} {n:8d} written, {gaps} lost in between', flush=True)
 
     def destroy_node(self) -> None:
         """Close the bag before the node goes."""
         self.close()
         super().destroy_node()
+
+
+def record(out_dir: str, topic_names: list[str], record_all: bool) -> int:
+    """``pam-bench record``: record ``topic_names`` (or every topic, ``record_all``) on the
+    wall clock into ``out_dir`` until Ctrl-C or SIGTERM; the bag is closed valid. Returns the
+    exit code."""
+    import rclpy
+    from rclpy.parameter import Parameter
+
+    from pam_bench.nodes.process import install_interrupt_handlers, lean_spin, serve_services
+    install_interrupt_handlers()
+    rclpy.init()
+    node = None
+    try:
+        node = Recorder('recorder', parameter_overrides=[
+            Parameter('lockstep', value=False), Parameter('out_dir', value=out_dir),
+            Parameter('record_all', value=record_all),
+            Parameter('topic_names', value=list(topic_names) or ['']),
+            Parameter('event_topics', value=['/diagnostics:diagnostic_msgs/msg/DiagnosticArray']
+                      if record_all else [''])])
+        lean_spin(node, graceful=True, poll=serve_services(node))
+    except KeyboardInterrupt:
+        pass
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
 
 
 def main(args: list[str] | None = None) -> None:
