@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import pathlib
 import shutil
+from typing import Any
 
 from pam_bench.analysis.bagread import BagError
 from pam_bench.analysis.types import bench_typestore
@@ -70,8 +71,8 @@ def repair_bag(path: str | pathlib.Path) -> RepairReport:
         try:
             from rosbags.rosbag2 import Reader
             with Reader(path) as reader:
-                kept = {c.topic: c.msgcount for c in reader.connections}
-            return RepairReport(False, kept, 0, None)
+                counts = {c.topic: c.msgcount for c in reader.connections}
+            return RepairReport(False, counts, 0, None)
         except Exception:  # noqa: BLE001 - unreadable despite its metadata: repair it
             pass
     data = files[0].read_bytes()
@@ -84,7 +85,7 @@ def repair_bag(path: str | pathlib.Path) -> RepairReport:
     shutil.rmtree(tmp, ignore_errors=True)
     schemas: dict[int, Schema] = {}
     channels: dict[int, Channel] = {}
-    conns: dict[int, object] = {}
+    conns: dict[int, Any] = {}
     kept: dict[str, int] = {}
     writer = Writer(tmp, version=9, storage_plugin=StoragePlugin.MCAP)
     writer.open()
