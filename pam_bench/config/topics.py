@@ -13,8 +13,8 @@ import dataclasses
 __all__ = ['Topic', 'TOPICS', 'valve_command', 'valve_pressure', 'valve_samples',
            'muscle_state', 'muscle_samples', 'load_cell_force', 'ENCODER', 'LOAD_COMMAND',
            'LOAD_STATE', 'PULLEY_STATE', 'PULLEY_LAW', 'POINT', 'RECORD', 'STATUS', 'RUN',
-           'SERVO_SETPOINT', 'SERVO_STATE', 'DIAGNOSTICS', 'CLOCK', 'ACK', 'STEP_TOPIC_SOURCES',
-           'EVENT_TOPICS', 'STEP_TOPICS', 'step_topics', 'absolute']
+           'SERVO_SETPOINT', 'SERVO_STATE', 'SERVO_RESET', 'DIAGNOSTICS', 'CLOCK', 'ACK',
+           'STEP_TOPIC_SOURCES', 'EVENT_TOPICS', 'STEP_TOPICS', 'step_topics', 'absolute']
 
 
 def valve_command(ch: int) -> str:
@@ -58,6 +58,7 @@ STATUS = 'protocol/status'
 RUN = 'protocol/run'
 SERVO_SETPOINT = 'torque_servo/setpoint'
 SERVO_STATE = 'torque_servo/state'
+SERVO_RESET = 'torque_servo/reset'
 DIAGNOSTICS = '/diagnostics'
 CLOCK = '/clock'
 ACK = '/sim/ack'

@@ -195,6 +195,16 @@ class SequencerNode(BenchNode):
                                     msg.fluid_pressure - ATMOSPHERE_PA)
 
     def _measured(self, topic: str, msg: Any) -> None:
+        """A measurement from a driver (wall clock): a value that is not finite is rejected
+        (counted on /diagnostics) and aborts a running protocol, which vents the valve."""
+        value = (msg.wrench.force.x if topic == self.cell_topic else
+                 msg.position[0] if topic == self.enc_topic and len(msg.position) else
+                 getattr(msg, 'fluid_pressure', 0.0))
+        if not self.finite(value):
+            self.reject(f'measurement on {topic} (protocol aborted, valve vented)', value)
+            if self.core is not None and self.core.running:
+                self.core.stop(Phase.ABORTED, f'measured topic {topic} not finite')
+            return
         self.stamps[topic] = ns_of(msg.header.stamp) * 1e-9
         self._update(topic, msg)
 

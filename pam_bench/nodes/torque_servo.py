@@ -9,7 +9,9 @@ the single-muscle force check (set point in N).
 Safety: a set point beyond +-max_torque is clamped (warned once per excursion); a NaN or inf set
 point is rejected (the last valid one is kept); a measured force that is not finite, or (without
 lock-step) a measured topic older than ``stale_timeout_s``, vents both valves (0 V) and says why
-in the state's ``status`` until fresh finite data arrive.
+in the state's ``status``; in lock-step until fresh finite data arrive, on a wall clock (with
+``latch_faults``) until ``torque_servo/reset`` (std_srvs/Trigger) is called with fresh data:
+a device that comes back does not restart the servo by itself.
 
 On a wall clock (``lockstep: false``) the control loop runs every ``control_period_s`` of the
 node's clock on a monotonic deadline (``nodes.process.deadline_spin``); the valves stay vented
@@ -28,6 +30,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import WrenchStamped
 from pam_bench_interfaces.msg import TorqueServoState, TorqueSetpoint, ValveCommand
 from sensor_msgs.msg import JointState
+from std_srvs.srv import Trigger
 
 from pam_bench.config import topics
 from pam_bench.models.inverse import InverseModel
@@ -71,6 +74,10 @@ class TorqueServoNode(BenchNode):
         self.realtime_priority = d('realtime_priority', 0, 'without lock-step: run the control '
                                    'loop SCHED_FIFO at this priority where allowed (0: off)',
                                    '-', 0, 99)
+        self.latch_faults = d('latch_faults', True, 'without lock-step: a stale or non-finite '
+                              'measurement keeps the valves vented until torque_servo/reset, '
+                              'even when the data come back')
+        self.latched = ''
         self.duration_s = d('duration_s', 0.0, 'without lock-step: exit this long after the '
                             'first control step (0: run until stopped)', 's', 0.0, 1e6)
         params = self.declare_model('servo', TorqueServoParams)
@@ -91,6 +98,8 @@ class TorqueServoNode(BenchNode):
         self.state_pub = self.create_step_publisher(TorqueServoState, topics.SERVO_STATE)
         self.create_subscription(TorqueSetpoint, topics.SERVO_SETPOINT, self._on_setpoint,
                                  RELIABLE)
+        if not self.lockstep:
+            self.create_service(Trigger, topics.SERVO_RESET, self._on_reset)
         if self.lockstep:
             for tp in self.cell_topics:
                 self.sync_input(WrenchStamped, tp)
@@ -172,12 +181,26 @@ class TorqueServoNode(BenchNode):
             s = (m, 0.0 if clamped else s[1], 0.0 if clamped else s[2])
         return s
 
+    def _on_reset(self, request: Trigger.Request, response: Trigger.Response
+                  ) -> Trigger.Response:
+        """Clear a latched fault: control resumes at the next tick if the data are fresh."""
+        response.success = bool(self.latched)
+        response.message = (f'cleared: {self.latched}' if self.latched else 'no latched fault')
+        if self.latched:
+            self.diagnose(DiagnosticStatus.OK, f'fault cleared by reset: {self.latched}')
+        self.latched = ''
+        return response
+
     def _tick(self, t_ns: int, dt_s: float, fault: str) -> None:
         if self.t0_ns is None:
             self.t0_ns = t_ns
         t = (t_ns - self.t0_ns) * 1e-9
         if not fault and not self.finite(self.angle_rad, *self.forces):
             fault = 'measured force or angle not finite: valves vented'
+        if fault and self.latch_faults and not self.lockstep:
+            self.latched = self.latched or fault
+        if not fault and self.latched:
+            fault = f'{self.latched} (latched: call {topics.SERVO_RESET} to resume)'
         sp = self._setpoint(t)
         st = TorqueServoState(controller=self.ctl.mode.value, angle=self.angle_rad)
         if fault:

@@ -134,3 +134,35 @@ def test_killed_device_process_aborts_vents_and_keeps_the_points(
     assert all(m.voltage == 0.0 for m in bag_messages(bag, '/valve_1/command')
                if _ns(m) >= min(off))
     assert 2 <= len(bag_messages(bag, '/protocol/point')) < 6
+
+
+def test_killed_device_process_vents_both_servo_valves(tmp_path: pathlib.Path,
+                                                       ros_domain: int) -> None:
+    scene = tmp_path / 'servo.yaml'
+    src = pathlib.Path(__file__).resolve().parents[2] / 'config' / 'scenes' / 'servo_sin_t.yaml'
+    scene.write_text(src.read_text().replace('duration_s: 8.0', 'duration_s: 4.0'))
+    bag = tmp_path / 'bag'
+    proc = _wall_run(scene, bag, [])
+    try:
+        pid = _pid_of(proc.pid, 'pam_bench.bringup.emulator')
+        for line in proc.stdout:        # kill the devices once the servo has run 2 s
+            if line.startswith('[wall] torque_servo: 2 s'):
+                break
+        t_kill = time.time_ns()
+        os.kill(pid, signal.SIGKILL)
+        out, _ = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 0, out            # the servo ran its duration, vented
+    states = bag_messages(bag, '/torque_servo/state')
+    stale = [_ns(s) for s in states if 'stale' in s.status and _ns(s) > t_kill]
+    assert stale, [s.status for s in states[-3:]]
+    latency_s = (min(stale) - t_kill) * 1e-9
+    print(f'servo kill-to-vent latency {latency_s * 1e3:.0f} ms')
+    assert latency_s < 0.05 + 0.02                 # stale_timeout_s of the servo and a tick
+    for ch in (1, 2):
+        after = [m.voltage for m in bag_messages(bag, f'/valve_{ch}/command')
+                 if _ns(m) >= min(stale)]
+        assert after and all(v == 0.0 for v in after)
+    assert all('stale' in s.status for s in states if _ns(s) >= min(stale))

@@ -74,6 +74,25 @@ def test_stale_load_cell_aborts_and_vents(harness_factory) -> None:
     assert h.received['loading_servo/command'][-1].mode == LoadCommand.MODE_OFF
 
 
+def test_nan_from_a_driver_is_rejected_and_vents(harness_factory) -> None:
+    h = harness_factory(True)
+    feed(h, 0.5)
+    end = time.monotonic() + 0.3
+    while time.monotonic() < end:                # the load cell driver sends NaN
+        now = h.tester.get_clock().now().nanoseconds
+        bad = WrenchStamped()
+        bad.wrench.force.x = float('nan')
+        h.send('load_cell_1/force', bad, now)
+        h.executor.spin_once(timeout_sec=0.005)
+    feed(h, 0.2)
+    aborted = [s for s in h.received['protocol/status'] if s.state == ProtocolStatus.STATE_ABORTED]
+    assert aborted and 'not finite' in aborted[0].reason
+    assert h.node.rejected_count > 0
+    assert any('rejected' in st.message for d in h.diagnostics for st in d.status)
+    assert h.received['valve_1/command'][-1].voltage == 0.0
+    assert h.received['loading_servo/command'][-1].mode == LoadCommand.MODE_OFF
+
+
 def test_cancel_stops_and_vents(harness_factory) -> None:
     h = harness_factory(False)
     client = ActionClient(h.tester, RunProtocol, 'protocol/run')

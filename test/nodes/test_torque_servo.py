@@ -12,6 +12,7 @@ from geometry_msgs.msg import WrenchStamped
 from pam_bench_interfaces.msg import TorqueServoState, TorqueSetpoint, ValveCommand
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
+from std_srvs.srv import Trigger
 
 from pam_bench.analysis.servo_bag import read_servo_states
 from pam_bench.bringup.runner import run_scene
@@ -105,4 +106,12 @@ def test_stale_force_vents_both_valves(harness: Harness) -> None:
     assert 'stale' in last.status and 'load_cell_1/force' in last.status
     assert h.received['valve_1/command'][-1].voltage == 0.0
     assert h.received['valve_2/command'][-1].voltage == 0.0
-    feed_until(h, lambda: running(h), setpoint=2.0)              # fresh data: control resumes
+    feed(h, 0.5, setpoint=2.0)                  # fresh data: still vented, the fault latched
+    last = h.received['torque_servo/state'][-1]
+    assert 'latched' in last.status and h.received['valve_1/command'][-1].voltage == 0.0
+    client = h.tester.create_client(Trigger, 'torque_servo/reset')
+    h.spin_until(client.service_is_ready)
+    done = client.call_async(Trigger.Request())
+    h.spin_until(done.done)
+    assert done.result().success
+    feed_until(h, lambda: running(h), setpoint=2.0)              # reset: control resumes
