@@ -3,4 +3,4 @@
 from __future__ import annotations
 
 __all__ = ['fidelity', 'pingpong', 'record_exchange', 'sections', 'servo_compare', 'suite',
-           'work_precision']
+           'wallclock', 'work_precision']

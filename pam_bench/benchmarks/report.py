@@ -16,6 +16,8 @@ from typing import Any
 
 import yaml
 
+from pam_bench.benchmarks.wallclock import wallclock_results, wallclock_section
+
 __all__ = ['table', 'key_results', 'render', 'methods', 'LONG_RUNS']
 
 LONG_RUNS = pathlib.Path('docs') / 'long_runs.md'
@@ -118,6 +120,7 @@ def key_results(r: dict[str, Any]) -> list[Row]:
          f"({ls['demo_lockstep_steps_per_s']:.0f} exchanges/s against "
          f"{ls['pingpong_round_trips_per_s']:.0f} round trips/s)", commit)]
     rows += _layout_results(r)
+    rows += wallclock_results(r, f"`{commit_of(r, 'wallclock')}`")
     commit = f"`{commit_of(r, 'scenes')}`"
     for s in r.get('scenes', []):
         if s['scene'] in ('campaign', 'campaign_quick'):
@@ -323,7 +326,8 @@ SECTIONS: list[tuple[str, Callable[..., list[str]]]] = [
     ('campaign', _campaign), ('exchange_step', _exchange_step),
     ('record_exchange', _record_exchange), ('extraction', _extraction),
     ('work_precision', _work_precision), ('fidelity', _fidelity),
-    ('ros_exchange_step', _ros_exchange_step), ('servo', _servo)]
+    ('ros_exchange_step', _ros_exchange_step), ('servo', _servo),
+    ('wallclock', wallclock_section)]
 """Section key (of bench.json and methods.yaml) and its table renderer, in report order."""
 
 

@@ -295,7 +295,8 @@ def run_node(cls: type[Node], args: list[str] | None = None) -> None:
             period = getattr(node, 'wall_period_s', None)
             lockstep = getattr(node, 'lockstep', True)
             lean = os.environ.get('PAM_BENCH_EXECUTOR') != 'single'
-            if period is not None and getattr(node, 'action', None) is None and lean:
+            if period is not None and getattr(node, 'action', None) is None and lean and \
+                    getattr(node, 'wall_loop', 'deadline') == 'deadline':
                 priority = getattr(node, 'realtime_priority', 0)
                 if priority:
                     node.get_logger().info(f'control loop: {set_realtime_priority(priority)}')

@@ -33,6 +33,7 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
 from pam_bench.config import topics
+from pam_bench.models.errors import ParameterError
 from pam_bench.models.inverse import InverseModel
 from pam_bench.models.torque_servo import (
     ServoMode,
@@ -74,6 +75,12 @@ class TorqueServoNode(BenchNode):
         self.realtime_priority = d('realtime_priority', 0, 'without lock-step: run the control '
                                    'loop SCHED_FIFO at this priority where allowed (0: off)',
                                    '-', 0, 99)
+        self.wall_loop = d('wall_loop', 'deadline', 'without lock-step: run the control loop '
+                           "on a monotonic deadline ('deadline') or on rclpy's timer and "
+                           "executor ('timer', to compare)")
+        if self.wall_loop not in ('deadline', 'timer'):
+            raise ParameterError(f"torque_servo.wall_loop {self.wall_loop!r}: 'deadline' or "
+                                 "'timer'")
         self.latch_faults = d('latch_faults', True, 'without lock-step: a stale or non-finite '
                               'measurement keeps the valves vented until torque_servo/reset, '
                               'even when the data come back')
