@@ -41,6 +41,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import sys
 import time
 from array import array
 from collections.abc import Callable
@@ -78,9 +79,12 @@ LOCKSTEP = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE,
                       history=HistoryPolicy.KEEP_ALL, durability=DurabilityPolicy.VOLATILE)
 # On a wall clock, as REP-2003 asks of sensor drivers: publish reliable (any subscriber can
 # match, a recorder gets every message) with a history of 100 ms at 1 kHz, volatile; consumers
-# that want the latest reading subscribe with the sensor-data profile (best effort, depth 5).
+# that want the latest reading subscribe best effort (the sensor-data profile, deeper: 100).
 DRIVER = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
                     history=HistoryPolicy.KEEP_LAST, durability=DurabilityPolicy.VOLATILE)
+RESEND_NS = 100_000_000
+"""On a wall clock a device still waiting for an input publishes its t_0 outputs again this
+often (ns): a consumer that matched after they went out would otherwise wait for ever."""
 SENSOR = QoSProfile(depth=100, reliability=qos_profile_sensor_data.reliability,
                     history=HistoryPolicy.KEEP_LAST, durability=DurabilityPolicy.VOLATILE)
 
@@ -116,6 +120,9 @@ class BenchNode(Node):
         self.wall_period_s: float | None = None     # set: ticked by on_wall_tick
         self._latest: dict[str, Any] = {}
         self._model_ns = 0                          # wall clock: the model's time
+        self._resend_ns = 0
+        self._first_tick_ns: int | None = None
+        self._start_outputs: list[tuple[Callable[[Any], None], Any]] | None = None
         self._tick_ns = array('q')                  # monotonic ns of every wall tick
         self.published: dict[str, int] = {}         # topic -> messages published on DDS
         self.exit_code: int | None = None    # set: the node's work is done, its process exits
@@ -209,6 +216,8 @@ class BenchNode(Node):
         def publish(msg: Any, *args: Any) -> None:
             if dds is None or pub.external:
                 self.published[name] += 1
+            if self._start_outputs is not None:
+                self._start_outputs.append((publish, msg))
             send(msg, *args)
 
         pub.publish = publish
@@ -365,8 +374,10 @@ class BenchNode(Node):
         self._tick_ns.append(time.monotonic_ns())
         period = round(self.wall_period_s * 1e9)
         if self._last_ns is None:
-            self._last_ns = self._model_ns = t
+            self._last_ns = self._model_ns = self._resend_ns = t
+            self._start_outputs = []
             self.on_start(t)
+            self._sent, self._start_outputs = self._start_outputs, None
             return
         self._last_ns = t
         n = (t - self._model_ns + period // 2) // period
@@ -374,6 +385,10 @@ class BenchNode(Node):
             return
         if len(self._latest) < len(self._sync):   # a producer has not started yet
             self._model_ns = t
+            if t - self._resend_ns >= RESEND_NS:  # what it waits for may need our t_0 outputs
+                self._resend_ns = t                 # (a subscriber that matched late missed
+                for send, msg in self._sent:        # them)
+                    send(msg)
             return
         n = min(n, 1000)
         self._model_ns = max(self._model_ns + n * period, t - period)
@@ -383,6 +398,22 @@ class BenchNode(Node):
         except Exception as exc:  # noqa: BLE001 - a callback must never let an exception out
             self.diagnose(DiagnosticStatus.ERROR, f'step failed: {exc}')
             self.on_fault(str(exc))
+
+    def waited_too_long(self, t_ns: int, waiting_for: list[str], timeout_s: float) -> bool:
+        """On a wall clock: whether a controller has waited more than ``timeout_s`` since its
+        first tick for the topics ``waiting_for``; if so it says which (one line on stderr
+        and /diagnostics) and sets ``exit_code`` 3."""
+        if self._first_tick_ns is None:
+            self._first_tick_ns = t_ns
+        if not waiting_for or t_ns - self._first_tick_ns < timeout_s * 1e9:
+            return False
+        if self.exit_code is None:
+            text = (f'no data on {", ".join(waiting_for)} after {timeout_s:g} s: are the '
+                    'devices (or drivers) running?')
+            self.diagnose(DiagnosticStatus.ERROR, text)
+            print(f'{self.get_name()}: error: {text}', file=sys.stderr, flush=True)
+            self.exit_code = 3
+        return True
 
     def wall_inputs(self, inputs: dict[str, Any], dt_s: float) -> dict[str, Any]:
         """On a wall clock: adapt the latest inputs to a step of ``dt_s`` (default: as they

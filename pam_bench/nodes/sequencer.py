@@ -96,6 +96,9 @@ class SequencerNode(BenchNode):
                                1e-4, 1.0)
         self.stale_timeout_s = d('stale_timeout_s', 0.5, 'abort when a measured topic is '
                                  'older than this (without lock-step)', 's', 1e-3, 60.0)
+        self.startup_timeout_s = d('startup_timeout_s', 30.0, 'without lock-step: exit (code '
+                                   '3) when a measured topic has not come this long after '
+                                   'start', 's', 0.1, 3600.0)
         self.end_linger_s = d('end_linger_s', 0.5, 'without lock-step: time between the end '
                               'of the protocol and the exit of the node (stop_on_end)', 's',
                               0.0, 60.0)
@@ -232,6 +235,9 @@ class SequencerNode(BenchNode):
             self.exit_code = END_CODES.get(self.core.phase, 4) if self.core else 0
         if self._start_pending and len(self.stamps) < 3:
             self._publish_commands(time_of(t_ns), 0.0, 0, 0.0)      # vented until then
+            self.waited_too_long(t_ns, [tp for tp in (self.cell_topic, self.enc_topic,
+                                                      self.p_topic) if tp not in self.stamps],
+                                 self.startup_timeout_s)
             return
         if self.core is not None and self.core.running and t >= self._next_progress_s:
             self._next_progress_s = t + PROGRESS_PERIOD_S

@@ -81,6 +81,9 @@ class TorqueServoNode(BenchNode):
         if self.wall_loop not in ('deadline', 'timer'):
             raise ParameterError(f"torque_servo.wall_loop {self.wall_loop!r}: 'deadline' or "
                                  "'timer'")
+        self.startup_timeout_s = d('startup_timeout_s', 30.0, 'without lock-step: exit (code '
+                                   '3) when a measured topic has not come this long after '
+                                   'start', 's', 0.1, 3600.0)
         self.latch_faults = d('latch_faults', True, 'without lock-step: a stale or non-finite '
                               'measurement keeps the valves vented until torque_servo/reset, '
                               'even when the data come back')
@@ -156,6 +159,8 @@ class TorqueServoNode(BenchNode):
                 msg = ValveCommand(voltage=0.0)
                 msg.header.stamp = stamp
                 pub.publish(msg)
+            self.waited_too_long(t_ns, [tp for tp in [*self.cell_topics, self.enc_topic]
+                                        if tp not in self.stamps], self.startup_timeout_s)
             return
         if self.t0_ns is not None and self.duration_s > 0.0 and \
                 t_ns - self.t0_ns >= round(self.duration_s * 1e9):
