@@ -15,10 +15,50 @@ from pam_bench.models.errors import ModelError
 __all__ = ['main']
 
 
+def _replayed(args: argparse.Namespace) -> tuple[object, dict | None] | None:
+    """The scene and resolved parameters a bag recorded (``run --replay BAG``)."""
+    import tempfile
+
+    from pam_bench.analysis.baginfo import run_of_bag
+    from pam_bench.analysis.bagread import BagError
+    from pam_bench.config.scene import load_scene
+    try:
+        run = run_of_bag(args.replay)
+    except BagError as exc:
+        print(f'error: cannot replay: {exc}', file=sys.stderr)
+        return None
+    with tempfile.TemporaryDirectory(prefix='pam_bench_replay_') as tmp:
+        path = pathlib.Path(tmp) / f'{run["scene"]}.yaml'
+        path.write_text(run['scene_text'], encoding='utf-8')
+        scene = load_scene(str(path))
+    args.seed = int(run['seed'])
+    layout = run.get('layout', '')
+    if layout == 'one process':
+        args.one_process = True
+    elif layout == 'wall clock':
+        args.wallclock = True
+    print(f'replaying {args.replay}: scene {run["scene"]}, seed {args.seed}, {layout}, '
+          f'recorded at commit {run["commit"][:12]}' + (' (dirty)' if run.get('dirty') else ''))
+    return scene, run.get('parameters')
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     from pam_bench.bringup.runner import run_scene
     from pam_bench.config.scene import load_scene
-    scene = load_scene(args.scene)
+    parameters = None
+    if args.replay:
+        if args.scene or not args.out:
+            print('error: --replay BAG takes no scene and needs --out', file=sys.stderr)
+            return 2
+        replayed = _replayed(args)
+        if replayed is None:
+            return 2
+        scene, parameters = replayed
+    elif not args.scene:
+        print('error: name a scene (or --replay BAG)', file=sys.stderr)
+        return 2
+    else:
+        scene = load_scene(args.scene)
     out = pathlib.Path(args.out or f'bags/{scene.name}')
     if args.resume and pathlib.Path(args.resume).resolve() == out.resolve():
         print('error: --resume needs a new --out (the old bag is kept)', file=sys.stderr)
@@ -50,7 +90,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return 2
     res = run_scene(scene, str(out), seed=args.seed, realtime=args.realtime,
                     one_process=args.one_process, wallclock=args.wallclock,
-                    device_processes=args.device_processes)
+                    device_processes=args.device_processes, parameters=parameters)
     if res.code == 130:
         print(f'interrupted: nodes stopped, bag closed in {out}', file=sys.stderr)
         return 130
@@ -110,6 +150,60 @@ def _cmd_bag_repair(args: argparse.Namespace) -> int:
     for topic, n in sorted(rep.kept.items()):
         print(f'  {topic:34s} {n:8d} messages kept')
     return 0
+
+
+def _cmd_info(args: argparse.Namespace) -> int:
+    from pam_bench.analysis.baginfo import bag_info
+    from pam_bench.analysis.bagread import BagError
+    try:
+        info = bag_info(args.bag)
+    except BagError as exc:
+        print(f'error: {exc}', file=sys.stderr)
+        return 2
+    if args.json:
+        print(json.dumps(info, indent=2, default=str))
+        return 0
+    run, end = info['run'] or {}, info['end'] or {}
+    if run:
+        v = run.get('versions', {})
+        print(f"scene     {run['scene']} (seed {run['seed']}, {run.get('layout', '?')})\n"
+              f"commit    {run['commit']}" + (' (dirty)' if run.get('dirty') else '') + '\n'
+              f"made      {run['start']} on {run['host']}\n"
+              f"command   {' '.join(run.get('command_line', []))}\n"
+              f"versions  pam_bench {v.get('pam_bench')}, rclpy {v.get('rclpy')}, rosbags "
+              f"{v.get('rosbags')}, numpy {v.get('numpy')}\n"
+              f"nodes     {', '.join(k for k in run.get('parameters', {}) if k != 'sim_clock')}")
+    else:
+        print('no run description in this bag (an older pam_bench or another recorder)')
+    if end:
+        print(f"ended     {end.get('state')}" + (f": {end['reason']}" if end.get('reason')
+                                                 else '') + f" at {end.get('end')}")
+    print(f"duration  {info['duration_s']:.3f} s of log time")
+    for topic, t in sorted(info['topics'].items()):
+        print(f"  {topic:34s} {t['count']:9d}  {t['type']}")
+    return 0
+
+
+def _cmd_diff(args: argparse.Namespace) -> int:
+    from pam_bench.analysis.bagdiff import diff_bags
+    from pam_bench.analysis.bagread import BagError
+    try:
+        d = diff_bags(args.bag_a, args.bag_b)
+    except BagError as exc:
+        print(f'error: {exc}', file=sys.stderr)
+        return 2
+    if args.json:
+        print(json.dumps(d, indent=2))
+    same = True
+    for name, row in d.items():
+        worst = {k: v for k, v in row.items() if k.startswith('max_')}
+        same &= row['only_a'] == row['only_b'] == 0 and all(v == 0 for v in worst.values())
+        if not args.json:
+            print(f"{name:24s} {row['matched']:6d} matched, {row['only_a']} only in A, "
+                  f"{row['only_b']} only in B; largest: "
+                  + ', '.join(f'{k[4:]} {v:.6g}' for k, v in worst.items()))
+    print('identical readings' if same else 'the bags differ')
+    return 0 if same else 1
 
 
 def _cmd_emulate(args: argparse.Namespace) -> int:
@@ -244,7 +338,10 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog='pam-bench', description=__doc__)
     sub = ap.add_subparsers(dest='cmd', required=True)
     p = sub.add_parser('run', help='run a scene and record a bag')
-    p.add_argument('scene', help='scene name in config/scenes or a path to a scene file')
+    p.add_argument('scene', nargs='?', help='scene name in config/scenes or a path to a scene '
+                   'file')
+    p.add_argument('--replay', metavar='BAG', help="run a bag's own scene again with its "
+                   'recorded parameters, seed and layout (into --out)')
     p.add_argument('--out', help='bag directory (default bags/SCENE, replaced)')
     p.add_argument('--overwrite', action='store_true', help='replace --out if it exists')
     p.add_argument('--seed', type=int, default=0, help='seed of the sensor noise')
@@ -267,6 +364,15 @@ def main(argv: list[str] | None = None) -> int:
     p = sub.add_parser('bag-repair', help='rebuild a bag whose recorder was killed')
     p.add_argument('bag', help='rosbag2 folder')
     p.set_defaults(func=_cmd_bag_repair)
+    p = sub.add_parser('info', help='how a bag was made and what it holds')
+    p.add_argument('bag')
+    p.add_argument('--json', action='store_true')
+    p.set_defaults(func=_cmd_info)
+    p = sub.add_parser('diff', help='two bags compared reading by reading (exit 1: differ)')
+    p.add_argument('bag_a')
+    p.add_argument('bag_b')
+    p.add_argument('--json', action='store_true')
+    p.set_defaults(func=_cmd_diff)
     p = sub.add_parser('emulate', help="run only a scene's simulated devices on the wall "
                        'clock, until Ctrl-C (a bench for your own controllers)')
     p.add_argument('scene', nargs='?', default='demo')

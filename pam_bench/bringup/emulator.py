@@ -7,7 +7,8 @@ parameters and parameter services) on one intra-process bus and ticks them on on
 deadline in the chain order valve -> muscle -> loading servo -> load cell -> encoder, each at
 its own ``rate_hz``: every device steps on what the one before it published in the same tick,
 as the physics of one bench is one system. The measured topics and the commands cross DDS, as
-a driver's would. Run as ``python -m pam_bench.bringup.emulator PARAMS_FILE NODE [NODE ...]``.
+a driver's would. Run as
+``python -m pam_bench.bringup.emulator [--priority N] PARAMS_FILE NODE [NODE ...]``.
 """
 
 from __future__ import annotations
@@ -31,9 +32,17 @@ def chain_order(names: list[str]) -> list[str]:
     return [n for n in CHAIN if n in names]
 
 
-def run_emulator(names: list[str], params: dict[str, Any]) -> int:
+DEVICE_PRIORITY = 40
+"""SCHED_FIFO priority of the emulator where the machine allows it: below the torque servo's
+50, above every ordinary process. Real devices do not stall when the host is busy; the
+emulated ones should not either (BENCHMARKS.md, "The bench on a wall clock")."""
+
+
+def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVICE_PRIORITY
+                 ) -> int:
     """Build the device nodes ``names`` with ``params`` (params-file layout) and tick them
-    until SIGINT or SIGTERM; return the exit code (2: a bad parameter, one line printed)."""
+    until SIGINT or SIGTERM, SCHED_FIFO at ``priority`` where allowed (0: ordinary); return
+    the exit code (2: a bad parameter, one line printed)."""
     import importlib
 
     import rclpy
@@ -50,6 +59,7 @@ def run_emulator(names: list[str], params: dict[str, Any]) -> int:
         install_interrupt_handlers,
         reject_undeclared,
         serve_services,
+        set_realtime_priority,
     )
     from pam_bench.nodes.profiling import profiled
 
@@ -92,6 +102,8 @@ def run_emulator(names: list[str], params: dict[str, Any]) -> int:
             for serve in services:
                 serve()
 
+        if priority:
+            nodes[0].get_logger().info(f'emulator: {set_realtime_priority(priority)}')
         with profiled('emulator'):
             deadline_spin(nodes, tick, min(periods) * 1e-9, poll, poll_period_s=0.02)
     except KeyboardInterrupt:
@@ -107,12 +119,15 @@ def run_emulator(names: list[str], params: dict[str, Any]) -> int:
 def main(argv: list[str] | None = None) -> None:
     """``python -m pam_bench.bringup.emulator PARAMS_FILE NODE [NODE ...]``."""
     from pam_bench.config.yaml_io import read_yaml
-    args = sys.argv[1:] if argv is None else argv
+    args = list(sys.argv[1:] if argv is None else argv)
+    priority = DEVICE_PRIORITY
+    if args[:1] == ['--priority'] and len(args) > 1:
+        priority, args = int(args[1]), args[2:]
     if len(args) < 2:
-        print('usage: python -m pam_bench.bringup.emulator PARAMS_FILE NODE [NODE ...]',
-              file=sys.stderr)
+        print('usage: python -m pam_bench.bringup.emulator [--priority N] PARAMS_FILE NODE '
+              '[NODE ...]', file=sys.stderr)
         sys.exit(2)
-    sys.exit(run_emulator(args[1:], read_yaml(pathlib.Path(args[0]))))
+    sys.exit(run_emulator(args[1:], read_yaml(pathlib.Path(args[0])), priority))
 
 
 if __name__ == '__main__':

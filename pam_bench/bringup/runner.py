@@ -19,6 +19,7 @@ which would double what crosses DDS). Every node writes its publish counts and t
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import os
 import signal
@@ -106,11 +107,29 @@ def _watch(procs: dict[str, subprocess.Popen], clock: subprocess.Popen,
 def run_scene(scene: Scene, out_dir: str, seed: int = 0, realtime: bool = False,
               one_process: bool = False, domain_id: int | None = None,
               quiet: bool = False, wallclock: bool = False,
-              device_processes: bool = False, devices_only: bool = False) -> RunResult:
+              device_processes: bool = False, devices_only: bool = False,
+              parameters: dict[str, Any] | None = None) -> RunResult:
     """Run ``scene``, recording into ``out_dir``; return the clock's summary. With
     ``devices_only`` (wall clock) only the simulated devices run, until Ctrl-C: a bench to
-    point a lab's own controllers or ``check-drivers`` at."""
-    params = scene.node_parameters(out_dir, seed, realtime)
+    point a lab's own controllers or ``check-drivers`` at. ``parameters`` (the resolved
+    parameters a bag recorded: ``--replay``) replace the scene's."""
+    params = copy.deepcopy(parameters) if parameters else scene.node_parameters(
+        out_dir, seed, realtime)
+    if 'recorder' in params:
+        from pam_bench.bringup.provenance import run_description
+        rp = params['recorder']['ros__parameters']
+        rp['out_dir'] = out_dir
+        rp.pop('run_yaml', None)
+        rp.pop('end_file', None)
+        layout = ('wall clock' if wallclock else 'one process' if one_process
+                  else 'separate processes')
+        described = {k: v for k, v in params.items()}
+        rp['run_yaml'] = yaml.safe_dump(run_description(scene, described, seed, layout),
+                                        sort_keys=False)
+        fd, end_file = tempfile.mkstemp(prefix='pam_bench_end_', suffix='.json')
+        os.close(fd)
+        os.unlink(end_file)
+        rp['end_file'] = end_file
     if wallclock:
         if one_process:
             raise ValueError('a wall-clock run composes the devices only (the emulator); '
@@ -159,6 +178,7 @@ def _run_processes(scene: Scene, params: dict[str, Any], domain_id: int | None,
             code = clock.wait()
             dead = [n for n, p in procs.items() if n != 'sim_clock' and p.poll() is not None]
         finally:
+            _write_end(params, code if 'code' in locals() else None)
             _stop(procs)
             log.flush()
             log.seek(0)
@@ -205,6 +225,8 @@ def _run_wallclock(scene: Scene, params: dict[str, Any], domain_id: int | None, 
             p.update(lockstep=False, stats_file=os.path.join(tmp, f'{name}.json'))
         if 'torque_servo' in params:
             params['torque_servo']['ros__parameters']['duration_s'] = scene.duration_s
+        for name in controllers:      # nothing a controller publishes goes unrecorded
+            params[name]['ros__parameters']['await_recorder'] = 'recorder' in scene.nodes
         if 'recorder' in params:       # what a real bench has: no sim/ ground truth
             rp = params['recorder']['ros__parameters']
             rp['step_topics'] = [t for t in rp['step_topics'] if not t.startswith('/sim/')]
@@ -259,6 +281,7 @@ def _run_wallclock(scene: Scene, params: dict[str, Any], domain_id: int | None, 
             code = 130
             dead = []
         finally:
+            _write_end(params, code)
             _stop(procs)
             log.flush()
             log.seek(0)
@@ -281,6 +304,22 @@ def _run_wallclock(scene: Scene, params: dict[str, Any], domain_id: int | None, 
     elif code not in (0, 130):
         sys.stderr.write(node_log[-4000:])
     return result
+
+
+def _write_end(params: dict[str, Any], code: int | None) -> None:
+    """Tell the recorder how the run ended (``provenance.write_end``) before it is stopped."""
+    from pam_bench.bringup.provenance import write_end
+    path = params.get('recorder', {}).get('ros__parameters', {}).get('end_file', '')
+    try:
+        write_end(path, code)
+    except OSError as exc:
+        sys.stderr.write(f'warning: end state not written: {exc}\n')
+
+
+def clock_done(nodes: list[Any], scene: Scene) -> bool:
+    """In one process: whether the sim clock ended the run (it has its summary)."""
+    clock = nodes[-1] if nodes and len(nodes) == len(scene.nodes) + 1 else None
+    return getattr(clock, 'summary', None) is not None
 
 
 def _copy(src: Any, dst: Any) -> None:
@@ -357,6 +396,7 @@ def _run_in_process(scene: Scene, params: dict[str, Any], domain_id: int | None,
                 code = int(exc.code or 0)
     finally:
         intra.deactivate()
+        _write_end(params, code if code or clock_done(nodes, scene) else None)
         clock = nodes[-1] if nodes and len(nodes) == len(scene.nodes) + 1 else None
         for node in nodes:
             executor.remove_node(node)

@@ -87,6 +87,7 @@ class Scene:
     protocol_overrides: dict[str, Any] = dataclasses.field(default_factory=dict)
     sub_step_s: float = SUB_STEP_S
     record_samples: bool = False
+    source: str = ''             # the scene file's text (a bag keeps it: ``--replay``)
 
     def node_parameters(self, out_dir: str, seed: int, realtime: bool) -> dict[str, Any]:
         """Parameters of every node: config/bench.yaml, then the scene, then this run."""
@@ -235,4 +236,4 @@ def _parse_scene(path: pathlib.Path, data: dict[str, Any]) -> Scene:
             raise ConfigError(f'{where}: {exc}') from None
     return Scene(path.stem, _typed(where, data, 'description', ''), float(step), protocol,
                  list(nodes), float(duration), parameters, overrides, float(sub),
-                 _typed(where, data, 'record_samples', False))
+                 _typed(where, data, 'record_samples', False), path.read_text(encoding='utf-8'))

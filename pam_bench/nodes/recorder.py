@@ -23,16 +23,20 @@ metadata.yaml.
 
 from __future__ import annotations
 
+import datetime
 import functools
+import json
 import pathlib
 import time
 from typing import Any
 
+import yaml
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosgraph_msgs.msg import Clock
 
+from pam_bench.analysis.baginfo import END_KEY, RUN_KEY
 from pam_bench.analysis.types import bench_typestore
 from pam_bench.nodes.base import BenchNode
 from pam_bench.nodes.intra import bus_subscription
@@ -84,6 +88,10 @@ class Recorder(BenchNode):
         self.flush_period_s = self.declare_typed('flush_period_s', 1.0, 'wall clock: write the '
                                                  'pending chunk to disk this often', 's', 0.01,
                                                  3600.0)
+        self.run_yaml = self.declare_typed('run_yaml', '', 'how the run was made (YAML, from '
+                                           "the runner): stored in the bag's custom data")
+        self.end_file = self.declare_typed('end_file', '', 'JSON of how the run ended, written '
+                                           'by the runner before it stops the recorder')
         self.topic_names = list(self.declare_typed(
             'topic_names', [''], 'wall clock: record these topics (names; their types are '
             'discovered) besides step_topics and event_topics'))
@@ -97,6 +105,8 @@ class Recorder(BenchNode):
         path.parent.mkdir(parents=True, exist_ok=True)
         self.writer = Writer(path, version=9, storage_plugin=StoragePlugin.MCAP)
         self.writer.open()
+        if self.run_yaml:
+            self.writer.set_custom_data(RUN_KEY, self.run_yaml)
         self.count = 0
         self.end_ns: int | None = None
         self.connections = {}
@@ -264,10 +274,22 @@ class Recorder(BenchNode):
         if dt_s < 1e-6:
             self.end_ns = prev            # the clock's flush tick: nothing later is recorded
 
+    def _end(self) -> dict[str, Any]:
+        """How the run ended: the runner's end file, else interrupted."""
+        try:
+            with open(self.end_file, encoding='utf-8') as fh:
+                return dict(json.load(fh))
+        except (OSError, ValueError):
+            return {'state': 'interrupted', 'code': None,
+                    'reason': 'the recorder stopped before the run ended',
+                    'end': datetime.datetime.now(datetime.UTC).isoformat(
+                        timespec='milliseconds')}
+
     def close(self) -> None:
         """Close the bag (idempotent); on a wall clock print what was written per topic and
         the gaps in the publication sequence numbers (lost messages)."""
         if self.writer is not None:
+            self.writer.set_custom_data(END_KEY, yaml.safe_dump(self._end(), sort_keys=False))
             self.writer.close()
             self.writer = None
             print(f'recorder: bag closed with {self.count} messages', flush=True)

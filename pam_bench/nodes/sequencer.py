@@ -99,6 +99,9 @@ class SequencerNode(BenchNode):
         self.startup_timeout_s = d('startup_timeout_s', 30.0, 'without lock-step: exit (code '
                                    '3) when a measured topic has not come this long after '
                                    'start', 's', 0.1, 3600.0)
+        self.await_recorder = d('await_recorder', False, 'without lock-step: start the '
+                                'autostart protocol only once protocol/point has a subscriber '
+                                "(the run's recorder), so that no point goes unrecorded")
         self.end_linger_s = d('end_linger_s', 0.5, 'without lock-step: time between the end '
                               'of the protocol and the exit of the node (stop_on_end)', 's',
                               0.0, 60.0)
@@ -233,6 +236,12 @@ class SequencerNode(BenchNode):
         self._tick_ns.append(time.monotonic_ns())
         if self._end_ns is not None and t_ns >= self._end_ns:
             self.exit_code = END_CODES.get(self.core.phase, 4) if self.core else 0
+        if self._start_pending and self.await_recorder and \
+                self.point_pub.get_subscription_count() == 0 and \
+                not self.waited_too_long(t_ns, ['a recorder on protocol/point'],
+                                         self.startup_timeout_s):
+            self._publish_commands(time_of(t_ns), 0.0, 0, 0.0)      # vented until then
+            return
         if self._start_pending and len(self.stamps) < 3:
             self._publish_commands(time_of(t_ns), 0.0, 0, 0.0)      # vented until then
             self.waited_too_long(t_ns, [tp for tp in (self.cell_topic, self.enc_topic,

@@ -84,6 +84,9 @@ class TorqueServoNode(BenchNode):
         self.startup_timeout_s = d('startup_timeout_s', 30.0, 'without lock-step: exit (code '
                                    '3) when a measured topic has not come this long after '
                                    'start', 's', 0.1, 3600.0)
+        self.await_recorder = d('await_recorder', False, 'without lock-step: start control '
+                                "only once torque_servo/state has a subscriber (the run's "
+                                'recorder)')
         self.latch_faults = d('latch_faults', True, 'without lock-step: a stale or non-finite '
                               'measurement keeps the valves vented until torque_servo/reset, '
                               'even when the data come back')
@@ -153,7 +156,12 @@ class TorqueServoNode(BenchNode):
         else control over the time since the last step."""
         t_ns = self.now_ns()
         self._tick_ns.append(time.monotonic_ns())
-        if len(self.stamps) < len(self.cell_topics) + 1:          # not every device is up yet
+        waiting = len(self.stamps) < len(self.cell_topics) + 1    # not every device is up yet
+        if self.t0_ns is None and self.await_recorder and \
+                self.state_pub.get_subscription_count() == 0:       # nor the recorder
+            waiting = not self.waited_too_long(t_ns, ['a recorder on torque_servo/state'],
+                                               self.startup_timeout_s)
+        if waiting:
             stamp = time_of(t_ns)
             for pub in self.valve_pubs:
                 msg = ValveCommand(voltage=0.0)

@@ -1,0 +1,67 @@
+"""What a bag says about itself: how it was made and what it holds (``pam-bench info``).
+
+The recorder stores the run's description in the bag's custom data (metadata.yaml, and the
+same text in the MCAP file's rosbag2 metadata record): ``pam_bench.run`` (YAML: scene name
+and file text, resolved parameters of every node, seed, command line, commit and dirty flag,
+versions, host, start time) and ``pam_bench.end`` (YAML: how the run ended, the reason, end
+time). ``bag_info`` reads both with the topic counts and durations.
+"""
+
+from __future__ import annotations
+
+import pathlib
+from typing import Any
+
+import yaml
+
+from pam_bench.analysis.bagread import BagError, open_bag
+
+__all__ = ['RUN_KEY', 'END_KEY', 'bag_info', 'run_of_bag']
+
+RUN_KEY = 'pam_bench.run'
+END_KEY = 'pam_bench.end'
+
+
+def _custom(path: pathlib.Path) -> dict[str, str]:
+    meta = yaml.safe_load((path / 'metadata.yaml').read_text(encoding='utf-8')) or {}
+    info = meta.get('rosbag2_bagfile_information', {})
+    return dict(info.get('custom_data') or {})
+
+
+def run_of_bag(path: str | pathlib.Path) -> dict[str, Any]:
+    """The run description of a bag (``pam_bench.run``).
+
+    Raises:
+        BagError: not a bag, or a bag without a run description (made before it existed, or
+            by another recorder).
+    """
+    path = pathlib.Path(path)
+    open_bag(path).close()
+    text = _custom(path).get(RUN_KEY)
+    if not text:
+        raise BagError(f'{path}: no run description (recorded by an older pam_bench or '
+                       'another recorder)')
+    return dict(yaml.safe_load(text))
+
+
+def bag_info(path: str | pathlib.Path) -> dict[str, Any]:
+    """Run description, end state and per-topic message counts and durations of a bag.
+
+    Raises:
+        BagError: not a readable bag.
+    """
+    path = pathlib.Path(path)
+    reader = open_bag(path)
+    try:
+        topics = {}
+        for c in reader.connections:
+            topics[c.topic] = {'type': c.msgtype, 'count': c.msgcount}
+        duration = reader.duration * 1e-9 if reader.message_count else 0.0
+        start = reader.start_time * 1e-9 if reader.message_count else 0.0
+    finally:
+        reader.close()
+    custom = _custom(path)
+    run = yaml.safe_load(custom[RUN_KEY]) if RUN_KEY in custom else None
+    end = yaml.safe_load(custom[END_KEY]) if END_KEY in custom else None
+    return {'bag': str(path), 'run': run, 'end': end, 'duration_s': duration,
+            'start_s': start, 'topics': topics}
