@@ -20,6 +20,7 @@ import numpy as np
 import yaml
 
 from pam_bench.analysis import plots
+from pam_bench.analysis.baginfo import bag_info
 from pam_bench.analysis.bagread import BagData, Points, StepRecord, read_bags
 from pam_bench.analysis.force_models import fit_force_models
 from pam_bench.analysis.identify import fit_step
@@ -131,6 +132,11 @@ def _figures(tmp: pathlib.Path, data: BagData, summary: dict[str, Any],
     return names
 
 
+def _run_of(bag: str) -> dict[str, Any] | None:
+    info = bag_info(bag)
+    return None if info['run'] is None else {**info['run'], 'end': info['end']}
+
+
 def extract(bags: list[str], out_dir: str, figures: bool = True) -> dict[str, Any]:
     """Read the bags; write DIR/summary.json, DIR/report.md, DIR/inverse_model.yaml (when the
     bags hold step responses and isometric points), DIR/<protocol>.csv and the figures.
@@ -162,6 +168,7 @@ def extract(bags: list[str], out_dir: str, figures: bool = True) -> dict[str, An
     summary['timing_s'] = {'read_and_static': t1 - t0, 'identification': t2 - t1,
                            'model_comparison': t3 - t2, 'records': len(data.records)}
     summary['bags'] = [str(b) for b in bags]
+    summary['runs'] = [_run_of(b) for b in bags]      # how each bag was made (or None)
     out = pathlib.Path(out_dir)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = pathlib.Path(tempfile.mkdtemp(prefix=f'.{out.name}.', dir=out.parent))
