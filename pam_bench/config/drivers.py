@@ -123,10 +123,13 @@ def judge(e: Expect, s: Seen) -> Verdict:
     if e.msgtype not in s.types:
         return fail(', '.join(s.types), f'type {s.types[0]}, expected {e.msgtype}')
     n = len(s.recv_ns)
-    rate = n / s.window_s if s.window_s > 0 else 0.0
-    seen = f'{rate:.0f} Hz'
     if n < 2:
-        return fail(seen, f'{n} message(s) in {s.window_s:.1f} s')
+        return fail(f'{n} message(s)', f'{n} message(s) in {s.window_s:.1f} s')
+    span = (s.recv_ns[-1] - s.recv_ns[0]) * 1e-9       # the first messages after the match
+    rate = (n - 1) / span if span > 0 else float('inf')
+    seen = f'{rate:.0f} Hz'
+    if span < 0.5 * s.window_s:
+        return fail(seen, f'messages during {span:.2f} s of a {s.window_s:.1f} s window')
     v = np.asarray(s.values, dtype=float)
     seen += f', {v.min():.4g}..{v.max():.4g}'
     if rate < e.min_rate_hz:

@@ -69,7 +69,9 @@ def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
     at once. A tick that ends late keeps the phase (the next deadline is one period after the
     missed one); a loop more than a period behind starts again from now, dropping the ticks it
     missed, as a driver's control loop does. ``poll`` (services, a bus refresh) runs every
-    ``poll_period_s``. Returns when ``should_stop()`` is true after a tick. rclpy's timer
+    ``poll_period_s``. Returns when ``should_stop()`` is true after a tick. SIGINT and SIGTERM
+    end the loop between ticks, never inside one (a tick cut between its publishes would leave
+    a device's outputs half sent), and then raise KeyboardInterrupt. rclpy's timer
     measured here: ``BENCHMARKS.md``, "The torque servo on a
     wall clock". SIGINT or SIGTERM raise KeyboardInterrupt.
     """
@@ -90,8 +92,11 @@ def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
     gc.freeze()
     now = time.monotonic_ns()
     deadline, next_poll = now + period, now + poll_period
+    stop: list[int] = []
+    previous = {sig: signal.signal(sig, lambda signum, _: stop.append(signum))
+                for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
-        while ctx.ok():
+        while ctx.ok() and not stop:
             now = time.monotonic_ns()
             if now >= deadline:
                 tick()
@@ -112,7 +117,7 @@ def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
             wake = deadline if poll is None else min(deadline, next_poll)
             wait_set.wait(max(wake - now, 0))
             if guard.handle.pointer in wait_set.get_ready_entities('guard_condition'):
-                raise KeyboardInterrupt
+                break
             for ptr in wait_set.get_ready_entities('subscription'):
                 sub = by_ptr[ptr]
                 while True:
@@ -121,7 +126,11 @@ def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
                         break
                     sub.callback(taken[0])
     finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
         guard.destroy()
+    if stop or not ctx.ok() or should_stop is None or not should_stop():
+        raise KeyboardInterrupt
 
 
 def lean_spin(node: Node, graceful: bool = False,

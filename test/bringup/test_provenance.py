@@ -39,8 +39,7 @@ def test_a_bag_says_how_it_was_made_and_replays_to_the_same_readings(
     from mcap.reader import make_reader
     with open(next(a.glob('*.mcap')), 'rb') as fh:
         meta = {m.name: m.metadata for m in make_reader(fh).iter_metadata()}
-    serialized = yaml.safe_load(meta['rosbag2']['serialized_metadata'])
-    custom = serialized['rosbag2_bagfile_information']['custom_data']
+    custom = yaml.safe_load(meta['rosbag2']['serialized_metadata'])['custom_data']
     assert yaml.safe_load(custom['pam_bench.run'])['seed'] == 7
     printed = _cli('info', str(a))
     assert printed.returncode == 0 and 'config_short (seed 7' in printed.stdout

@@ -14,10 +14,9 @@ WINDOW_S = 2.0
 def _seen(rate_hz: float, values: np.ndarray, msgtype: str, frozen: bool = False,
           age_s: float = 0.0005) -> Seen:
     n = int(rate_hz * WINDOW_S)
-    stamps = (np.arange(n) * 1e9 / rate_hz).astype(np.int64) + 10**18
-    if frozen:
-        stamps[:] = stamps[0]
-    recv = stamps + int(age_s * 1e9)
+    times = (np.arange(n) * 1e9 / rate_hz).astype(np.int64) + 10**18
+    recv = times + int(age_s * 1e9)
+    stamps = np.full_like(times, times[0]) if frozen else times
     return Seen([msgtype], [True], recv.tolist(), stamps.tolist(),
                 np.resize(values, n).tolist(), WINDOW_S)
 
