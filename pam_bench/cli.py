@@ -80,8 +80,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
             print(f'{args.resume} holds every reading of {scene.protocol}: nothing to resume')
             return 0
         scene.parameters.setdefault('sequencer', {})['resume_from_reading'] = start
-        print(f'resuming {scene.protocol} at reading {start} of {total} (first incomplete '
-              f'series of {args.resume})')
+        print(f'resuming {scene.protocol} at reading {start} of {total} (the first one '
+              f'{args.resume} lacks)')
     print(f'scene {scene.name}: {scene.description}\n  exchange step {scene.exchange_step_s} s, '
           f'nodes {", ".join(scene.nodes)}, bag {out}', flush=True)
     if args.wallclock and (args.one_process or args.realtime or args.resume):
@@ -348,7 +348,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument('--realtime', action='store_true', help='pace sim time to the wall clock')
     p.add_argument('--one-process', action='store_true', help='compose all nodes in one process')
     p.add_argument('--resume', metavar='BAG', help='bag of an interrupted run of this scene: '
-                   'start at the first series it did not complete (into a new --out)')
+                   'start at the first reading it lacks (into a new --out)')
     p.add_argument('--wallclock', action='store_true', help='run on the wall clock as on a '
                    'real bench: devices free-running in one emulator process, controllers and '
                    'recorder in their own')

@@ -17,7 +17,8 @@ def resume_reading(scene: Scene, bag: str | pathlib.Path) -> tuple[int, int]:
 
     The points in ``bag`` (a run of the same scene, complete or cut short; its last bag closes
     valid whatever stopped it) mark the readings taken; the run restarts at the first reading
-    of the first series that is not complete.
+    the bag lacks (the sequencer first takes the bench along that series' path to it:
+    ``models.schedules.with_approach``).
 
     Raises:
         analysis.bagread.BagError: the bag cannot be read or holds no points.

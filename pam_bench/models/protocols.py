@@ -161,8 +161,9 @@ class Sequencer:
     valve for samples every T (``Commands.sample_period_s``: a simulated valve then reports
     its pressure, and the load cell its force, at every sample) and a lock-step clock for
     exchange steps of at most ``record_exchange_s`` (0: the whole record in one exchange).
-    ``start_index`` resumes a run at that reading (``resume_index``): the
-    settle phase then holds that reading's set values.
+    ``start_index`` resumes a run at that reading (``resume_index``, ``with_approach``): the
+    settle phase then holds that reading's set values. A reading that is not ``recorded`` (an
+    approach step) is held and checked like any other but gives no point.
     """
 
     def __init__(self, name: str, readings: list[Reading], settle_s: float,
@@ -190,6 +191,11 @@ class Sequencer:
         self._total = settle_s + sum(r.lead_s + r.dwell_s + r.record_s
                                      for r in readings[start_index:])
         self._done_s = 0.0               # scheduled time of the readings already taken
+
+    @property
+    def total_points(self) -> int:
+        """Readings the run records (approach steps of a resumed run are not)."""
+        return sum(r.recorded for r in self.readings)
 
     @property
     def total_s(self) -> float:
@@ -357,8 +363,8 @@ class Sequencer:
         if problem:
             self.stop(Phase.ABORTED, problem)
             return None
-        point = Point(r, t_s, r.voltage_v, meas)
-        self.points_done += 1
+        point = Point(r, t_s, r.voltage_v, meas) if r.recorded else None
+        self.points_done += r.recorded
         self.index += 1
         self.t_phase = t_s
         if self.index >= len(self.readings):

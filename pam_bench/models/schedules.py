@@ -3,7 +3,8 @@
 A schedule is a list of ``Reading``: the set values to apply (valve voltage, loading-servo
 mode and set value), the dwell after which the sensors are read (004: 3 s), and the labels of
 the reading (series, step, direction). ``schedule_from_config`` builds it from an entry of
-config/protocols.yaml; ``resume_index`` finds where an interrupted run starts again.
+config/protocols.yaml; ``resume_index`` finds where an interrupted run starts again and
+``with_approach`` takes the bench back along the path to that reading.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from pam_bench.models.loading_servo import LoadMode
 from pam_bench.models.params import check_known, hint
 
 __all__ = ['Direction', 'Reading', 'sweep', 'schedule_from_config', 'resume_index',
+           'with_approach', 'APPROACH_DWELL_S',
            'PROTOCOL_KEYS', 'check_protocol']
 
 
@@ -49,6 +51,7 @@ class Reading:
     record_s: float = 0.0                # after the step: record the force this long
     sample_period_s: float = 0.0         # of the record, s
     lead_s: float = 0.0                  # extra wait before the dwell (protocol change)
+    recorded: bool = True                # False: an approach step (``with_approach``)
 
 
 def sweep(start: float, stop: float, step: float) -> np.ndarray:
@@ -205,20 +208,62 @@ def _ramp(name: str, get: Any) -> list[Reading]:
 
 
 def resume_index(readings: list[Reading], done: set[tuple[str, int, int]]) -> int:
-    """Index of the first reading of the first series not completed.
+    """Index of the first reading not taken.
 
     Args:
         readings: the schedule.
         done: (protocol, series, step) of the readings already taken (from a bag).
 
     Returns:
-        The index to restart at: a series is taken again from its start unless every reading
-        of it is in ``done``; 0 when nothing was completed, len(readings) when all was.
+        The index to restart at: 0 when nothing was taken, len(readings) when all was.
     """
-    start = 0
     for i, r in enumerate(readings):
-        if i > 0 and (r.protocol, r.series) != (readings[i - 1].protocol, readings[i - 1].series):
-            start = i
         if (r.protocol, r.series, r.step) not in done:
-            return start
+            return i
     return len(readings)
+
+
+APPROACH_DWELL_S = 1.0
+"""Hold of each approach step (s): the valve and the drive settle well within it."""
+
+
+def with_approach(readings: list[Reading], index: int,
+                  dwell_s: float = APPROACH_DWELL_S) -> tuple[list[Reading], int]:
+    """The schedule to resume at ``readings[index]`` in the middle of a series.
+
+    The braid's friction is rate independent (Maxwell-slip, 004 section 2.1 and
+    ``models.friction``): its state depends on the path's turning points, not on how fast it
+    was travelled. So the bench is taken along the series' path before ``index`` by its
+    turning points only: the series' first set values, every reading where the sweep
+    reverses, and the reading just before ``index``, each held ``dwell_s`` and not recorded
+    (``recorded`` False: no point, no record, no step). The reading at ``index`` then meets
+    the bench in the state the uninterrupted run left it in.
+
+    Returns:
+        The new schedule and the index to start it at (the first approach step).
+    """
+    if index <= 0 or index >= len(readings):
+        return readings, index
+    r = readings[index]
+    first = index
+    while first > 0 and (readings[first - 1].protocol, readings[first - 1].series) == \
+            (r.protocol, r.series):
+        first -= 1
+    if first == index:
+        return readings, index
+    path = readings[first:index]
+    keep = [path[0]]
+    direction = 0.0
+    for j in range(1, len(path)):
+        d = float(np.sign(path[j].set_value - path[j - 1].set_value))
+        if d == 0.0:
+            continue
+        if direction and d != direction:         # the sweep reversed at the reading before
+            keep.append(path[j - 1])
+        direction = d
+    if path[-1] is not keep[-1]:
+        keep.append(path[-1])
+    approach = [dataclasses.replace(k, dwell_s=dwell_s, ramp_from_v=None, pre_voltage_v=None,
+                                    record_s=0.0, sample_period_s=0.0, lead_s=0.0,
+                                    recorded=False) for k in keep]
+    return readings[:index] + approach + readings[index:], index

@@ -59,6 +59,7 @@ from pam_bench.models.protocols import (
     Sequencer,
     StepRecord,
 )
+from pam_bench.models.schedules import with_approach
 from pam_bench.nodes.base import RELIABLE, SENSOR, BenchNode
 from pam_bench.nodes.intra import bus_publisher
 from pam_bench.nodes.messages import ns_of, time_of
@@ -113,8 +114,9 @@ class SequencerNode(BenchNode):
                                 'every new reading or phase (the loading servo takes a new set '
                                 'value one exchange after it is sent)', 's', 1e-6, 10.0)
         self.resume_from_reading = d('resume_from_reading', 0, 'start the autostart protocol at '
-                                     'this reading (pam-bench run --resume: the first one of '
-                                     'the first series a previous bag did not complete)', '-',
+                                     'this reading (pam-bench run --resume: the first one a '
+                                     'previous bag lacks), approached along its series path',
+                                     '-',
                                      0, 10**7)
         self.pulley_radius_m = d('pitch_diameter_m', PULLEY_PITCH_DIAMETER_M, 'pulley pitch '
                                  'diameter for x = r theta', 'm', 1e-3, 10.0) / 2.0
@@ -180,6 +182,7 @@ class SequencerNode(BenchNode):
 
     def _make(self, name: str, overrides_yaml: str, start_index: int = 0) -> Sequencer:
         readings, settle = protocol_schedule(name, parse_overrides(overrides_yaml), self.table)
+        readings, start_index = with_approach(readings, start_index)
         return Sequencer(name, readings, settle, self.limits, self.record_exchange_s,
                          start_index)
 
@@ -251,7 +254,7 @@ class SequencerNode(BenchNode):
         if self.core is not None and self.core.running and t >= self._next_progress_s:
             self._next_progress_s = t + PROGRESS_PERIOD_S
             c = self.core
-            print(f'[wall] {c.name}: {c.points_done}/{len(c.readings)} readings, '
+            print(f'[wall] {c.name}: {c.points_done}/{c.total_points} readings, '
                   f'{t - c.t_start:.0f} s, ETA {c.remaining_s(t):.0f} s', flush=True)
         if self.core is not None and self.core.running:
             for topic in (self.cell_topic, self.enc_topic, self.p_topic):
@@ -327,7 +330,7 @@ class SequencerNode(BenchNode):
 
     def _publish_status(self, t: float, stamp: Any) -> None:
         c = self.core
-        total = len(c.readings)
+        total = c.total_points
         msg = ProtocolStatus(protocol=c.name, state=STATE_OF[c.phase], phase=c.phase.value,
                              points_done=c.points_done, points_total=total,
                              progress=c.points_done / total, elapsed=t - c.t_start,

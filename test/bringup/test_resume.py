@@ -11,6 +11,7 @@ from pam_bench.analysis.bagwrite import write_bag
 from pam_bench.bringup.resume import resume_reading
 from pam_bench.config.protocols import protocol_schedule
 from pam_bench.config.scene import load_scene
+from pam_bench.models.schedules import with_approach
 
 SCENE = load_scene('isometric_quick')
 READINGS, _ = protocol_schedule(SCENE.protocol)
@@ -25,16 +26,27 @@ def _bag(path: pathlib.Path, taken: int) -> pathlib.Path:
     return path
 
 
-@pytest.mark.parametrize('taken, start', [
-    (1, 0),            # one reading of the first series: that series again
-    (14, 14),          # the first series complete: the second from its start
-    (20, 14),          # part of the second: the second again
-    (42, 42),          # everything: nothing left
-])
-def test_resume_starts_at_the_first_incomplete_series(tmp_path: pathlib.Path, taken: int,
-                                                      start: int) -> None:
+@pytest.mark.parametrize('taken', [1, 14, 20, 41, 42])
+def test_resume_starts_at_the_first_reading_the_bag_lacks(tmp_path: pathlib.Path,
+                                                          taken: int) -> None:
     got, total = resume_reading(SCENE, _bag(tmp_path / 'bag', taken))
-    assert (got, total) == (start, len(READINGS)) and total == 42
+    assert (got, total) == (taken, len(READINGS)) and total == 42
+
+
+@pytest.mark.parametrize('index, turning', [
+    (14, []),                        # a series start: no approach
+    (17, [14, 16]),                  # up the sweep: its start and the reading before
+    (24, [14, 21, 23]),              # past the top (6 V at steps 6 and 7): start, top, before
+    (0, []),
+])
+def test_approach_takes_the_series_turning_points(index: int, turning: list[int]) -> None:
+    readings, start = with_approach(READINGS, index)
+    assert start == index and readings[:index] == READINGS[:index]
+    approach = readings[index:index + len(turning)]
+    assert [(r.series, r.step) for r in approach] == \
+        [(READINGS[j].series, READINGS[j].step) for j in turning]
+    assert all(not r.recorded and r.record_s == 0.0 for r in approach)
+    assert readings[index + len(turning):] == READINGS[index:]
 
 
 def test_a_broken_bag_is_one_error(tmp_path: pathlib.Path) -> None:

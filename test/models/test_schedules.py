@@ -65,16 +65,16 @@ def test_missing_key_named() -> None:
         schedule_from_config('bad', {'kind': 'isometric', 'voltage_v': [0, 6, 1]})
 
 
-def test_resume_index_restarts_the_first_incomplete_series() -> None:
+def test_resume_index_restarts_at_the_first_reading_not_taken() -> None:
     table = {'a': FULL['isometric'], 'b': FULL['isotonic'], 'c': {'kind': 'campaign',
                                                                   'protocols': ['a', 'b']}}
     readings, _ = schedule_from_config('c', table['c'], table)
     keys = [(r.protocol, r.series, r.step) for r in readings]
     assert resume_index(readings, set()) == 0
     assert resume_index(readings, set(keys)) == len(readings)
-    # cut in the middle of isometric series 5: restart at its first reading
+    # cut in the middle of isometric series 5: restart at the reading that was next
     cut = keys.index(('a', 5, 0)) + 40
-    assert resume_index(readings, set(keys[:cut])) == keys.index(('a', 5, 0))
+    assert resume_index(readings, set(keys[:cut])) == cut
     # isometric complete, isotonic not started: restart at the campaign's second protocol
     n_a = sum(1 for k in keys if k[0] == 'a')
     assert resume_index(readings, set(keys[:n_a])) == n_a
