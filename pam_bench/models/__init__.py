@@ -3,5 +3,5 @@
 from __future__ import annotations
 
 __all__ = ['constants', 'coupling', 'errors', 'friction', 'inverse', 'loading_servo', 'lockstep',
-           'lti', 'muscle', 'params', 'protocols', 'schedules', 'sensors', 'torque_servo',
-           'valve']
+           'lti', 'muscle', 'params', 'protocol_io', 'protocols', 'schedules', 'sensors',
+           'torque_servo', 'valve']

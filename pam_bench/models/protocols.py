@@ -13,6 +13,7 @@ import enum
 from pam_bench.models.constants import LOAD_CELL_RANGE_N
 from pam_bench.models.errors import ParameterError
 from pam_bench.models.loading_servo import LoadMode
+from pam_bench.models.protocol_io import Commands, Measurement, Point, RecordWindow, StepRecord
 from pam_bench.models.schedules import Reading
 
 __all__ = ['Phase', 'Measurement', 'Limits', 'Point', 'StepRecord', 'Commands', 'Sequencer',
@@ -35,18 +36,10 @@ class Phase(enum.Enum):
     LEAD = 'lead'
     DWELL = 'dwell'
     RECORD = 'record'
+    PAUSED = 'paused'
     DONE = 'done'
     ABORTED = 'aborted'
     CANCELLED = 'cancelled'
-
-
-@dataclasses.dataclass(frozen=True)
-class Measurement:
-    """Latest measured values: force N, contraction m, gauge pressure Pa."""
-
-    force_n: float
-    contraction_m: float
-    pressure_pa: float
 
 
 @dataclasses.dataclass(frozen=True)
@@ -58,90 +51,6 @@ class Limits:
     force_tolerance_n: float = 10.0
     force_tolerance_rel: float = 0.05
     position_tolerance_m: float = 1.0e-3
-
-
-@dataclasses.dataclass(frozen=True)
-class Point:
-    """A reading taken: the schedule entry, the sim time (s) and the measurement."""
-
-    reading: Reading
-    t_s: float
-    voltage_v: float
-    measurement: Measurement
-
-
-@dataclasses.dataclass(frozen=True)
-class StepRecord:
-    """A step response: the reading taken at the end of its window and the force every
-    ``reading.sample_period_s`` from the step on.
-
-    Attributes:
-        point: the reading at the end of the record window.
-        t_step_s: sim time of the valve step, s.
-        samples: force sample i belongs to t_step_s + i T, N; shape (record_s / T,).
-    """
-
-    point: Point
-    t_step_s: float
-    samples: tuple[float, ...]
-
-    @property
-    def reading(self) -> Reading:
-        """The schedule entry of the step."""
-        return self.point.reading
-
-
-@dataclasses.dataclass(frozen=True)
-class Commands:
-    """What to send now, the point taken at this tick (if any), a step record completed at
-    this tick (if any) and the pressure sample period to ask the valve for (s, 0: none)."""
-
-    voltage_v: float
-    load_mode: LoadMode
-    load_value: float
-    point: Point | None
-    record: StepRecord | None = None
-    sample_period_s: float = 0.0
-
-
-@dataclasses.dataclass
-class _Record:
-    """A step record being filled: force sample i belongs to t_step + i T."""
-
-    reading: Reading
-    t_step: float
-    point: Point | None = None              # the reading, taken at the end of the window
-    values: dict[int, float] = dataclasses.field(default_factory=dict)
-    latest: float = -float('inf')           # latest sample stamp seen, s
-
-    @property
-    def n(self) -> int:
-        return int(round(self.reading.record_s / self.reading.sample_period_s))
-
-    def add(self, t_s: float, force_n: float) -> None:
-        period = self.reading.sample_period_s
-        i = int(round((t_s - self.t_step) / period))
-        if 0 <= i < self.n and abs(t_s - self.t_step - i * period) <= 0.5 * period:
-            self.values.setdefault(i, force_n)
-        self.latest = max(self.latest, t_s)
-
-    @property
-    def complete(self) -> bool:
-        last = self.t_step + (self.n - 0.5) * self.reading.sample_period_s
-        return len(self.values) == self.n or self.latest >= last
-
-    def samples(self) -> tuple[float, ...]:
-        """Every sample; a missing one (a real bench may drop one) holds the one before."""
-        out, held = [], self.values.get(min(self.values), 0.0) if self.values else 0.0
-        for i in range(self.n):
-            held = self.values.get(i, held)
-            out.append(held)
-        return tuple(out)
-
-    def finished(self) -> StepRecord:
-        """The record handed out (its point must be taken)."""
-        assert self.point is not None
-        return StepRecord(self.point, self.t_step, self.samples())
 
 
 class Sequencer:
@@ -186,10 +95,14 @@ class Sequencer:
         self.reason = ''
         self.points_done = 0
         self.record_exchange_s = record_exchange_s
-        self.rec: _Record | None = None          # the record of the current window
-        self.pending: _Record | None = None      # a record past its window, samples to come
+        self.rec: RecordWindow | None = None          # the record of the current window
+        self.pending: RecordWindow | None = None      # a record past its window, samples to come
         self._total = settle_s + sum(r.lead_s + r.dwell_s + r.record_s
                                      for r in readings[start_index:])
+        self.paused_s = 0.0                      # time spent paused so far, s
+        self._pause_request: tuple[str, bool] | None = None
+        self._resume_request = False
+        self._paused: tuple[str, bool, Phase, float] = ('', False, Phase.IDLE, 0.0)
         self._done_s = 0.0               # scheduled time of the readings already taken
 
     @property
@@ -204,9 +117,49 @@ class Sequencer:
 
     @property
     def running(self) -> bool:
-        """True while the protocol is in progress (or a record still waits for samples)."""
-        return (self.phase in (Phase.SETTLE, Phase.LEAD, Phase.DWELL, Phase.RECORD)
+        """True while the protocol is in progress, paused included (or a record still waits
+        for samples)."""
+        return (self.phase in (Phase.SETTLE, Phase.LEAD, Phase.DWELL, Phase.RECORD,
+                               Phase.PAUSED)
                 or (self.phase == Phase.DONE and self.pending is not None))
+
+    def pause(self, reason: str = 'paused', vent: bool = False) -> None:
+        """Pause at the next safe point: at once while settling or dwelling (the reading is
+        dwelt again from its start on resume), after the record during a record. Held: the
+        reading's set values stay commanded; vented (``vent``): 0 V and the drive off, and
+        the resume settles again before the dwell. A pause requested while paused only
+        updates the reason."""
+        if self.running:
+            self._pause_request = (reason, vent)
+
+    def resume(self) -> None:
+        """End a pause (or cancel a pause not yet taken) at the next tick."""
+        self._pause_request = None
+        self._resume_request = self.phase == Phase.PAUSED
+
+    @property
+    def pause_reason(self) -> str:
+        """Why the run is paused ('' when it is not)."""
+        return self._paused[0] if self.phase == Phase.PAUSED and self._paused else ''
+
+    def _pause_or_resume(self, t_s: float) -> None:
+        """Take a requested pause at a safe point, or end a pause."""
+        if self._pause_request is not None and self.phase == Phase.PAUSED:
+            self._paused = (self._pause_request[0], self._paused[1] or self._pause_request[1],
+                            self._paused[2], self._paused[3])
+            self._pause_request = None
+        elif self._pause_request is not None and self.phase in (Phase.SETTLE, Phase.LEAD,
+                                                                 Phase.DWELL):
+            reason, vent = self._pause_request
+            self._paused = (reason, vent, self.phase, t_s)
+            self._pause_request = None
+            self.phase, self.t_phase = Phase.PAUSED, t_s
+        elif self._resume_request and self.phase == Phase.PAUSED:
+            _, vent, was, t_pause = self._paused
+            self.paused_s += t_s - t_pause
+            self._resume_request = False
+            back = Phase.SETTLE if vent or was == Phase.SETTLE else Phase.DWELL
+            self.phase, self.t_phase = back, t_s
 
     def remaining_s(self, t_s: float) -> float:
         """Scheduled sim time still to run, s."""
@@ -214,7 +167,8 @@ class Sequencer:
             return self.total_s
         if not self.running:
             return 0.0
-        return max(self.total_s - (t_s - self.t_start), 0.0)
+        paused = self.paused_s + (t_s - self._paused[3] if self.phase == Phase.PAUSED else 0.0)
+        return max(self.total_s - (t_s - self.t_start - paused), 0.0)
 
     def start(self, t_s: float) -> None:
         """Begin with the settle phase at the first reading's set values."""
@@ -235,6 +189,8 @@ class Sequencer:
             return float('inf')
         if self.phase == Phase.DONE:                # waiting for the last record's samples
             return t_s + (self.record_exchange_s or 1e-3)
+        if self.phase == Phase.PAUSED:
+            return float('inf')
         if self.phase == Phase.SETTLE:
             return self.t_phase + self.settle_s
         r = self.readings[self.index]
@@ -275,14 +231,16 @@ class Sequencer:
         return what to command.
 
         One tick runs the phases in order, each possibly handing over to the next at the same
-        time: samples into the open records, SETTLE -> LEAD/DWELL, LEAD -> DWELL, DWELL -> a
-        reading or RECORD, RECORD -> its reading; then the commands of the phase reached.
+        time: samples into the open records, a pause taken or ended (``pause``), SETTLE ->
+        LEAD/DWELL, LEAD -> DWELL, DWELL -> a reading or RECORD, RECORD -> its reading; then
+        the commands of the phase reached.
         """
         if samples is None:
             samples = [(t_s, meas.force_n)]
         if self.running and abs(meas.force_n) >= 0.999 * self.limits.force_range_n:
             self.stop(Phase.ABORTED, f'load cell out of range: {meas.force_n:.1f} N')
         record = self._collect(samples)
+        self._pause_or_resume(t_s)
         if self.phase == Phase.SETTLE:
             self._settle(t_s)
         point = None
@@ -324,7 +282,7 @@ class Sequencer:
         if r.record_s <= 0.0:
             return self._take(r, t_s, meas)
         self.phase, self.t_phase = Phase.RECORD, t_s
-        self.rec = _Record(r, t_s)
+        self.rec = RecordWindow(r, t_s)
         for ts, f in samples:                   # the sample at t_step may be in already
             self.rec.add(ts, f)
         return None
@@ -346,7 +304,9 @@ class Sequencer:
                   ) -> Commands:
         if self.running and self.phase != Phase.DONE:
             r = self.readings[self.index]
-            if self.phase == Phase.SETTLE:
+            if self.phase == Phase.PAUSED and self._paused[1]:
+                return Commands(0.0, LoadMode.OFF, 0.0, point, record)   # vented
+            if self.phase in (Phase.SETTLE, Phase.PAUSED):
                 u0 = r.ramp_from_v if r.ramp_from_v is not None else (
                     r.pre_voltage_v if r.pre_voltage_v is not None else r.voltage_v)
                 return Commands(u0, r.load_mode, r.load_value, point, record)

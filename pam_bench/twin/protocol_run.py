@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Sequence
 from typing import Any
 
 from pam_bench.config.protocols import protocol_schedule
@@ -27,6 +28,7 @@ from pam_bench.models.protocols import (
     COMMAND_STEP_S,
     RECORD_EXCHANGE_S,
     Measurement,
+    Phase,
     Point,
     Sequencer,
     StepRecord,
@@ -56,8 +58,11 @@ def run_readings(name: str, readings: list[Reading], settle_s: float, exchange_s
                  muscle: MuscleParams | None = None, servo: LoadingServoParams | None = None,
                  load_cell: LoadCellParams | None = None, seed: int = 0,
                  command_step_s: float = COMMAND_STEP_S,
-                 record_exchange_s: float = RECORD_EXCHANGE_S) -> TwinRun:
-    """Run a schedule to its end (module docstring); the bench starts at rest."""
+                 record_exchange_s: float = RECORD_EXCHANGE_S,
+                 events: Sequence[tuple[float, str]] = ()) -> TwinRun:
+    """Run a schedule to its end (module docstring); the bench starts at rest. ``events``:
+    (sim time s, 'pause' | 'pause_vent' | 'resume'), given to the sequencer at the first tick
+    at or after that time, as an operator's service call would be."""
     bench = SingleMuscleBench(valve=valve, muscle=muscle, load_cell=load_cell, servo=servo,
                               seed=seed, sub_step_s=sub_step_s)
     seq = Sequencer(name, readings, settle_s, record_exchange_s=record_exchange_s)
@@ -68,9 +73,18 @@ def run_readings(name: str, readings: list[Reading], settle_s: float, exchange_s
     sample_period = 0.0
     request = EventStepRequest(command_step_s)
     t0 = time.perf_counter()
+    pending = sorted(events)
     while True:
+        if pending and seq.phase == Phase.PAUSED:   # land on the next event, not beyond it
+            h = min(h, max(pending[0][0] - bench.t, command_step_s))
         bench.step(h, sample_period)
         meas = Measurement(bench.f_meas, bench.th_meas * bench.servo.r, bench.p)
+        while pending and bench.t >= pending[0][0] - 1e-12:
+            what = pending.pop(0)[1]
+            if what == 'resume':
+                seq.resume()
+            else:
+                seq.pause('operator', vent=what == 'pause_vent')
         cmd = seq.tick(bench.t, meas, list(bench.samples))
         if cmd.point is not None:
             points.append(cmd.point)
