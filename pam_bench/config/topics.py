@@ -13,8 +13,9 @@ import dataclasses
 __all__ = ['Topic', 'TOPICS', 'valve_command', 'valve_pressure', 'valve_samples',
            'muscle_state', 'muscle_samples', 'load_cell_force', 'ENCODER', 'LOAD_COMMAND',
            'LOAD_STATE', 'PULLEY_STATE', 'PULLEY_LAW', 'POINT', 'RECORD', 'STATUS', 'RUN',
-           'SERVO_SETPOINT', 'SERVO_STATE', 'SERVO_RESET', 'DIAGNOSTICS', 'CLOCK', 'ACK',
-           'STEP_TOPIC_SOURCES', 'EVENT_TOPICS', 'STEP_TOPICS', 'step_topics', 'absolute']
+           'PAUSE', 'RESUME', 'SERVO_SETPOINT', 'SERVO_STATE', 'SERVO_RESET', 'DIAGNOSTICS',
+           'CLOCK', 'ACK', 'STEP_TOPIC_SOURCES', 'EVENT_TOPICS', 'STEP_TOPICS', 'step_topics',
+           'absolute']
 
 
 def valve_command(ch: int) -> str:
@@ -56,6 +57,8 @@ POINT = 'protocol/point'
 RECORD = 'protocol/step_response'
 STATUS = 'protocol/status'
 RUN = 'protocol/run'
+PAUSE = 'protocol/pause'
+RESUME = 'protocol/resume'
 SERVO_SETPOINT = 'torque_servo/setpoint'
 SERVO_STATE = 'torque_servo/state'
 SERVO_RESET = 'torque_servo/reset'

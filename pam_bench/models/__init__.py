@@ -4,4 +4,4 @@ from __future__ import annotations
 
 __all__ = ['constants', 'coupling', 'errors', 'friction', 'inverse', 'loading_servo', 'lockstep',
            'lti', 'muscle', 'params', 'protocol_io', 'protocols', 'schedules', 'sensors',
-           'torque_servo', 'valve']
+           'suspenders', 'torque_servo', 'valve']

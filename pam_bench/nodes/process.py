@@ -302,7 +302,6 @@ def run_node(cls: type[Node], args: list[str] | None = None) -> None:
             return
         with profiled(node.get_name()):
             period = getattr(node, 'wall_period_s', None)
-            lockstep = getattr(node, 'lockstep', True)
             lean = os.environ.get('PAM_BENCH_EXECUTOR') != 'single'
             if period is not None and getattr(node, 'action', None) is None and lean and \
                     getattr(node, 'wall_loop', 'deadline') == 'deadline':
@@ -315,7 +314,7 @@ def run_node(cls: type[Node], args: list[str] | None = None) -> None:
                 code = node.exit_code or 0
             elif getattr(node, 'LEAN_SPIN', False) and lean:
                 lean_spin(node, graceful=getattr(node, 'GRACEFUL_STOP', False),
-                          poll=None if lockstep else serve_services(node))
+                          poll=serve_services(node) if list(node.services) else None)
             else:                                # rclpy's executor (and its timers)
                 from rclpy.executors import SingleThreadedExecutor
                 executor = SingleThreadedExecutor(context=node.context)

@@ -30,6 +30,7 @@ import math
 import time
 from typing import Any
 
+import yaml
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import WrenchStamped
 from pam_bench_interfaces.action import RunProtocol
@@ -43,6 +44,7 @@ from pam_bench_interfaces.msg import (
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.task import Future
 from sensor_msgs.msg import FluidPressure, JointState
+from std_srvs.srv import Trigger
 
 from pam_bench.config import topics
 from pam_bench.config.protocols import load_protocols, parse_overrides, protocol_schedule
@@ -60,6 +62,7 @@ from pam_bench.models.protocols import (
     StepRecord,
 )
 from pam_bench.models.schedules import with_approach
+from pam_bench.models.suspenders import Suspenders, parse_rules
 from pam_bench.nodes.base import RELIABLE, SENSOR, BenchNode
 from pam_bench.nodes.intra import bus_publisher
 from pam_bench.nodes.messages import ns_of, time_of
@@ -73,6 +76,7 @@ END_CODES = {Phase.DONE: 0, Phase.ABORTED: 4, Phase.CANCELLED: 5}
 STATE_OF = {Phase.IDLE: ProtocolStatus.STATE_IDLE, Phase.SETTLE: ProtocolStatus.STATE_RUNNING,
             Phase.LEAD: ProtocolStatus.STATE_RUNNING, Phase.DWELL: ProtocolStatus.STATE_RUNNING,
             Phase.RECORD: ProtocolStatus.STATE_RUNNING, Phase.DONE: ProtocolStatus.STATE_DONE,
+            Phase.PAUSED: ProtocolStatus.STATE_RUNNING,
             Phase.ABORTED: ProtocolStatus.STATE_ABORTED,
             Phase.CANCELLED: ProtocolStatus.STATE_CANCELLED}
 
@@ -103,6 +107,14 @@ class SequencerNode(BenchNode):
         self.await_recorder = d('await_recorder', False, 'without lock-step: start the '
                                 'autostart protocol only once protocol/point has a subscriber '
                                 "(the run's recorder), so that no point goes unrecorded")
+        pause_action = d('pause_action', 'hold', "what a pause does: 'hold' the reading's set "
+                         "values or 'vent' (0 V, drive off; the resume settles again)")
+        if pause_action not in ('hold', 'vent'):
+            raise ParameterError(f"sequencer.pause_action {pause_action!r}: 'hold' or 'vent'")
+        self.pause_vent = pause_action == 'vent'
+        self.suspenders = Suspenders(parse_rules(yaml.safe_load(d(
+            'suspenders_yaml', '', 'YAML list of suspenders: {input: force | contraction | '
+            'pressure, low, high, stale_s, resume_after_s} (models.suspenders)') or '') or []))
         self.end_linger_s = d('end_linger_s', 0.5, 'without lock-step: time between the end '
                               'of the protocol and the exit of the node (stop_on_end)', 's',
                               0.0, 60.0)
@@ -160,6 +172,8 @@ class SequencerNode(BenchNode):
         # server, and the node spins on subscriptions only (nodes.process.lean_spin), which costs a
         # fraction of rclpy's executor per message (1 kHz records arrive 1000 samples a second)
         self.LEAN_SPIN = self.lockstep and self.autostart
+        self.create_service(Trigger, topics.PAUSE, self._on_pause)
+        self.create_service(Trigger, topics.RESUME, self._on_resume)
         self.action = None
         if not self.autostart:
             self.action = ActionServer(self, RunProtocol, topics.RUN, self._execute,
@@ -256,7 +270,7 @@ class SequencerNode(BenchNode):
             c = self.core
             print(f'[wall] {c.name}: {c.points_done}/{c.total_points} readings, '
                   f'{t - c.t_start:.0f} s, ETA {c.remaining_s(t):.0f} s', flush=True)
-        if self.core is not None and self.core.running:
+        if self.core is not None and self.core.running and not self.suspenders.suspended:
             for topic in (self.cell_topic, self.enc_topic, self.p_topic):
                 age = t - self.stamps.get(topic, -math.inf)
                 if age > self.stale_timeout_s:
@@ -279,6 +293,7 @@ class SequencerNode(BenchNode):
             self._publish_commands(stamp, 0.0, 0, 0.0)
             return
         samples, self.samples = self.samples, []
+        self._suspend_check(t)
         cmd = core.tick(t, self.meas, samples)
         self._publish_commands(stamp, cmd.voltage_v, int(cmd.load_mode), cmd.load_value,
                                cmd.sample_period_s)
@@ -299,6 +314,52 @@ class SequencerNode(BenchNode):
                 self.stop_request = StopRequest(
                     END_CODES[core.phase], f'protocol {core.name} {core.phase.value}'
                     + (f': {core.reason}' if core.reason else ''))
+
+    def _suspend_check(self, t: float) -> None:
+        """Let the suspenders pause or resume a running protocol."""
+        core = self.core
+        if core is None or not core.running or not self.suspenders.rules:
+            return
+        m = self.meas
+        values = {'force': m.force_n, 'contraction': m.contraction_m, 'pressure': m.pressure_pa}
+        if self.lockstep:
+            ages = dict.fromkeys(values, 0.0)
+        else:
+            ages = {'force': t - self.stamps.get(self.cell_topic, -math.inf),
+                    'contraction': t - self.stamps.get(self.enc_topic, -math.inf),
+                    'pressure': t - self.stamps.get(self.p_topic, -math.inf)}
+        action, why = self.suspenders.update(t, values, ages)
+        if action == 'suspend':
+            core.pause(f'suspended: {why}', vent=self.pause_vent)
+            self.diagnose(DiagnosticStatus.WARN, f'protocol suspended: {why}')
+        elif action == 'resume':
+            core.resume()
+            self.diagnose(DiagnosticStatus.OK, 'suspender satisfied: protocol resumed')
+
+    def _on_pause(self, request: Trigger.Request, response: Trigger.Response
+                  ) -> Trigger.Response:
+        """protocol/pause: pause at the next safe point (``pause_action``)."""
+        core = self.core
+        response.success = core is not None and core.running and core.phase != Phase.PAUSED
+        if response.success:
+            core.pause('paused by the operator', vent=self.pause_vent)
+            self.diagnose(DiagnosticStatus.WARN, 'protocol pause requested')
+        response.message = 'pausing at the next safe point' if response.success else \
+            'nothing to pause'
+        return response
+
+    def _on_resume(self, request: Trigger.Request, response: Trigger.Response
+                   ) -> Trigger.Response:
+        """protocol/resume: end a pause (the interrupted reading is dwelt again)."""
+        core = self.core
+        response.success = core is not None and core.running and not self.suspenders.suspended
+        if response.success:
+            core.resume()
+            self.diagnose(DiagnosticStatus.OK, 'protocol resume requested')
+        response.message = ('resuming' if response.success else
+                            'a suspender holds the run' if self.suspenders.suspended else
+                            'nothing to resume')
+        return response
 
     def _publish_commands(self, stamp: Any, u: float, mode: int, value: float,
                           sample_period_s: float = 0.0) -> None:
@@ -334,7 +395,7 @@ class SequencerNode(BenchNode):
         msg = ProtocolStatus(protocol=c.name, state=STATE_OF[c.phase], phase=c.phase.value,
                              points_done=c.points_done, points_total=total,
                              progress=c.points_done / total, elapsed=t - c.t_start,
-                             remaining=c.remaining_s(t), reason=c.reason)
+                             remaining=c.remaining_s(t), reason=c.reason or c.pause_reason)
         msg.header.stamp = stamp
         self.status_pub.publish(msg)
         self._last_status_t = t
