@@ -166,3 +166,27 @@ def test_killed_device_process_vents_both_servo_valves(tmp_path: pathlib.Path,
                  if _ns(m) >= min(stale)]
         assert after and all(v == 0.0 for v in after)
     assert all('stale' in s.status for s in states if _ns(s) >= min(stale))
+
+
+def test_ctrl_c_in_a_wallclock_run_leaves_a_valid_bag(tmp_path: pathlib.Path, ros_domain: int,
+                                                      settled_scene: pathlib.Path) -> None:
+    from pam_bench.analysis.baginfo import bag_info
+    bag = tmp_path / 'bag'
+    proc = _wall_run(settled_scene, bag, [])
+    try:
+        deadline = time.monotonic() + 25.0
+        for line in proc.stdout:
+            if _readings_done(line) >= 1 or time.monotonic() > deadline:
+                break
+        time.sleep(1.0)
+        os.killpg(proc.pid, signal.SIGINT)             # Ctrl-C: the whole process group
+        out, _ = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 130, out
+    assert 'Traceback' not in out, out
+    info = bag_info(bag)
+    assert info['end']['state'] == 'interrupted'
+    assert 1 <= info['topics']['/protocol/point']['count'] < 6
+    assert info['topics']['/load_cell_1/force']['count'] > 1000
