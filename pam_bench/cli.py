@@ -90,7 +90,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return 2
     res = run_scene(scene, str(out), seed=args.seed, realtime=args.realtime,
                     one_process=args.one_process, wallclock=args.wallclock,
-                    device_processes=args.device_processes, parameters=parameters)
+                    device_processes=args.device_processes, parameters=parameters,
+                    netns=tuple(args.netns.split(':', 1)) if args.netns else None)
     if res.code == 130:
         print(f'interrupted: nodes stopped, bag closed in {out}', file=sys.stderr)
         return 130
@@ -352,6 +353,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument('--wallclock', action='store_true', help='run on the wall clock as on a '
                    'real bench: devices free-running in one emulator process, controllers and '
                    'recorder in their own')
+    p.add_argument('--netns', metavar='DEVICES_NS:OTHER_NS', help='run the simulated devices '
+                   'in one network namespace and the other nodes in another, as on two hosts '
+                   '(lock-step, separate processes; README, "Two hosts")')
     p.add_argument('--device-processes', action='store_true', help='with --wallclock: each '
                    'device in its own process instead of the emulator')
     p.set_defaults(func=_cmd_run)

@@ -51,10 +51,11 @@ class RunResult:
     stats: dict[str, Any] = dataclasses.field(default_factory=dict)   # wall clock: per node
 
 
-def ros_env(domain_id: int | None = None) -> dict[str, str]:
-    """Environment for ROS processes of one run: loopback discovery, a private domain."""
+def ros_env(domain_id: int | None = None, discovery: str = 'LOCALHOST') -> dict[str, str]:
+    """Environment for ROS processes of one run: loopback discovery (``SUBNET`` across
+    network namespaces: ``netns``), a private domain."""
     env = dict(os.environ)
-    env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = discovery
     if domain_id is None:
         domain_id = int(env.get('ROS_DOMAIN_ID', '') or 1 + os.getpid() % 100)
     env['ROS_DOMAIN_ID'] = str(domain_id)
@@ -108,11 +109,14 @@ def run_scene(scene: Scene, out_dir: str, seed: int = 0, realtime: bool = False,
               one_process: bool = False, domain_id: int | None = None,
               quiet: bool = False, wallclock: bool = False,
               device_processes: bool = False, devices_only: bool = False,
-              parameters: dict[str, Any] | None = None) -> RunResult:
+              parameters: dict[str, Any] | None = None,
+              netns: tuple[str, str] | None = None) -> RunResult:
     """Run ``scene``, recording into ``out_dir``; return the clock's summary. With
     ``devices_only`` (wall clock) only the simulated devices run, until Ctrl-C: a bench to
     point a lab's own controllers or ``check-drivers`` at. ``parameters`` (the resolved
-    parameters a bag recorded: ``--replay``) replace the scene's."""
+    parameters a bag recorded: ``--replay``) replace the scene's. ``netns`` (device namespace,
+    other namespace) runs the simulated devices and the other nodes in two network
+    namespaces, as on two hosts, with DDS discovery on their subnet (separate processes)."""
     params = copy.deepcopy(parameters) if parameters else scene.node_parameters(
         out_dir, seed, realtime)
     if 'recorder' in params:
@@ -136,13 +140,23 @@ def run_scene(scene: Scene, out_dir: str, seed: int = 0, realtime: bool = False,
                              'drop --one-process')
         return _run_wallclock(scene, params, domain_id, quiet, device_processes, devices_only)
     if one_process:
+        if netns:
+            raise ValueError('two namespaces need separate processes: drop --one-process')
         return _run_in_process(scene, params, domain_id, quiet)
-    return _run_processes(scene, params, domain_id, quiet)
+    return _run_processes(scene, params, domain_id, quiet, netns)
+
+
+def _in_netns(name: str, netns: tuple[str, str] | None, cmd: list[str]) -> list[str]:
+    """``cmd`` run in the device namespace (simulated devices) or the other one."""
+    if netns is None:
+        return cmd
+    from pam_bench.bringup.emulator import CHAIN
+    return ['ip', 'netns', 'exec', netns[0] if name in CHAIN else netns[1], *cmd]
 
 
 def _run_processes(scene: Scene, params: dict[str, Any], domain_id: int | None,
-                   quiet: bool) -> RunResult:
-    env = ros_env(domain_id)
+                   quiet: bool, netns: tuple[str, str] | None = None) -> RunResult:
+    env = ros_env(domain_id, 'SUBNET' if netns else 'LOCALHOST')
     procs: dict[str, subprocess.Popen] = {}
     failed: list[str] = []
     with tempfile.TemporaryDirectory(prefix='pam_bench_') as tmp:
@@ -157,13 +171,13 @@ def _run_processes(scene: Scene, params: dict[str, Any], domain_id: int | None,
             if 'recorder' in scene.nodes:
                 order.insert(0, 'recorder')
             for name in order:
-                procs[name] = subprocess.Popen(
-                    [sys.executable, '-m', NODE_TYPES[name].module, '--ros-args',
-                     '-r', f'__node:={name}', '--params-file', pfile],
+                procs[name] = subprocess.Popen(_in_netns(name, netns, [
+                    sys.executable, '-m', NODE_TYPES[name].module, '--ros-args',
+                    '-r', f'__node:={name}', '--params-file', pfile]),
                     env=env, stdout=log, stderr=subprocess.STDOUT, preexec_fn=_die_with_parent)
-            clock = subprocess.Popen(
-                [sys.executable, '-m', NODE_TYPES['sim_clock'].module, '--ros-args',
-                 '-r', '__node:=sim_clock', '--params-file', pfile],
+            clock = subprocess.Popen(_in_netns('sim_clock', netns, [
+                sys.executable, '-m', NODE_TYPES['sim_clock'].module, '--ros-args',
+                '-r', '__node:=sim_clock', '--params-file', pfile]),
                 env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                 preexec_fn=_die_with_parent)
             watcher = threading.Thread(target=_watch, args=(dict(procs), clock, failed),
