@@ -134,6 +134,9 @@ def run_scene(scene: Scene, out_dir: str, seed: int = 0, realtime: bool = False,
         os.close(fd)
         os.unlink(end_file)
         rp['end_file'] = end_file
+    if scene.faults and not wallclock:
+        raise ValueError(f'scene {scene.name} injects faults: they run on the wall clock '
+                         '(--wallclock)')
     if wallclock:
         if one_process:
             raise ValueError('a wall-clock run composes the devices only (the emulator); '
@@ -239,6 +242,9 @@ def _run_wallclock(scene: Scene, params: dict[str, Any], domain_id: int | None, 
             p.update(lockstep=False, stats_file=os.path.join(tmp, f'{name}.json'))
         if 'torque_servo' in params:
             params['torque_servo']['ros__parameters']['duration_s'] = scene.duration_s
+        for target in {f.target for f in scene.faults if f.kind != 'node_kill'}:
+            params[target]['ros__parameters']['faults_yaml'] = yaml.safe_dump(
+                [dataclasses.asdict(f) for f in scene.faults if f.target == target])
         for name in controllers:      # nothing a controller publishes goes unrecorded
             params[name]['ros__parameters']['await_recorder'] = 'recorder' in scene.nodes
         if 'recorder' in params:       # what a real bench has: no sim/ ground truth
@@ -275,6 +281,7 @@ def _run_wallclock(scene: Scene, params: dict[str, Any], domain_id: int | None, 
                                    *devices])
             for name in controllers:
                 start(name, node_cmd(name), pipe=name == controllers[0])
+            kills = [f for f in scene.faults if f.kind == 'node_kill']
             main = procs[controllers[0] if controllers else 'emulator']
             if devices_only and not quiet:
                 print(f'devices {", ".join(devices)} running on the wall clock in one process '
@@ -283,6 +290,10 @@ def _run_wallclock(scene: Scene, params: dict[str, Any], domain_id: int | None, 
                 main.wait()
             for line in main.stdout or ():
                 log.write(line)
+                if kills and line.startswith('[wall]'):     # the run has started
+                    threading.Thread(target=_kill_on_time, args=(kills, procs, devices),
+                                     daemon=True).start()
+                    kills = []
                 if not quiet and line.startswith('[wall'):
                     print(line, end='', flush=True)
                 dead = [n for n, p in procs.items() if p.poll() is not None and p.returncode == 2]
@@ -318,6 +329,20 @@ def _run_wallclock(scene: Scene, params: dict[str, Any], domain_id: int | None, 
     elif code not in (0, 130):
         sys.stderr.write(node_log[-4000:])
     return result
+
+
+def _kill_on_time(kills: list[Any], procs: dict[str, subprocess.Popen],
+                  devices: list[str]) -> None:
+    """node_kill faults: SIGKILL the process of each target ``at_s`` after the run started
+    (called at the main controller's first progress line, within a tick of its start; a
+    device lives in the emulator, which goes with it)."""
+    t0 = time.monotonic()
+    for f in sorted(kills, key=lambda f: f.at_s):
+        time.sleep(max(0.0, t0 + f.at_s - time.monotonic()))
+        name = f.target if f.target in procs else ('emulator' if f.target in devices else '')
+        proc = procs.get(name)
+        if proc is not None and proc.poll() is None:
+            proc.send_signal(signal.SIGKILL)
 
 
 def _write_end(params: dict[str, Any], code: int | None) -> None:

@@ -6,7 +6,8 @@ longest exchange step: the devices ask for shorter ones where they need them), `
 sub-step of the valve's pressure samples, which the muscle and the drive are solved on inside
 every exchange; 5 ms by default), optional ``record_samples`` (record those sub-step samples,
 ``sim/valve_N/samples`` and ``sim/muscle_N/samples``, too; false by default: they are most of
-a bag), optional ``parameters`` (per node, merged over
+a bag), optional ``faults`` (injected faults, wall clock only: ``models.faults``), optional
+``parameters`` (per node, merged over
 config/bench.yaml) and optional ``protocol_overrides`` (merged over the protocol's entry in
 config/protocols.yaml). ``node_parameters`` returns the parameters of every node of the run in
 the ROS 2 params-file layout.
@@ -27,6 +28,7 @@ from pam_bench.config.topics import EVENT_TOPICS, step_topics
 from pam_bench.config.yaml_io import ConfigError, read_yaml
 from pam_bench.models.constants import SUB_STEP_S
 from pam_bench.models.errors import ParameterError
+from pam_bench.models.faults import Fault, parse_faults
 from pam_bench.models.loading_servo import LoadingServoParams
 from pam_bench.models.muscle import MuscleParams
 from pam_bench.models.params import check_known, from_mapping, hint, nearest
@@ -88,6 +90,7 @@ class Scene:
     sub_step_s: float = SUB_STEP_S
     record_samples: bool = False
     source: str = ''             # the scene file's text (a bag keeps it: ``--replay``)
+    faults: list[Fault] = dataclasses.field(default_factory=list)   # wall clock only
 
     def node_parameters(self, out_dir: str, seed: int, realtime: bool) -> dict[str, Any]:
         """Parameters of every node: config/bench.yaml, then the scene, then this run."""
@@ -144,6 +147,7 @@ SCENE_KEYS: dict[str, tuple[type | tuple[type, ...], str]] = {
     'record_samples': (bool, 'true or false'),
     'parameters': (dict, 'a mapping node -> parameters'),
     'protocol_overrides': (dict, 'a mapping of protocol keys'),
+    'faults': (list, 'a list of faults (models.faults)'),
 }
 """Every key a scene file may hold: its type and how the error message names that type."""
 REQUIRED = ('nodes', 'exchange_step_s')
@@ -234,6 +238,11 @@ def _parse_scene(path: pathlib.Path, data: dict[str, Any]) -> Scene:
             protocol_config(protocol, overrides)
         except ParameterError as exc:
             raise ConfigError(f'{where}: {exc}') from None
+    try:
+        faults = parse_faults(_typed(where, data, 'faults', []), list(nodes))
+    except ParameterError as exc:
+        raise ConfigError(f'{where}: {exc}') from None
     return Scene(path.stem, _typed(where, data, 'description', ''), float(step), protocol,
                  list(nodes), float(duration), parameters, overrides, float(sub),
-                 _typed(where, data, 'record_samples', False), path.read_text(encoding='utf-8'))
+                 _typed(where, data, 'record_samples', False), path.read_text(encoding='utf-8'),
+                 faults)

@@ -2,6 +2,6 @@
 
 from __future__ import annotations
 
-__all__ = ['constants', 'coupling', 'errors', 'friction', 'inverse', 'loading_servo', 'lockstep',
-           'lti', 'muscle', 'params', 'protocol_io', 'protocols', 'schedules', 'sensors',
-           'suspenders', 'torque_servo', 'valve']
+__all__ = ['constants', 'coupling', 'errors', 'faults', 'friction', 'inverse', 'loading_servo',
+           'lockstep', 'lti', 'muscle', 'params', 'protocol_io', 'protocols', 'schedules',
+           'sensors', 'suspenders', 'torque_servo', 'valve']

@@ -45,12 +45,16 @@ class Phase(enum.Enum):
 @dataclasses.dataclass(frozen=True)
 class Limits:
     """Abort thresholds: load-cell range (N), set-value tolerances of the loading servo at a
-    reading (N, m; force tolerance also relative)."""
+    reading (N, m; force tolerance also relative), and the valve check: the gauge pressure at
+    a reading within ``pressure_tolerance_pa`` of k_v u (a stuck valve; 0: no check; not on
+    ramp readings, taken while the voltage moves)."""
 
     force_range_n: float = LOAD_CELL_RANGE_N
     force_tolerance_n: float = 10.0
     force_tolerance_rel: float = 0.05
     position_tolerance_m: float = 1.0e-3
+    pressure_tolerance_pa: float = 0.0           # valve check at a reading; 0: off
+    valve_gain_pa_per_v: float = 1.0e5           # k_v of the valve check (004: 0.1 MPa/V)
 
 
 class Sequencer:
@@ -218,6 +222,11 @@ class Sequencer:
             if abs(meas.force_n - r.load_value) > tol:
                 return (f'loading servo cannot reach {r.load_value:.1f} N '
                         f'(measured {meas.force_n:.1f} N)')
+        if lim.pressure_tolerance_pa > 0.0 and r.ramp_from_v is None:
+            want = lim.valve_gain_pa_per_v * r.voltage_v
+            if abs(meas.pressure_pa - want) > lim.pressure_tolerance_pa:
+                return (f'valve does not follow: {meas.pressure_pa / 1e3:.1f} kPa at '
+                        f'{r.voltage_v:.2f} V (expected {want / 1e3:.1f} kPa)')
         if r.load_mode == LoadMode.POSITION and r.record_s == 0.0:
             if abs(meas.contraction_m - r.load_value) > lim.position_tolerance_m:
                 return (f'loading servo cannot reach x = {r.load_value * 1e3:.2f} mm '

@@ -80,6 +80,11 @@ class Suspenders:
         self.suspended = False
         self._good_since: float | None = None
 
+    def watched_stale(self) -> set[str]:
+        """Inputs whose staleness a rule watches (a run it suspends waits instead of
+        aborting for them)."""
+        return {r.input for r in self.rules if math.isfinite(r.stale_s)}
+
     def update(self, t_s: float, values: Mapping[str, float], ages_s: Mapping[str, float]
                ) -> tuple[str, str]:
         """Check every rule at ``t_s``; returns (action, reason): ('suspend', why) when a rule

@@ -43,10 +43,13 @@ import math
 import os
 import sys
 import time
+import zlib
 from array import array
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
+import yaml
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from pam_bench_interfaces.msg import StepAck
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
@@ -62,6 +65,8 @@ from rclpy.serialization import deserialize_message
 from rosgraph_msgs.msg import Clock
 
 from pam_bench.config import topics
+from pam_bench.models.errors import ParameterError
+from pam_bench.models.faults import Fault, parse_faults, sensor_value
 from pam_bench.models.lockstep import Ack, InputSpec, StopRequest, prune, take_inputs
 from pam_bench.models.params import ParamInfo, describe, from_mapping, param_infos
 from pam_bench.nodes import intra
@@ -122,6 +127,8 @@ class BenchNode(Node):
         self._model_ns = 0                          # wall clock: the model's time
         self._resend_ns = 0
         self._first_tick_ns: int | None = None
+        self._fault_epoch_ns: int | None = None
+        self.faults: list[Fault] = []
         self._start_outputs: list[tuple[Callable[[Any], None], Any]] | None = None
         self._tick_ns = array('q')                  # monotonic ns of every wall tick
         self.published: dict[str, int] = {}         # topic -> messages published on DDS
@@ -268,6 +275,18 @@ class BenchNode(Node):
         node's own clock at ``rate_hz`` (declared here, used on a wall clock only)."""
         rate_hz = self.declare_typed('rate_hz', default_rate_hz, 'update rate on a wall clock '
                                      '(lockstep false)', 'Hz', 1.0, 10000.0)
+        text = self.declare_typed('faults_yaml', '', 'wall clock: faults injected into this '
+                                  "device (YAML list, models.faults; from a scene's faults)")
+        self.faults = parse_faults(yaml.safe_load(text) if text else [], [self.get_name()])
+        if self.faults and self.lockstep:
+            raise ParameterError(f'{self.get_name()}: faults run on a wall clock (lockstep '
+                                 'false)')
+        self._fault_rng = np.random.default_rng(zlib.crc32(self.get_name().encode()))
+        if self.faults:        # the faults' time base: the run's start (its first status)
+            from pam_bench_interfaces.msg import ProtocolStatus, TorqueServoState
+            for cls, topic in ((ProtocolStatus, topics.STATUS),
+                               (TorqueServoState, topics.SERVO_STATE)):
+                self.create_subscription(cls, topic, self._run_started, RELIABLE)
         if self.lockstep:
             self.start_lockstep()
         else:
@@ -414,6 +433,30 @@ class BenchNode(Node):
             print(f'{self.get_name()}: error: {text}', file=sys.stderr, flush=True)
             self.exit_code = 3
         return True
+
+    def _run_started(self, msg: Any) -> None:
+        if self._fault_epoch_ns is None:
+            self._fault_epoch_ns = self.now_ns()
+
+    def fault_time_s(self) -> float:
+        """Seconds since the run started (the first protocol status or servo state this
+        device received): the faults' time base; -1 before."""
+        if self._fault_epoch_ns is None or self._last_ns is None:
+            return -1.0
+        return (self._last_ns - self._fault_epoch_ns) * 1e-9
+
+    def faulty(self, value: float) -> float | None:
+        """The measured ``value`` as the injected faults make it (None: not published)."""
+        if not self.faults:
+            return value
+        return sensor_value(self.faults, self.fault_time_s(), value,
+                            float(self._fault_rng.standard_normal()),
+                            float(self._fault_rng.random()))
+
+    def fault_active(self, kind: str) -> bool:
+        """Whether an injected fault of ``kind`` acts now."""
+        t = self.fault_time_s()
+        return any(f.kind == kind and f.active(t) for f in self.faults)
 
     def wall_inputs(self, inputs: dict[str, Any], dt_s: float) -> dict[str, Any]:
         """On a wall clock: adapt the latest inputs to a step of ``dt_s`` (default: as they

@@ -39,7 +39,10 @@ class EncoderSim(BenchNode):
         js = inputs[self.topic]
         self.angle_rad = js.position[list(js.name).index('pulley')]
         angle, rate = self.model.measure(self.angle_rad, dt_s)
-        msg = JointState(name=['pulley'], position=[angle], velocity=[rate])
+        reported = self.faulty(angle)               # injected faults (wall clock)
+        if reported is None:
+            return
+        msg = JointState(name=['pulley'], position=[reported], velocity=[rate])
         msg.header.stamp = time_of(t_ns)
         self.pub.publish(msg)
 

@@ -69,10 +69,13 @@ class LoadCellSim(BenchNode):
                 level = DiagnosticStatus.WARN if self.model.saturated else DiagnosticStatus.OK
                 state = 'saturated' if self.model.saturated else 'in range'
                 self.diagnose(level, f'load cell {state}', force_n=force)
+            reported = self.faulty(f)             # injected faults (wall clock)
+            if reported is None:
+                continue
             msg = WrenchStamped()
             msg.header.stamp = time_of(stamp)
             msg.header.frame_id = f'load_cell_{self.channel}'
-            msg.wrench.force.x = f
+            msg.wrench.force.x = reported
             self.pub.publish(msg)
 
 

@@ -140,7 +140,12 @@ class SequencerNode(BenchNode):
             force_tolerance_rel=d('force_tolerance_rel', 0.05, 'relative force tolerance', '-',
                                   0.0, 1.0),
             position_tolerance_m=d('position_tolerance_m', 1e-3, 'servo position tolerance at '
-                                   'a reading', 'm', 0.0, 1.0))
+                                   'a reading', 'm', 0.0, 1.0),
+            pressure_tolerance_pa=d('pressure_tolerance_pa', 0.0, 'abort when the valve '
+                                    'pressure at a reading is further than this from k_v u '
+                                    '(a stuck valve); 0: off', 'Pa', 0.0, 1e7),
+            valve_gain_pa_per_v=d('valve_gain_pa_per_v', 1.0e5, 'valve gain k_v of that check',
+                                  'Pa/V', 1.0, 1e7))
         self.table = load_protocols(path or None)
         self.core = (self._make(self.protocol, overrides, self.resume_from_reading)
                      if self.autostart else None)
@@ -270,8 +275,12 @@ class SequencerNode(BenchNode):
             c = self.core
             print(f'[wall] {c.name}: {c.points_done}/{c.total_points} readings, '
                   f'{t - c.t_start:.0f} s, ETA {c.remaining_s(t):.0f} s', flush=True)
-        if self.core is not None and self.core.running and not self.suspenders.suspended:
-            for topic in (self.cell_topic, self.enc_topic, self.p_topic):
+        if self.core is not None and self.core.running:
+            watched = self.suspenders.watched_stale() if self.suspenders.suspended else set()
+            for topic, what in ((self.cell_topic, 'force'), (self.enc_topic, 'contraction'),
+                                (self.p_topic, 'pressure')):
+                if what in watched:        # its suspender holds the run while it is stale
+                    continue
                 age = t - self.stamps.get(topic, -math.inf)
                 if age > self.stale_timeout_s:
                     self.core.stop(Phase.ABORTED, f'measured topic {topic} stale '

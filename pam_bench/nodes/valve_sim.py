@@ -65,6 +65,8 @@ class ValveSim(BenchNode):
     def apply_command(self, msg: ValveCommand) -> None:
         """Accept a voltage in [0, u_max] V; anything else vents the valve."""
         u = msg.voltage
+        if self.fault_active('valve_stuck'):          # an injected fault: commands ignored
+            return
         if not self.finite(u) or not 0.0 <= u <= self.model.p.voltage_max_v:
             self.reject(f'valve_{self.channel} voltage (valve vents)', u)
             self.voltage_v = 0.0
@@ -92,10 +94,12 @@ class ValveSim(BenchNode):
                                        dt_s))
         pressures = self.model.samples(self.voltage_v, steps, self.volume_m3)
         stamp = time_of(t_ns)
-        msg = FluidPressure(fluid_pressure=pressures[-1] + ATMOSPHERE_PA, variance=0.0)
-        msg.header.stamp = stamp
-        msg.header.frame_id = f'valve_{self.channel}'
-        self.pub.publish(msg)
+        reported = self.faulty(pressures[-1] + ATMOSPHERE_PA)   # injected faults (wall clock)
+        if reported is not None:
+            msg = FluidPressure(fluid_pressure=reported, variance=0.0)
+            msg.header.stamp = stamp
+            msg.header.frame_id = f'valve_{self.channel}'
+            self.pub.publish(msg)
         samples = PressureSamples(step=steps, pressure=pressures, record=record)
         samples.header.stamp = stamp
         samples.header.frame_id = f'valve_{self.channel}'

@@ -1,0 +1,103 @@
+"""Faults as scene entries, on the wall clock: each kind detected (the reason on
+protocol/status), the bench brought to a safe state, the bag valid, every reading taken before
+the fault present, and the run either survived (suspended and resumed by itself, every reading
+taken) or resumable (aborted; `--resume` takes the rest)."""
+
+from __future__ import annotations
+
+import dataclasses
+import pathlib
+
+import pytest
+
+from pam_bench.analysis.baginfo import bag_info
+from pam_bench.bringup.runner import run_scene
+from pam_bench.config.scene import load_scene
+from test.helpers import bag_messages
+
+SCENE = """description: short isometric series with an injected fault
+exchange_step_s: 1.5
+protocol: isometric_quick
+protocol_overrides: {{x_m: [0.04, 0.04, 0.01], voltage_v: [0.0, 2.0, 1.0], dwell_s: 1.5}}
+nodes: [valve_1, muscle_1, load_cell_1, encoder, loading_servo, sequencer, recorder]
+parameters:
+  sequencer: {{suspenders_yaml: "[{{input: force, low: -50.0, high: 1000.0, stale_s: 0.2,
+    resume_after_s: 0.3}}]"}}
+faults: [{fault}]
+"""
+READINGS = 6
+
+CASES = {
+    # kind: (fault entry, survives, words in the reason)
+    'sensor_dropout': ('{kind: sensor_dropout, target: load_cell_1, at_s: 3.0, '
+                       'duration_s: 0.6}', True, 'force stale'),
+    'sensor_drift': ('{kind: sensor_drift, target: load_cell_1, at_s: 3.0, duration_s: 0.4, '
+                     'value: 4000.0}', True, 'outside'),
+    'sensor_noise_burst': ('{kind: sensor_noise_burst, target: load_cell_1, at_s: 3.0, '
+                           'duration_s: 0.5, value: 300.0}', True, 'outside'),
+    'message_loss': ('{kind: message_loss, target: load_cell_1, at_s: 2.0, duration_s: 3.0, '
+                     'value: 0.5}', True, ''),
+    'valve_stuck': ('{kind: valve_stuck, target: valve_1, at_s: 2.6, duration_s: 3.0}', False,
+                    'valve does not follow'),
+    'node_kill': ('{kind: node_kill, target: encoder, at_s: 3.0}', False, 'stale'),
+}
+
+
+@pytest.mark.parametrize('kind', list(CASES))
+def test_an_injected_fault_is_detected_and_survived_or_resumable(
+        tmp_path: pathlib.Path, ros_domain: int, kind: str) -> None:
+    fault, survives, words = CASES[kind]
+    path = tmp_path / f'{kind}.yaml'
+    path.write_text(SCENE.format(fault=fault))
+    scene = load_scene(str(path))
+    assert scene.faults and scene.faults[0].kind == kind
+    res = run_scene(scene, str(tmp_path / 'bag'), wallclock=True, quiet=True)
+    bag = tmp_path / 'bag'
+    status = bag_messages(bag, '/protocol/status')
+    points = bag_messages(bag, '/protocol/point')
+    info = bag_info(bag)                                  # the bag is valid and says how it ended
+    clean = dataclasses.replace(scene, faults=[])         # every reading taken is unchanged:
+    assert run_scene(clean, str(tmp_path / 'lock'), one_process=True, quiet=True).code == 0
+    ref = {(p.series, p.step): p for p in bag_messages(tmp_path / 'lock', '/protocol/point')}
+    for p in points:
+        assert abs(p.force - ref[(p.series, p.step)].force) < 10.0            # 0.5 % FS
+        assert abs(p.contraction - ref[(p.series, p.step)].contraction) < 0.2e-3
+    if survives:
+        assert res.code == 0, res.summary
+        assert len(points) == READINGS                    # nothing lost
+        if words:
+            paused = [s for s in status if s.phase == 'paused']
+            assert paused and words in paused[0].reason, [s.reason for s in status]
+            assert status[-1].state == 2                  # done after the resume
+        assert info['end']['state'] == 'done'
+    else:
+        assert res.code == 4, res.summary
+        aborted = [s for s in status if s.state == 3]
+        assert aborted and words in aborted[-1].reason, [s.reason for s in status]
+        assert 1 <= len(points) < READINGS                # the readings before are kept
+        cmds = bag_messages(bag, '/loading_servo/command')
+        assert cmds[-1].mode == 0                         # safe: drive off, valve vented
+        assert bag_messages(bag, '/valve_1/command')[-1].voltage == 0.0
+        assert info['end']['state'] == 'aborted'
+
+
+def test_faults_need_the_wall_clock(tmp_path: pathlib.Path) -> None:
+    path = tmp_path / 'f.yaml'
+    path.write_text(SCENE.format(fault=CASES['sensor_drift'][0]))
+    with pytest.raises(ValueError, match='wall clock'):
+        run_scene(load_scene(str(path)), str(tmp_path / 'bag'))
+
+
+@pytest.mark.parametrize('fault, words', [
+    ('{kind: sensor_drfit, target: load_cell_1, at_s: 1.0}', 'kind'),
+    ('{kind: sensor_drift, target: sequencer, at_s: 1.0}', 'sensor'),
+    ('{kind: valve_stuck, target: encoder, at_s: 1.0}', 'valve'),
+    ('{kind: sensor_drift, target: load_cell_1, at: 1.0}', "'at'"),
+])
+def test_a_bad_fault_entry_is_one_clear_error(tmp_path: pathlib.Path, fault: str,
+                                              words: str) -> None:
+    from pam_bench.config.yaml_io import ConfigError
+    path = tmp_path / 'f.yaml'
+    path.write_text(SCENE.format(fault=fault))
+    with pytest.raises(ConfigError, match=words):
+        load_scene(str(path))
