@@ -18,7 +18,8 @@ from rosbags.rosbag2 import Reader
 from pam_bench.analysis.types import bench_typestore
 from pam_bench.config import topics
 
-__all__ = ['BagError', 'Points', 'StepRecord', 'BagData', 'read_bags', 'open_bag']
+__all__ = ['BagError', 'Points', 'StepRecord', 'BagData', 'read_bags', 'open_bag',
+           'topic_messages']
 
 POINT_TOPIC = topics.absolute(topics.POINT)
 RECORD_TOPIC = topics.absolute(topics.RECORD)
@@ -134,3 +135,21 @@ def read_bags(paths: Iterable[str | pathlib.Path]) -> BagData:
                               a[:, 3].astype(int), a[:, 4], a[:, 5], a[:, 6], a[:, 7], a[:, 8],
                               a[:, 9])
     return BagData(points, records)
+
+
+def topic_messages(path: str | pathlib.Path, topic: str) -> list[Any]:
+    """Every message of ``topic`` in a bag, decoded, in log-time order.
+
+    Raises:
+        BagError: the bag cannot be opened or read.
+    """
+    store = bench_typestore()
+    reader = open_bag(pathlib.Path(path))
+    try:
+        conns = [c for c in reader.connections if c.topic == topic]
+        return [store.deserialize_cdr(raw, c.msgtype)
+                for c, _, raw in reader.messages(connections=conns)]
+    except Exception as exc:  # noqa: BLE001 - truncated chunks, bad CDR, ...
+        raise BagError(f'{path}: the bag is damaged or truncated ({exc})') from None
+    finally:
+        reader.close()

@@ -2,5 +2,5 @@
 
 from __future__ import annotations
 
-__all__ = ['fidelity', 'pingpong', 'record_exchange', 'sections', 'servo_compare', 'suite',
-           'wallclock', 'work_precision']
+__all__ = ['faults', 'fidelity', 'pingpong', 'record_exchange', 'sections', 'servo_compare',
+           'suite', 'wallclock', 'work_precision']

@@ -11,36 +11,10 @@ import pathlib
 import pytest
 
 from pam_bench.analysis.baginfo import bag_info
+from pam_bench.benchmarks.faults import CASES, READINGS, SCENE
 from pam_bench.bringup.runner import run_scene
 from pam_bench.config.scene import load_scene
 from test.helpers import bag_messages
-
-SCENE = """description: short isometric series with an injected fault
-exchange_step_s: 1.5
-protocol: isometric_quick
-protocol_overrides: {{x_m: [0.04, 0.04, 0.01], voltage_v: [0.0, 2.0, 1.0], dwell_s: 1.5}}
-nodes: [valve_1, muscle_1, load_cell_1, encoder, loading_servo, sequencer, recorder]
-parameters:
-  sequencer: {{suspenders_yaml: "[{{input: force, low: -50.0, high: 1000.0, stale_s: 0.2,
-    resume_after_s: 0.3}}]"}}
-faults: [{fault}]
-"""
-READINGS = 6
-
-CASES = {
-    # kind: (fault entry, survives, words in the reason)
-    'sensor_dropout': ('{kind: sensor_dropout, target: load_cell_1, at_s: 3.0, '
-                       'duration_s: 0.6}', True, 'force stale'),
-    'sensor_drift': ('{kind: sensor_drift, target: load_cell_1, at_s: 3.0, duration_s: 0.4, '
-                     'value: 4000.0}', True, 'outside'),
-    'sensor_noise_burst': ('{kind: sensor_noise_burst, target: load_cell_1, at_s: 3.0, '
-                           'duration_s: 0.5, value: 300.0}', True, 'outside'),
-    'message_loss': ('{kind: message_loss, target: load_cell_1, at_s: 2.0, duration_s: 3.0, '
-                     'value: 0.5}', True, ''),
-    'valve_stuck': ('{kind: valve_stuck, target: valve_1, at_s: 2.6, duration_s: 3.0}', False,
-                    'valve does not follow'),
-    'node_kill': ('{kind: node_kill, target: encoder, at_s: 3.0}', False, 'stale'),
-}
 
 
 @pytest.mark.parametrize('kind', list(CASES))
