@@ -20,8 +20,6 @@ from pam_bench.bringup.runner import run_scene
 from pam_bench.config.scene import load_scene
 from test.helpers import canonical_payloads
 
-SHORT = pathlib.Path(__file__).resolve().parents[1] / 'config_short.yaml'
-
 
 def _ip(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run(['ip', *args], capture_output=True, text=True)
@@ -67,7 +65,7 @@ def _counters(ns: str, dev: str) -> tuple[int, int]:
 def test_the_bench_across_two_namespaces_records_the_one_host_bag(
         tmp_path: pathlib.Path, ros_domain: int, two_hosts: tuple[str, str, str, str]) -> None:
     a, b, va, vb = two_hosts
-    scene = load_scene(str(SHORT))
+    scene = load_scene('demo')
     here = run_scene(scene, str(tmp_path / 'one_host'), quiet=True)
     assert here.code == 0
     before = _counters(a, va)
