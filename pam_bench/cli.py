@@ -174,6 +174,12 @@ def _cmd_info(args: argparse.Namespace) -> int:
               f"versions  pam_bench {v.get('pam_bench')}, rclpy {v.get('rclpy')}, rosbags "
               f"{v.get('rosbags')}, numpy {v.get('numpy')}\n"
               f"nodes     {', '.join(k for k in run.get('parameters', {}) if k != 'sim_clock')}")
+        if args.parameters:
+            from pam_bench.bringup.runner import flatten
+            for node, p in run.get('parameters', {}).items():
+                flat = flatten(p.get('ros__parameters', {}))
+                shown = {k: v for k, v in flat.items() if k not in ('run_yaml', 'end_file')}
+                print(f'  {node}: ' + ', '.join(f'{k}={v}' for k, v in sorted(shown.items())))
     else:
         print('no run description in this bag (an older pam_bench or another recorder)')
     if end:
@@ -370,6 +376,8 @@ def main(argv: list[str] | None = None) -> int:
     p.set_defaults(func=_cmd_bag_repair)
     p = sub.add_parser('info', help='how a bag was made and what it holds')
     p.add_argument('bag')
+    p.add_argument('--parameters', action='store_true', help="print every node's resolved "
+                   'parameters too')
     p.add_argument('--json', action='store_true')
     p.set_defaults(func=_cmd_info)
     p = sub.add_parser('diff', help='two bags compared reading by reading (exit 1: differ)')

@@ -41,9 +41,10 @@ def test_a_bag_says_how_it_was_made_and_replays_to_the_same_readings(
         meta = {m.name: m.metadata for m in make_reader(fh).iter_metadata()}
     custom = yaml.safe_load(meta['rosbag2']['serialized_metadata'])['custom_data']
     assert yaml.safe_load(custom['pam_bench.run'])['seed'] == 7
-    printed = _cli('info', str(a))
+    printed = _cli('info', str(a), '--parameters')
     assert printed.returncode == 0 and 'config_short (seed 7' in printed.stdout
     assert 'ended     done' in printed.stdout
+    assert 'load_cell_1: ' in printed.stdout and 'seed=7' in printed.stdout
     # replay: its own scene, parameters and seed; zero difference reading by reading
     res = _cli('run', '--replay', str(a), '--out', str(b))
     assert res.returncode == 0, res.stderr
