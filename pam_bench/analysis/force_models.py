@@ -12,10 +12,12 @@ x (m), contraction ratio k = x / l0 with the nominal length l0 (m), force F (N).
 - Sarosi (002 Eq. 4), 8 parameters (a .. h), p in bar:
   F = (a p + b) exp(c k + d) + (e p + f) k + g p + h
 - Al-Ibadi (003 Eq. 10-12), 4 parameters (D0, theta0, Th, s_r):
-  F = p (-dV/dL) - s_r A_in / dL - 0.641 N m / dL,  V = pi (D(L) - Th)^2 L / 4,
+  F = p dV / dL - s_r A_in / dL - 0.641 N m / dL with the secant from the initial state
+  (003 Eq. 12): dV = V(L) - V(l0), dL = l0 - L = x; V = pi (D(L) - Th)^2 L / 4 (Eq. 8-9),
   D(L) = sqrt(B^2 - L^2) / (n pi) from the inextensible braid (B = l0 / cos theta0,
-  n = B sin theta0 / (pi D0)), dL = x, A_in = pi (D0 - Th)^2 / 4. The 1 / dL terms diverge
-  at x = 0, so this model is fitted and scored on the readings with x >= 5 mm only.
+  n = B sin theta0 / (pi D0), so D(l0) = D0), A_in = pi (D0 - Th)^2 / 4. As x -> 0 the
+  secant tends to the tangent -dV/dL of Eq. 6, but the 1 / dL terms diverge there, so this
+  model is fitted and scored on the readings with x >= 5 mm only.
 
 Each model is fitted by nonlinear least squares (scipy ``least_squares``, trust region
 reflective within physical bounds) on the readings where the muscle pulls; reported: RMSE, max
@@ -33,7 +35,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares
 
-__all__ = ['ForceModel', 'FORCE_MODELS', 'fit_force_models']
+__all__ = ['ForceModel', 'FORCE_MODELS', 'fit_force_models', 'al_ibadi_volume']
 
 WORK_LOSS_NM = 0.641      # 003 Eq. 11: contactless loss energy of the rubber tube, N m
 
@@ -81,19 +83,22 @@ def _sarosi(th: np.ndarray, p: np.ndarray, x: np.ndarray, l0: float) -> np.ndarr
     return (a * pb + b) * np.exp(c * k + d) + (e * pb + f) * k + g * pb + h
 
 
-def _al_ibadi(th: np.ndarray, p: np.ndarray, x: np.ndarray, l0: float) -> np.ndarray:
-    d0, t0, thick, s_r = th
+def al_ibadi_volume(length_m: np.ndarray, d0: float, t0: float, thick: float,
+                    l0: float) -> np.ndarray:
+    """Inner volume V(L) of 003 Eq. 8-9 with the braid's D(L) (m^3); D(l0) = D0."""
     big_b = l0 / math.cos(t0)
     n = big_b * math.sin(t0) / (math.pi * d0)
-    length = l0 - x
-    root = np.sqrt(np.maximum(big_b ** 2 - length ** 2, 1e-12))
-    dia = root / (n * math.pi)
-    ddia = -length / (n * math.pi * root)
-    din = dia - thick
-    dv_dl = math.pi / 4 * (2 * din * ddia * length + din ** 2)
-    a_in = math.pi * (d0 - thick) ** 2 / 4
+    dia = np.sqrt(np.maximum(big_b ** 2 - length_m ** 2, 0.0)) / (n * math.pi)
+    return math.pi / 4 * (dia - thick) ** 2 * length_m
+
+
+def _al_ibadi(th: np.ndarray, p: np.ndarray, x: np.ndarray, l0: float) -> np.ndarray:
+    d0, t0, thick, s_r = th
     dl = np.maximum(x, 1e-4)
-    return -p * dv_dl - (s_r * a_in + WORK_LOSS_NM) / dl
+    dv = (al_ibadi_volume(l0 - dl, d0, t0, thick, l0)
+          - al_ibadi_volume(np.asarray(l0), d0, t0, thick, l0))
+    a_in = math.pi * (d0 - thick) ** 2 / 4
+    return p * dv / dl - (s_r * a_in + WORK_LOSS_NM) / dl
 
 
 FORCE_MODELS: tuple[ForceModel, ...] = (
