@@ -105,14 +105,32 @@ def _largest(points: dict[str, Points], kind: str) -> Points | None:
     return max(found, key=len) if found else None
 
 
-def _model_comparison(points: dict[str, Points]) -> list[dict[str, Any]]:
-    """Static force models fitted to the isometric and isobaric readings pooled."""
+def _model_comparison(points: dict[str, Points], direction: int | None = None
+                      ) -> list[dict[str, Any]]:
+    """Static force models fitted to the isometric and isobaric readings pooled; with
+    ``direction`` (0 up, 1 down) to that branch of every sweep only."""
     use = [p for p in (_largest(points, 'isometric'), _largest(points, 'isobaric')) if p]
     if not use:
         return []
-    p, x, f = (np.concatenate([getattr(q, c) for q in use])
+    keep = [np.ones(len(q.t_s), bool) if direction is None else q.direction == direction
+            for q in use]
+    p, x, f = (np.concatenate([getattr(q, c)[k] for q, k in zip(use, keep, strict=True)])
                for c in ('pressure_pa', 'contraction_m', 'force_n'))
     return fit_force_models(p, x, f)
+
+
+def _branch_comparison(points: dict[str, Points]) -> list[dict[str, Any]]:
+    """The models fitted to the loading (up) and the unloading (down) branches apart, as 002
+    does (its Fig. 11): hysteresis makes one curve through both a compromise."""
+    up, down = _model_comparison(points, 0), _model_comparison(points, 1)
+    out = []
+    for a in up:
+        b = next((m for m in down if m['model'] == a['model']), None)
+        if b is not None:
+            out.append({'model': a['model'], 'seed': a['seed'], 'n_params': a['n_params'],
+                        'loading_rmse_N': a['rmse_N'], 'unloading_rmse_N': b['rmse_N'],
+                        'loading_params': a['params'], 'unloading_params': b['params']})
+    return out
 
 
 def _figures(tmp: pathlib.Path, data: BagData, summary: dict[str, Any],
@@ -162,6 +180,7 @@ def extract(bags: list[str], out_dir: str, figures: bool = True) -> dict[str, An
     if models:
         summary['model_comparison'] = [{k: v for k, v in m.items() if not k.startswith('_')}
                                        for m in models]
+        summary['model_comparison_by_branch'] = _branch_comparison(data.points)
     inverse = inverse_model_dict(summary.get('step_response'),
                                  _largest(data.points, 'isometric'))
     t3 = time.perf_counter()

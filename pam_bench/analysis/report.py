@@ -46,6 +46,15 @@ def report_markdown(s: dict[str, Any]) -> str:
             lines.append(f"| {m['model']} | {m['seed']} | {m['n_params']} | {m['rmse_N']:.2f} | "
                          f"{m['max_error_N']:.1f} | {m['fit_s']:.3f} | {m['n_points']} |")
         lines.append('')
+    if s.get('model_comparison_by_branch'):
+        pooled = {m['model']: m['rmse_N'] for m in s.get('model_comparison', [])}
+        lines += ['Fitted to each branch apart (loading: the sweep up, unloading: down; 002 '
+                  'Fig. 11):', '', '| model | RMSE pooled N | RMSE loading N | RMSE unloading N |',
+                  '|---|---|---|---|']
+        for m in s['model_comparison_by_branch']:
+            lines.append(f"| {m['model']} | {pooled.get(m['model'], float('nan')):.2f} | "
+                         f"{m['loading_rmse_N']:.2f} | {m['unloading_rmse_N']:.2f} |")
+        lines.append('')
     if s.get('inverse_model'):
         lines += [f"Inverse model for the torque servo: `{s['inverse_model']}`.", '']
     if s.get('figures'):

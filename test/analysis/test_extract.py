@@ -63,6 +63,13 @@ def test_step_coefficients_and_polynomials(tmp_path: pathlib.Path) -> None:
     np.testing.assert_allclose(inv.static_voltage(f_set, 0.04), 3.0, rtol=1e-6)
     out = tmp_path / 'out'
     assert {m['model'] for m in s['model_comparison']} >= {'chou_hannaford', 'sarosi'}
+    # each branch fitted apart (002 Fig. 11): a fit to one branch is at least as close to it
+    # as the pooled fit, whose RMSE over both branches bounds the better branch's from above
+    branches = {m['model']: m for m in s['model_comparison_by_branch']}
+    pooled = {m['model']: m['rmse_N'] for m in s['model_comparison']}
+    assert set(branches) == set(pooled)
+    for name, b in branches.items():
+        assert min(b['loading_rmse_N'], b['unloading_rmse_N']) <= pooled[name] * 1.001 + 1e-6
     for name in s['figures']:
         assert (out / name).stat().st_size > 1000 and f'({name})' in (
             out / 'report.md').read_text()
