@@ -21,6 +21,11 @@ def report_markdown(s: dict[str, Any]) -> str:
                   f"u = {g['u_V_at_min']:.2f} V, F = {g['F_N_at_min']:.0f} N.", '']
     if 'isobaric' in s:
         lines += [f"Isobaric hysteresis: up to {s['isobaric']['hysteresis_mm_max']:.2f} mm.", '']
+        st = s['isobaric'].get('stiffness')
+        if st:
+            lines += [f"Isobaric stiffness -dF/dx: {st['min_N_per_m'] / 1e3:.1f} .. "
+                      f"{st['max_N_per_m'] / 1e3:.1f} kN/m over {len(st['curves'])} branch "
+                      'curves (summary.json, isobaric.stiffness).', '']
     if 'step_response' in s:
         lines += ['| x mm | direction | u0 -> u1 V | b 1/s | c 1/s^2 | d N/(V s^2) | F_a0 N | '
                   'RMS N |', '|---|---|---|---|---|---|---|---|']

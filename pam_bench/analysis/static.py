@@ -4,7 +4,10 @@
   hysteresis midline so the friction of the braid cancels (see ``isometric_gains``);
 - isotonic gain k(u, F) (mm/V): dx/du between neighbouring readings of the up sweep, placed at
   the mid voltage;
-- isobaric hysteresis (mm): x on the way down minus x on the way up at the same set force.
+- isobaric hysteresis (mm): x on the way down minus x on the way up at the same set force;
+- isobaric stiffness (N/m): -dF/dx between neighbouring readings of one branch (loading up,
+  unloading down) of each constant-voltage series, placed at the mid force: how stiff the
+  muscle is at that pressure and load (the stiffness 003 Eq. 19 predicts).
 """
 
 from __future__ import annotations
@@ -16,8 +19,10 @@ import numpy as np
 from pam_bench.analysis.bagread import Points
 
 __all__ = ['isometric_gains', 'isometric_lines', 'midline_fit', 'isotonic_gains',
-           'isobaric_hysteresis',
-           'gain_summary']
+           'isobaric_hysteresis', 'isobaric_stiffness', 'gain_summary']
+
+MIN_DX_M = 1e-6
+"""A neighbouring pair of readings closer than this in contraction gives no stiffness (m)."""
 
 
 def isometric_gains(p: Points) -> tuple[np.ndarray, np.ndarray]:
@@ -106,6 +111,25 @@ def isobaric_hysteresis(p: Points) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return np.array(us), np.array(fs), np.array(hs)
 
 
+def isobaric_stiffness(p: Points) -> list[dict[str, Any]]:
+    """Per series (u V) and branch (0 up, 1 down): the mid forces (N) and -dF/dx (N/m)
+    between neighbouring readings in force order."""
+    out = []
+    for s in np.unique(p.series):
+        for d in (0, 1):
+            m = (p.series == s) & (p.direction == d)
+            if m.sum() < 2:
+                continue
+            order = np.argsort(p.force_n[m])
+            f, x = p.force_n[m][order], p.contraction_m[m][order]
+            df, dx = np.diff(f), np.diff(x)
+            ok = np.abs(dx) > MIN_DX_M
+            out.append({'u_V': float(p.series_value[m][0]), 'branch': 'loading' if d == 0
+                        else 'unloading', 'force_N': (0.5 * (f[1:] + f[:-1]))[ok].tolist(),
+                        'stiffness_N_per_m': (-df[ok] / dx[ok]).tolist()})
+    return out
+
+
 def gain_summary(points: dict[str, Points]) -> dict[str, Any]:
     """The static part of summary.json for whichever protocols are present."""
     out: dict[str, Any] = {}
@@ -132,4 +156,10 @@ def gain_summary(points: dict[str, Points]) -> dict[str, Any]:
             if len(h):
                 out['isobaric'] = {'protocol': name,
                                    'hysteresis_mm_max': float(np.max(np.abs(h)))}
+                stiff = isobaric_stiffness(p)
+                every = [k for c in stiff for k in c['stiffness_N_per_m']]
+                if every:
+                    out['isobaric']['stiffness'] = {
+                        'min_N_per_m': float(min(every)), 'max_N_per_m': float(max(every)),
+                        'curves': stiff}
     return out

@@ -45,3 +45,23 @@ def test_one_sweep_gives_its_own_slope() -> None:
     up = direction == 0
     slope, intercept = midline_fit(u[up], force[up], direction[up])
     np.testing.assert_allclose([slope, intercept], [100.0, -50.0], rtol=1e-9)
+
+
+@pytest.mark.parametrize('k_up, k_down', [(2.0e4, 2.5e4), (5.0e4, 5.0e4)])
+def test_isobaric_stiffness_of_a_linear_spring(k_up: float, k_down: float) -> None:
+    """x = x0 - F / k on each branch: -dF/dx is k exactly, at the mid forces."""
+    from pam_bench.analysis.bagread import Points
+    from pam_bench.analysis.static import isobaric_stiffness
+    f = np.arange(50.0, 960.0, 10.0)
+    n = len(f)
+    force = np.concatenate([f, f[::-1]])
+    x = np.concatenate([0.08 - f / k_up, 0.081 - f[::-1] / k_down])
+    z = np.zeros(2 * n)
+    pts = Points('isobaric', z, z.astype(int) + 2, np.arange(2 * n),
+                 np.r_[np.zeros(n), np.ones(n)].astype(int), z + 2.0, force, z + 2.0, force,
+                 x, z + 2e5)
+    curves = isobaric_stiffness(pts)
+    assert [(c['u_V'], c['branch']) for c in curves] == [(2.0, 'loading'), (2.0, 'unloading')]
+    np.testing.assert_allclose(curves[0]['stiffness_N_per_m'], k_up, rtol=1e-9)
+    np.testing.assert_allclose(curves[1]['stiffness_N_per_m'], k_down, rtol=1e-9)
+    np.testing.assert_allclose(curves[0]['force_N'], f[:-1] + 5.0, rtol=1e-12)
