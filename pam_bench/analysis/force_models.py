@@ -9,6 +9,10 @@ x (m), contraction ratio k = x / l0 with the nominal length l0 (m), force F (N).
   F = pi r0^2 p [a (1 - e k)^2 - b],  a = 3 / tan^2 alpha0,  b = 1 / sin^2 alpha0
 - Kerscher-corrected (002 Eq. 2), 6 parameters (r0, alpha0, a_e, b_e, a_k, b_k):
   F = mu pi r0^2 p [a (1 - e k)^2 - b],  e = a_e exp(-p_bar) - b_e,  mu = a_k exp(-40 k) - b_k
+- Kang's pressure-dependent correction (003 Eq. 2) on Tondu-Lopez, 5 parameters
+  (r0, alpha0, e, c1, c2): F = q(p) pi r0^2 p [a (1 - e k)^2 - b], q = 1 + c1 exp(-c2 p_bar).
+  003 calls c1 and c2 positive and q <= 1 in one breath; c1 is bounded to [-1, 10] so the fit
+  may take either reading (q -> 1 at high pressure, where the muscle is cylindrical).
 - Sarosi (002 Eq. 4), 8 parameters (a .. h), p in bar:
   F = (a p + b) exp(c k + d) + (e p + f) k + g p + h
 - Al-Ibadi (003 Eq. 10-12), 4 parameters (D0, theta0, Th, s_r):
@@ -68,6 +72,11 @@ def _tondu(th: np.ndarray, p: np.ndarray, x: np.ndarray, l0: float) -> np.ndarra
     return math.pi * r0 ** 2 * p * (a * (1 - e * k) ** 2 - b)
 
 
+def _kang(th: np.ndarray, p: np.ndarray, x: np.ndarray, l0: float) -> np.ndarray:
+    r0, a0, e, c1, c2 = th
+    return (1.0 + c1 * np.exp(-c2 * p / 1e5)) * _tondu(np.array([r0, a0, e]), p, x, l0)
+
+
 def _kerscher(th: np.ndarray, p: np.ndarray, x: np.ndarray, l0: float) -> np.ndarray:
     r0, a0, ae, be, ak, bk = th
     k = x / l0
@@ -109,6 +118,9 @@ FORCE_MODELS: tuple[ForceModel, ...] = (
     ForceModel('kerscher', '002 Eq. 2', ('r0_m', 'alpha0_rad', 'a_e', 'b_e', 'a_k', 'b_k'),
                (0.01, 0.35, 0.0, -1.2, 0.0, -1.0), (5e-4, 0.05, -50, -50, -50, -50),
                (0.1, 1.5, 50, 50, 50, 50), _kerscher),
+    ForceModel('kang', '003 Eq. 2 on 002 Eq. 2', ('r0_m', 'alpha0_rad', 'e', 'c1', 'c2_per_bar'),
+               (0.01, 0.35, 1.2, 0.0, 1.0), (5e-4, 0.05, 0.1, -1.0, 0.0),
+               (0.1, 1.5, 20.0, 10.0, 50.0), _kang),
     ForceModel('sarosi', '002 Eq. 4', tuple('abcdefgh'),
                (100.0, 0.0, -10.0, 0.0, -100.0, 0.0, 10.0, 0.0),
                (-1e5,) * 8, (1e5,) * 8, _sarosi),

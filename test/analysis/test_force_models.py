@@ -16,6 +16,7 @@ def grid() -> tuple[np.ndarray, np.ndarray]:
 @pytest.mark.parametrize('name, theta', [
     ('chou_hannaford', (0.02, 0.40)),
     ('tondu_lopez', (0.01, 0.40, 1.3)),
+    ('kang', (0.01, 0.40, 1.3, -0.3, 2.0)),
     ('sarosi', (120.0, 5.0, -8.0, 1.0, -300.0, 10.0, 20.0, 3.0)),
     ('al_ibadi', (0.02, 0.40, 1e-3, 200.0)),
 ])
