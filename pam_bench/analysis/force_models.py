@@ -21,7 +21,12 @@ x (m), contraction ratio k = x / l0 with the nominal length l0 (m), force F (N).
   D(L) = sqrt(B^2 - L^2) / (n pi) from the inextensible braid (B = l0 / cos theta0,
   n = B sin theta0 / (pi D0), so D(l0) = D0), A_in = pi (D0 - Th)^2 / 4. As x -> 0 the
   secant tends to the tangent -dV/dL of Eq. 6, but the 1 / dL terms diverge there, so this
-  model is fitted and scored on the readings with x >= 5 mm only.
+  model is fitted and scored on the readings with x >= 5 mm only. ``al_ibadi_tangent`` is
+  the same with the tangent -dV/dL at L (Eq. 6) in place of the secant, kept to compare.
+
+Every fit also reports each parameter's standard error from the Jacobian at the optimum,
+sqrt(diag((J^T J)^-1) s^2) with s^2 the residual variance (N^2) over n - m degrees of
+freedom (inf where J^T J is singular: the data do not fix that parameter).
 
 Each model is fitted by nonlinear least squares (scipy ``least_squares``, trust region
 reflective within physical bounds) on the readings where the muscle pulls; reported: RMSE, max
@@ -110,6 +115,17 @@ def _al_ibadi(th: np.ndarray, p: np.ndarray, x: np.ndarray, l0: float) -> np.nda
     return p * dv / dl - (s_r * a_in + WORK_LOSS_NM) / dl
 
 
+def _al_ibadi_tangent(th: np.ndarray, p: np.ndarray, x: np.ndarray, l0: float) -> np.ndarray:
+    d0, t0, thick, s_r = th
+    dl = np.maximum(x, 1e-4)
+    h = 1e-6                                             # m: central difference of V(L)
+    length = l0 - dl
+    dv_dl = (al_ibadi_volume(length + h, d0, t0, thick, l0)
+             - al_ibadi_volume(length - h, d0, t0, thick, l0)) / (2 * h)
+    a_in = math.pi * (d0 - thick) ** 2 / 4
+    return -p * dv_dl - (s_r * a_in + WORK_LOSS_NM) / dl
+
+
 FORCE_MODELS: tuple[ForceModel, ...] = (
     ForceModel('chou_hannaford', '001 Eq. 3', ('D0_m', 'theta0_rad'), (0.02, 0.35),
                (1e-3, 0.05), (0.2, 1.5), _chou),
@@ -127,7 +143,22 @@ FORCE_MODELS: tuple[ForceModel, ...] = (
     ForceModel('al_ibadi', '003 Eq. 12', ('D0_m', 'theta0_rad', 'Th_m', 's_r_N_per_m'),
                (0.02, 0.35, 1e-3, 100.0), (1e-3, 0.05, 0.0, 0.0), (0.2, 1.5, 5e-3, 1e7),
                _al_ibadi, min_x_m=0.005),
+    ForceModel('al_ibadi_tangent', '003 Eq. 6 with Eq. 10-11',
+               ('D0_m', 'theta0_rad', 'Th_m', 's_r_N_per_m'),
+               (0.02, 0.35, 1e-3, 100.0), (1e-3, 0.05, 0.0, 0.0), (0.2, 1.5, 5e-3, 1e7),
+               _al_ibadi_tangent, min_x_m=0.005),
 )
+
+
+def _standard_errors(jac: np.ndarray, residuals: np.ndarray, n_params: int) -> np.ndarray:
+    """Standard error of each parameter (module docstring), shape (n_params,)."""
+    dof = max(len(residuals) - n_params, 1)
+    s2 = float(residuals @ residuals) / dof
+    try:
+        cov = np.linalg.inv(jac.T @ jac) * s2
+    except np.linalg.LinAlgError:
+        return np.full(n_params, np.inf)
+    return np.sqrt(np.maximum(np.diag(cov), 0.0))
 
 
 def fit_force_models(pressure_pa: np.ndarray, contraction_m: np.ndarray, force_n: np.ndarray,
@@ -157,10 +188,12 @@ def fit_force_models(pressure_pa: np.ndarray, contraction_m: np.ndarray, force_n
                             x_scale='jac', max_nfev=2000)
         fit_s = time.perf_counter() - t0
         r = res(sol.x) * scale
+        stderr = _standard_errors(sol.jac * scale, r, len(m.params))
         out.append({'model': m.name, 'seed': m.seed, 'n_params': len(m.params),
                     'rmse_N': float(np.sqrt(np.mean(r ** 2))),
                     'max_error_N': float(np.max(np.abs(r))), 'fit_s': fit_s,
                     'n_points': int(use.sum()),
                     'params': dict(zip(m.params, map(float, sol.x), strict=True)),
+                    'stderr': dict(zip(m.params, map(float, stderr), strict=True)),
                     '_residuals': r, '_used': (pu, xu, fu)})
     return out

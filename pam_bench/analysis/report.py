@@ -50,6 +50,12 @@ def report_markdown(s: dict[str, Any]) -> str:
         for m in sorted(s['model_comparison'], key=lambda m: m['rmse_N']):
             lines.append(f"| {m['model']} | {m['seed']} | {m['n_params']} | {m['rmse_N']:.2f} | "
                          f"{m['max_error_N']:.1f} | {m['fit_s']:.3f} | {m['n_points']} |")
+        lines += ['', 'Parameters with their standard errors:', '']
+        for m in sorted(s['model_comparison'], key=lambda m: m['rmse_N']):
+            se = m.get('stderr', {})
+            lines.append(f"- {m['model']}: " + ', '.join(
+                f'{k} = {v:.4g} +- {se.get(k, float("nan")):.2g}'
+                for k, v in m['params'].items()))
         lines.append('')
     if s.get('model_comparison_by_branch'):
         pooled = {m['model']: m['rmse_N'] for m in s.get('model_comparison', [])}

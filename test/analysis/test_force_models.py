@@ -19,6 +19,7 @@ def grid() -> tuple[np.ndarray, np.ndarray]:
     ('kang', (0.01, 0.40, 1.3, -0.3, 2.0)),
     ('sarosi', (120.0, 5.0, -8.0, 1.0, -300.0, 10.0, 20.0, 3.0)),
     ('al_ibadi', (0.02, 0.40, 1e-3, 200.0)),
+    ('al_ibadi_tangent', (0.02, 0.40, 1e-3, 200.0)),
 ])
 def test_model_recovers_its_own_data(name: str, theta: tuple[float, ...]) -> None:
     model = next(m for m in FORCE_MODELS if m.name == name)
@@ -62,3 +63,20 @@ def test_al_ibadi_uses_the_secant_from_the_initial_state(x_m: float) -> None:
              - al_ibadi_volume(np.array([l0 - x_m - h]), d0, t0, th, l0)) / (2 * h)
     tangent = -p * dv_dl[0] - (s_r * a_in + WORK_LOSS_NM) / x_m
     assert abs(got[0] - tangent) > 1e-3 * abs(tangent)
+
+
+def test_standard_errors_shrink_with_noise_and_data() -> None:
+    """A linear least-squares check: Chou-Hannaford is linear in D0^2 at fixed theta0, so its
+    standard errors scale with the noise; noise-free data give (about) zero."""
+    model = next(m for m in FORCE_MODELS if m.name == 'chou_hannaford')
+    p, x = grid()
+    f = model.law(np.array([0.02, 0.40]), p, x, 0.35)
+    keep = f > 0.05 * f.max()
+    rng = np.random.default_rng(1)
+    errs = []
+    for sigma in (0.0, 1.0, 4.0):
+        noisy = f[keep] + sigma * rng.standard_normal(keep.sum())
+        fit = fit_force_models(p[keep], x[keep], noisy, models=(model,))[0]
+        errs.append(fit['stderr']['D0_m'])
+    assert errs[0] < 1e-8 and 0 < errs[1] < errs[2]
+    np.testing.assert_allclose(errs[2] / errs[1], 4.0, rtol=0.3)
