@@ -213,6 +213,29 @@ def _cmd_diff(args: argparse.Namespace) -> int:
     return 0 if same else 1
 
 
+def _cmd_size(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    from pam_bench.models.straight_fibre import size
+    try:
+        r = size(args.diameter_mm * 1e-3, args.length_mm * 1e-3, args.segments,
+                 args.wall_mm * 1e-3, args.force_n, args.pressure_mpa * 1e6)
+    except ModelError as exc:
+        print(f'error: {exc}', file=sys.stderr)
+        return 2
+    out = dataclasses.asdict(r) | {'validity': {'phi0_over_l0': [0.25, 0.5],
+                                                'p_l0sq_over_f': [1.2, 2880.0],
+                                                'wall_mm': [1.0, 4.0]}}
+    if args.json:
+        print(json.dumps(out, indent=2))
+    else:
+        print(f'segment L0 {r.segment_length_m * 1e3:.1f} mm, Phi0/L0 {r.phi0_over_l0:.3f}, '
+              f'P L0^2/F {r.p_l0sq_over_f:.4g}: dL/L0 {r.segment_ratio:.4f} from the graph, '
+              f'x {r.thickness_factor:.2f} for the wall -> contraction ratio '
+              f'{r.contraction_ratio:.4f} ({r.contraction_m * 1e3:.2f} mm)')
+    return 0
+
+
 def _cmd_emulate(args: argparse.Namespace) -> int:
     from pam_bench.bringup.runner import run_scene
     from pam_bench.config.scene import load_scene
@@ -385,6 +408,16 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument('bag_b')
     p.add_argument('--json', action='store_true')
     p.set_defaults(func=_cmd_diff)
+    p = sub.add_parser('size', help="000's design procedure for a straight-fibre muscle")
+    p.add_argument('kind', choices=['straight-fibre'])
+    p.add_argument('--diameter-mm', type=float, required=True, help='Phi0, mm')
+    p.add_argument('--length-mm', type=float, required=True, help='free length L_m0, mm')
+    p.add_argument('--segments', type=int, required=True, help='segments N + 1 (N rings)')
+    p.add_argument('--wall-mm', type=float, required=True, help='wall thickness s, 1..4 mm')
+    p.add_argument('--force-n', type=float, required=True, help='load F, N')
+    p.add_argument('--pressure-mpa', type=float, required=True, help='gauge pressure P, MPa')
+    p.add_argument('--json', action='store_true')
+    p.set_defaults(func=_cmd_size)
     p = sub.add_parser('emulate', help="run only a scene's simulated devices on the wall "
                        'clock, until Ctrl-C (a bench for your own controllers)')
     p.add_argument('scene', nargs='?', default='demo')

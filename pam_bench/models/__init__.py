@@ -4,4 +4,4 @@ from __future__ import annotations
 
 __all__ = ['constants', 'coupling', 'errors', 'faults', 'friction', 'inverse', 'loading_servo',
            'lockstep', 'lti', 'muscle', 'params', 'protocol_io', 'protocols', 'schedules',
-           'sensors', 'suspenders', 'torque_servo', 'valve']
+           'sensors', 'straight_fibre', 'suspenders', 'torque_servo', 'valve']

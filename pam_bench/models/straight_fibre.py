@@ -1,0 +1,106 @@
+"""The straight-fibre muscle of 000 (Durante et al.): its dimensionless correlation graph and
+the sizing procedure built on it (``pam-bench size straight-fibre``).
+
+A silicone tube with axial glass fibres in its wall is divided by N rings into N + 1 segments
+of length L0 = L_m0 / (N + 1) (000 section 3.2, step 2). Dimensional analysis (000 Table 3)
+leaves three groups: pi_1 = dL / L0 (contraction ratio of a segment), pi_2 = Phi0 / L0
+(diameter over segment length) and pi_3 = P L0^2 / F (pressure P in Pa, F in N). 000's Table
+4 gives pi_1 from 27 finite-element runs on a grid of pi_2 in {0.25, 0.375, 0.5} and pi_3 in
+{1.2 .. 2880}; the correlation here interpolates it bilinearly in (pi_2, log10 pi_3), so it
+returns the table's values exactly at its nodes and is monotone between them. Outside the
+grid (000: 0.25 <= Phi0 / L0 <= 0.5, and the tabulated pi_3) it refuses instead of
+extrapolating.
+
+Wall thickness s (000 Table 6: K_S = 0.11, 0.22, 0.44 at s = 1, 2, 4 mm; linear, 0.11 per
+mm): 000 step 3 prints the correction as "dLc = dL K_S x L0". Read here as
+dLc / L0 = (dL / L0) (1 - K_S): the thickness takes away the share K_S of the contraction,
+the only reading that keeps the corrected contraction positive and below the uncorrected one
+for every tabulated s. The muscle's contraction is dL_m = dLc (N + 1) (step 5). Thicknesses
+outside 1..4 mm are refused (the table does not cover them; 000's own prototype has 6 mm).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from pam_bench.models.errors import ParameterError
+
+__all__ = ['PI2', 'PI3', 'TABLE4', 'K_S_PER_MM', 'contraction_ratio', 'SizeResult', 'size']
+
+PI2 = (0.25, 0.375, 0.5)
+"""Phi0 / L0 of the table's columns."""
+PI3 = (1.2, 1.44, 1.8, 2.4, 3.6, 7.2, 28.8, 288.0, 2880.0)
+"""P L0^2 / F of the table's rows (ascending)."""
+TABLE4 = np.array([          # dL / L0 at (pi_3 row, pi_2 column), 000 Table 4
+    [0.088, 0.11, 0.12],
+    [0.119, 0.138, 0.145],
+    [0.159, 0.171, 0.173],
+    [0.209, 0.212, 0.207],
+    [0.27, 0.26, 0.246],
+    [0.343, 0.3184, 0.292],
+    [0.409, 0.369, 0.332],
+    [0.43, 0.386, 0.344],
+    [0.433, 0.387, 0.345],
+])
+K_S_PER_MM = 0.11
+"""Thickness correction per mm of wall (000 Table 6), for 1 <= s <= 4 mm."""
+
+
+def contraction_ratio(pi2: float, pi3: float) -> float:
+    """Contraction ratio dL / L0 of the graph at (Phi0 / L0, P L0^2 / F), bilinear in
+    (pi_2, log10 pi_3).
+
+    Raises:
+        ParameterError: outside the graph (0.25..0.5, 1.2..2880).
+    """
+    if not PI2[0] <= pi2 <= PI2[-1]:
+        raise ParameterError(f'Phi0/L0 = {pi2:.4g} outside the correlation graph '
+                             f'({PI2[0]} .. {PI2[-1]}, 000 section 3.2)')
+    if not PI3[0] <= pi3 <= PI3[-1]:
+        raise ParameterError(f'P L0^2 / F = {pi3:.4g} outside the correlation graph '
+                             f'({PI3[0]} .. {PI3[-1]}, 000 Table 4)')
+    logs = np.log10(PI3)
+    row = np.array([np.interp(pi2, PI2, TABLE4[i]) for i in range(len(PI3))])
+    return float(np.interp(math.log10(pi3), logs, row))
+
+
+@dataclasses.dataclass(frozen=True)
+class SizeResult:
+    """A forward sizing: the groups, the segment's ratio, corrected, and the muscle's stroke."""
+
+    segment_length_m: float
+    phi0_over_l0: float
+    p_l0sq_over_f: float
+    segment_ratio: float              # dL / L0 from the graph
+    thickness_factor: float           # 1 - K_S
+    contraction_ratio: float          # dLc / L0 = dL_m / L_m0
+    contraction_m: float              # dL_m
+
+
+def size(diameter_m: float, length_m: float, segments: int, wall_m: float, force_n: float,
+         pressure_pa: float) -> SizeResult:
+    """000's procedure, forward: the contraction of a muscle of free length ``length_m`` with
+    ``segments`` segments, diameter ``diameter_m``, wall ``wall_m`` under ``force_n`` at gauge
+    pressure ``pressure_pa``.
+
+    Raises:
+        ParameterError: a non-positive size, a wall outside 1..4 mm, or the groups outside the
+            graph (the message says which).
+    """
+    if not (diameter_m > 0 and length_m > 0 and force_n > 0 and pressure_pa > 0
+            and segments >= 1):
+        raise ParameterError('size: diameter, length, force and pressure must be > 0 and '
+                             'segments >= 1')
+    wall_mm = wall_m * 1e3
+    if not 1.0 - 1e-9 <= wall_mm <= 4.0 + 1e-9:
+        raise ParameterError(f'wall {wall_mm:g} mm outside the thickness table (1 .. 4 mm, '
+                             '000 Table 6)')
+    l0 = length_m / segments
+    pi2, pi3 = diameter_m / l0, pressure_pa * l0 ** 2 / force_n
+    ratio = contraction_ratio(pi2, pi3)
+    factor = 1.0 - K_S_PER_MM * wall_mm
+    corrected = ratio * factor
+    return SizeResult(l0, pi2, pi3, ratio, factor, corrected, corrected * length_m)

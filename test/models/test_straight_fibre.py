@@ -1,0 +1,62 @@
+"""000's correlation graph: exact at Table 4's 27 nodes, refuses to extrapolate; the forward
+sizing tool and its JSON."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from pam_bench.models.errors import ParameterError
+from pam_bench.models.straight_fibre import PI2, PI3, TABLE4, contraction_ratio, size
+
+# 000 Table 4 as printed: (Phi0 mm, L0 mm, P MPa, F N, dL/L0)
+ROWS = [(30, 120, 0.2, 1, 0.433), (30, 80, 0.45, 1, 0.387), (30, 60, 0.8, 1, 0.345),
+        (30, 120, 0.2, 100, 0.409), (30, 80, 0.45, 400, 0.3184), (30, 60, 0.8, 2400, 0.12),
+        (30, 120, 0.2, 2400, 0.088), (30, 80, 0.45, 1200, 0.212)]
+
+
+@pytest.mark.parametrize('phi, l0, p, f, ratio', ROWS)
+def test_the_graph_returns_table_4_at_its_nodes(phi: float, l0: float, p: float, f: float,
+                                                ratio: float) -> None:
+    got = contraction_ratio(phi / l0, p * 1e6 * (l0 * 1e-3) ** 2 / f)
+    np.testing.assert_allclose(got, ratio, rtol=0, atol=1e-12)
+
+
+def test_every_node_exactly_and_monotone_between() -> None:
+    for i, pi3 in enumerate(PI3):
+        for j, pi2 in enumerate(PI2):
+            assert contraction_ratio(pi2, pi3) == pytest.approx(TABLE4[i, j], abs=1e-12)
+    line = [contraction_ratio(0.3, v) for v in np.geomspace(1.2, 2880, 50)]
+    assert np.all(np.diff(line) >= -1e-12)            # more pressure per load: more stroke
+
+
+@pytest.mark.parametrize('pi2, pi3, words', [(0.2, 100, 'Phi0/L0'), (0.3, 5000, 'P L0^2'),
+                                             (0.3, 1.0, 'P L0^2')])
+def test_outside_the_graph_is_refused(pi2: float, pi3: float, words: str) -> None:
+    with pytest.raises(ParameterError, match=words.replace('^', r'\^')):
+        contraction_ratio(pi2, pi3)
+
+
+def test_forward_sizing_and_its_json() -> None:
+    r = size(0.030, 0.240, 2, 0.002, 10.0, 0.2e6)      # two 120 mm segments: a node
+    assert r.segment_length_m == pytest.approx(0.12)
+    assert r.segment_ratio == pytest.approx(0.43)
+    assert r.contraction_ratio == pytest.approx(0.43 * (1 - 0.22))
+    assert r.contraction_m == pytest.approx(0.43 * 0.78 * 0.24)
+    res = subprocess.run([sys.executable, '-m', 'pam_bench.cli', 'size', 'straight-fibre',
+                          '--diameter-mm', '30', '--length-mm', '240', '--segments', '2',
+                          '--wall-mm', '2', '--force-n', '10', '--pressure-mpa', '0.2',
+                          '--json'], capture_output=True, text=True, timeout=60)
+    assert res.returncode == 0, res.stderr
+    out = json.loads(res.stdout)
+    assert out['contraction_ratio'] == pytest.approx(0.43 * 0.78)
+    bad = subprocess.run([sys.executable, '-m', 'pam_bench.cli', 'size', 'straight-fibre',
+                          '--diameter-mm', '34', '--length-mm', '250', '--segments', '3',
+                          '--wall-mm', '6', '--force-n', '10', '--pressure-mpa', '0.22'],
+                         capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 2 and 'thickness table' in bad.stderr
+    assert bad.stderr.strip().count('\n') == 0
