@@ -217,6 +217,13 @@ def _cmd_size(args: argparse.Namespace) -> int:
     import dataclasses
 
     from pam_bench.models.straight_fibre import size
+    if args.inverse:
+        return _size_inverse(args)
+    missing = [n for n in ('diameter_mm', 'length_mm') if getattr(args, n) is None]
+    if missing:
+        print(f'error: forward sizing needs --{missing[0].replace("_", "-")} (or --inverse '
+              '--contraction-mm C)', file=sys.stderr)
+        return 2
     try:
         r = size(args.diameter_mm * 1e-3, args.length_mm * 1e-3, args.segments,
                  args.wall_mm * 1e-3, args.force_n, args.pressure_mpa * 1e6)
@@ -234,6 +241,36 @@ def _cmd_size(args: argparse.Namespace) -> int:
               f'x {r.thickness_factor:.2f} for the wall -> contraction ratio '
               f'{r.contraction_ratio:.4f} ({r.contraction_m * 1e3:.2f} mm)')
     return 0
+
+
+def _size_inverse(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    from pam_bench.models.straight_fibre import designs_for
+    if args.contraction_mm is None:
+        print('error: --inverse needs --contraction-mm', file=sys.stderr)
+        return 2
+    try:
+        found = designs_for(args.force_n, args.contraction_mm * 1e-3, args.pressure_mpa * 1e6,
+                            args.segments, args.wall_mm * 1e-3)
+    except ModelError as exc:
+        print(f'error: {exc}', file=sys.stderr)
+        return 2
+    if args.plot:
+        from pam_bench.analysis.plots import plot_correlation
+        out = pathlib.Path(args.plot)
+        out.mkdir(parents=True, exist_ok=True)
+        print(f'graph with the design points: {out / plot_correlation(found, out)}',
+              file=sys.stderr)
+    if args.json:
+        print(json.dumps([dataclasses.asdict(d) for d in found], indent=2))
+    elif not found:
+        print('no design inside the correlation graph meets the target')
+    for d in [] if args.json else found:
+        print(f'Phi0 {d.diameter_m * 1e3:6.1f} mm  L_m0 {d.length_m * 1e3:6.1f} mm  '
+              f'(L0 {d.segment_length_m * 1e3:5.1f} mm, Phi0/L0 {d.phi0_over_l0:.3f}, '
+              f'P L0^2/F {d.p_l0sq_over_f:.4g})  contraction ratio {d.contraction_ratio:.4f}')
+    return 0 if found else 1
 
 
 def _cmd_emulate(args: argparse.Namespace) -> int:
@@ -410,8 +447,13 @@ def main(argv: list[str] | None = None) -> int:
     p.set_defaults(func=_cmd_diff)
     p = sub.add_parser('size', help="000's design procedure for a straight-fibre muscle")
     p.add_argument('kind', choices=['straight-fibre'])
-    p.add_argument('--diameter-mm', type=float, required=True, help='Phi0, mm')
-    p.add_argument('--length-mm', type=float, required=True, help='free length L_m0, mm')
+    p.add_argument('--diameter-mm', type=float, help='Phi0, mm (forward)')
+    p.add_argument('--length-mm', type=float, help='free length L_m0, mm (forward)')
+    p.add_argument('--inverse', action='store_true', help='find diameters and lengths that '
+                   'contract --contraction-mm under --force-n at --pressure-mpa')
+    p.add_argument('--contraction-mm', type=float, help='target contraction, mm (inverse)')
+    p.add_argument('--plot', metavar='DIR', help='inverse: write the graph with the design '
+                   'points as DIR/correlation_graph.png')
     p.add_argument('--segments', type=int, required=True, help='segments N + 1 (N rings)')
     p.add_argument('--wall-mm', type=float, required=True, help='wall thickness s, 1..4 mm')
     p.add_argument('--force-n', type=float, required=True, help='load F, N')

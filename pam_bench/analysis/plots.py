@@ -150,3 +150,24 @@ def plot_model_residuals(models: list[dict[str, Any]], out: pathlib.Path) -> str
     fig.savefig(out / name, dpi=110)
     plt.close(fig)
     return name
+
+
+def plot_correlation(designs: list[Any], out: pathlib.Path) -> str:
+    """000's correlation graph (dL / L0 against Phi0 / L0, one line per P L0^2 / F of Table
+    4) with the designs' points (``models.straight_fibre.Design``) on it."""
+    from pam_bench.models.straight_fibre import PI2, PI3, TABLE4
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    for i, pi3 in enumerate(PI3):
+        ax.plot(PI2, TABLE4[i], marker='.', label=f'P L0^2/F = {pi3:g}')
+    for d in designs:                        # on the graph: the ratio before the wall
+        ax.plot(d.phi0_over_l0, d.segment_ratio, 'k*', markersize=9)
+    ax.set_xlabel('Phi0 / L0')
+    ax.set_ylabel('dL / L0')
+    ax.set_title('000 correlation graph (Table 4) and the design points (*)')
+    ax.legend(fontsize=7, ncol=2)
+    ax.grid(True, alpha=0.3)
+    path = out / 'correlation_graph.png'
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path.name

@@ -28,7 +28,8 @@ import numpy as np
 
 from pam_bench.models.errors import ParameterError
 
-__all__ = ['PI2', 'PI3', 'TABLE4', 'K_S_PER_MM', 'contraction_ratio', 'SizeResult', 'size']
+__all__ = ['PI2', 'PI3', 'TABLE4', 'K_S_PER_MM', 'contraction_ratio', 'SizeResult', 'size',
+           'Design', 'designs_for']
 
 PI2 = (0.25, 0.375, 0.5)
 """Phi0 / L0 of the table's columns."""
@@ -104,3 +105,59 @@ def size(diameter_m: float, length_m: float, segments: int, wall_m: float, force
     factor = 1.0 - K_S_PER_MM * wall_mm
     corrected = ratio * factor
     return SizeResult(l0, pi2, pi3, ratio, factor, corrected, corrected * length_m)
+
+
+@dataclasses.dataclass(frozen=True)
+class Design:
+    """A muscle that meets a target (inverse sizing): sizes in m, its groups and stroke."""
+
+    diameter_m: float
+    length_m: float
+    segment_length_m: float
+    phi0_over_l0: float
+    p_l0sq_over_f: float
+    segment_ratio: float              # dL / L0 read from the graph
+    contraction_ratio: float          # after the wall correction
+    contraction_m: float
+
+
+def designs_for(force_n: float, contraction_m: float, pressure_pa: float, segments: int,
+                wall_m: float, pi2_values: tuple[float, ...] | None = None) -> list[Design]:
+    """000's procedure, inverse: for each Phi0 / L0 of ``pi2_values`` (default 0.25 .. 0.5 in
+    steps of 0.025), the segment length L0 whose muscle of ``segments`` segments and wall
+    ``wall_m`` contracts by ``contraction_m`` under ``force_n`` at ``pressure_pa``.
+
+    The stroke (1 - K_S) r(pi_2, P L0^2 / F) (N + 1) L0 grows with L0 (the graph's ratio grows
+    with P L0^2 / F), so each L0 is found by bisection inside the graph; a Phi0 / L0 for which
+    no L0 in the graph reaches the target gives no design.
+
+    Raises:
+        ParameterError: a non-positive target or a wall outside 1..4 mm.
+    """
+    if not (force_n > 0 and contraction_m > 0 and pressure_pa > 0 and segments >= 1):
+        raise ParameterError('size: force, contraction and pressure must be > 0, segments >= 1')
+    factor = 1.0 - K_S_PER_MM * wall_m * 1e3
+    if not 1.0 - 1e-9 <= wall_m * 1e3 <= 4.0 + 1e-9:
+        raise ParameterError(f'wall {wall_m * 1e3:g} mm outside the thickness table (1 .. 4 '
+                             'mm, 000 Table 6)')
+    grid = pi2_values or tuple(np.round(np.arange(0.25, 0.5001, 0.025), 3))
+    lo0, hi0 = math.sqrt(PI3[0] * force_n / pressure_pa), math.sqrt(PI3[-1] * force_n /
+                                                                      pressure_pa)
+    out = []
+    for pi2 in grid:
+        def stroke(l0: float, pi2: float = pi2) -> float:
+            pi3 = min(max(pressure_pa * l0 * l0 / force_n, PI3[0]), PI3[-1])
+            return factor * contraction_ratio(pi2, pi3) * segments * l0
+
+        lo, hi = lo0, hi0
+        if not stroke(lo) <= contraction_m <= stroke(hi):
+            continue
+        for _ in range(100):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if stroke(mid) < contraction_m else (lo, mid)
+        l0 = 0.5 * (lo + hi)
+        pi3 = pressure_pa * l0 * l0 / force_n
+        ratio = contraction_ratio(pi2, pi3)
+        out.append(Design(pi2 * l0, segments * l0, l0, pi2, pi3, ratio, factor * ratio,
+                          stroke(l0)))
+    return out

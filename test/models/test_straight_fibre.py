@@ -60,3 +60,22 @@ def test_forward_sizing_and_its_json() -> None:
                          capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and 'thickness table' in bad.stderr
     assert bad.stderr.strip().count('\n') == 0
+
+
+def test_inverse_designs_contract_by_the_target_when_sized_forward(tmp_path) -> None:
+    from pam_bench.models.straight_fibre import designs_for
+    found = designs_for(50.0, 0.030, 0.2e6, 3, 0.001)
+    assert len(found) >= 5
+    for d in found:
+        fwd = size(d.diameter_m, d.length_m, 3, 0.001, 50.0, 0.2e6)
+        assert fwd.contraction_m == pytest.approx(0.030, rel=1e-6)
+        assert 0.25 <= d.phi0_over_l0 <= 0.5 and 1.2 <= d.p_l0sq_over_f <= 2880
+    assert designs_for(50.0, 5.0, 0.2e6, 3, 0.001) == []          # 5 m: beyond the graph
+    res = subprocess.run([sys.executable, '-m', 'pam_bench.cli', 'size', 'straight-fibre',
+                          '--inverse', '--force-n', '50', '--contraction-mm', '30',
+                          '--pressure-mpa', '0.2', '--segments', '3', '--wall-mm', '1',
+                          '--plot', str(tmp_path), '--json'], capture_output=True, text=True,
+                         timeout=60)
+    assert res.returncode == 0, res.stderr
+    assert len(json.loads(res.stdout)) == len(found)
+    assert (tmp_path / 'correlation_graph.png').stat().st_size > 10_000
