@@ -418,6 +418,12 @@ class BenchNode(Node):
             self.diagnose(DiagnosticStatus.ERROR, f'step failed: {exc}')
             self.on_fault(str(exc))
 
+    def declare_startup_timeout(self) -> float:
+        """Declare a wall-clock controller's ``startup_timeout_s`` (``waited_too_long``)."""
+        return float(self.declare_typed(
+            'startup_timeout_s', 30.0, 'without lock-step: exit (code 3) when a measured topic '
+            'has not come this long after start', 's', 0.1, 3600.0))
+
     def waited_too_long(self, t_ns: int, waiting_for: list[str], timeout_s: float) -> bool:
         """On a wall clock: whether a controller has waited more than ``timeout_s`` since its
         first tick for the topics ``waiting_for``; if so it says which (one line on stderr

@@ -101,9 +101,7 @@ class SequencerNode(BenchNode):
                                1e-4, 1.0)
         self.stale_timeout_s = d('stale_timeout_s', 0.5, 'abort when a measured topic is '
                                  'older than this (without lock-step)', 's', 1e-3, 60.0)
-        self.startup_timeout_s = d('startup_timeout_s', 30.0, 'without lock-step: exit (code '
-                                   '3) when a measured topic has not come this long after '
-                                   'start', 's', 0.1, 3600.0)
+        self.startup_timeout_s = self.declare_startup_timeout()
         self.await_recorder = d('await_recorder', False, 'without lock-step: start the '
                                 'autostart protocol only once protocol/point has a subscriber '
                                 "(the run's recorder), so that no point goes unrecorded")

@@ -81,9 +81,7 @@ class TorqueServoNode(BenchNode):
         if self.wall_loop not in ('deadline', 'timer'):
             raise ParameterError(f"torque_servo.wall_loop {self.wall_loop!r}: 'deadline' or "
                                  "'timer'")
-        self.startup_timeout_s = d('startup_timeout_s', 30.0, 'without lock-step: exit (code '
-                                   '3) when a measured topic has not come this long after '
-                                   'start', 's', 0.1, 3600.0)
+        self.startup_timeout_s = self.declare_startup_timeout()
         self.await_recorder = d('await_recorder', False, 'without lock-step: start control '
                                 "only once torque_servo/state has a subscriber (the run's "
                                 'recorder)')

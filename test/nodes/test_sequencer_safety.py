@@ -18,13 +18,13 @@ from pam_bench.nodes.sequencer import SequencerNode
 from test.nodes.harness import Harness
 
 
-def make(autostart: bool):
+def make(autostart: bool, **extra: object):
+    values = {'lockstep': False, 'autostart': autostart, 'protocol': 'isometric_quick',
+              'tick_period_s': 0.01, 'stale_timeout_s': 0.2, 'status_period_s': 0.05, **extra}
+
     def factory(ctx):
         return SequencerNode('sequencer', context=ctx, parameter_overrides=[
-            Parameter('lockstep', value=False), Parameter('autostart', value=autostart),
-            Parameter('protocol', value='isometric_quick'),
-            Parameter('tick_period_s', value=0.01), Parameter('stale_timeout_s', value=0.2),
-            Parameter('status_period_s', value=0.05)])
+            Parameter(k, value=v) for k, v in values.items()])
     return factory
 
 
@@ -32,8 +32,8 @@ def make(autostart: bool):
 def harness_factory(ros_domain: int):
     made = []
 
-    def build(autostart: bool) -> Harness:
-        h = Harness(make(autostart))
+    def build(autostart: bool, **extra: object) -> Harness:
+        h = Harness(make(autostart, **extra))
         made.append(h)
         h.publisher(WrenchStamped, 'load_cell_1/force')
         h.publisher(JointState, 'encoder/joint_state')
@@ -130,56 +130,43 @@ def test_unknown_protocol_goal_rejected(harness_factory) -> None:
     assert not send.result().accepted
 
 
-def test_pause_and_resume_services_and_a_suspender(ros_domain: int) -> None:
+def test_pause_and_resume_services_and_a_suspender(harness_factory) -> None:
     from std_srvs.srv import Trigger
-    h = Harness(lambda ctx: SequencerNode('sequencer', context=ctx, parameter_overrides=[
-        Parameter('lockstep', value=False), Parameter('protocol', value='isometric_quick'),
-        Parameter('tick_period_s', value=0.01), Parameter('status_period_s', value=0.05),
-        Parameter('pause_action', value='vent'),
-        Parameter('suspenders_yaml', value='[{input: force, low: -20.0, high: 1500.0, '
-                  'resume_after_s: 0.3}]')]))
-    try:
-        h.publisher(WrenchStamped, 'load_cell_1/force')
-        h.publisher(JointState, 'encoder/joint_state')
-        h.publisher(FluidPressure, 'valve_1/pressure')
-        h.listen(ProtocolStatus, 'protocol/status')
-        h.listen(ValveCommand, 'valve_1/command')
-        h.listen(LoadCommand, 'loading_servo/command')
-        h.add_node()
-        feed(h, 0.5)
+    h = harness_factory(True, stale_timeout_s=0.5, pause_action='vent',
+                        suspenders_yaml='[{input: force, low: -20.0, high: 1500.0, '
+                        'resume_after_s: 0.3}]')
+    feed(h, 0.5)
 
-        def call(name: str) -> Trigger.Response:
-            client = h.tester.create_client(Trigger, f'protocol/{name}')
-            h.spin_until(client.service_is_ready)
-            fut = client.call_async(Trigger.Request())
-            h.spin_until(fut.done)
-            return fut.result()
+    def call(name: str) -> Trigger.Response:
+        client = h.tester.create_client(Trigger, f'protocol/{name}')
+        h.spin_until(client.service_is_ready)
+        fut = client.call_async(Trigger.Request())
+        h.spin_until(fut.done)
+        return fut.result()
 
-        assert call('pause').success
-        feed(h, 0.3)
-        last = h.received['protocol/status'][-1]
-        assert last.phase == 'paused' and 'operator' in last.reason
-        assert h.received['valve_1/command'][-1].voltage == 0.0              # vented
-        assert h.received['loading_servo/command'][-1].mode == LoadCommand.MODE_OFF
-        assert call('resume').success
-        feed(h, 0.3)
-        assert h.received['protocol/status'][-1].phase == 'settle'     # vented: settles again
-        # a suspender: the force leaves its band, the run pauses by itself, then resumes
-        end = time.monotonic() + 0.3
-        while time.monotonic() < end:
-            now = h.tester.get_clock().now().nanoseconds
-            m = WrenchStamped()
-            m.wrench.force.x = -100.0
-            h.send('load_cell_1/force', m, now)
-            h.send('encoder/joint_state', JointState(name=['pulley'], position=[0.0]), now)
-            h.send('valve_1/pressure', FluidPressure(fluid_pressure=ATMOSPHERE_PA), now)
-            h.executor.spin_once(timeout_sec=0.005)
-        last = h.received['protocol/status'][-1]
-        assert last.phase == 'paused' and 'suspended' in last.reason and 'force' in last.reason
-        assert not call('resume').success                  # the suspender holds the run
-        feed(h, 0.8)                                          # good again for 0.3 s
-        phases = [s.phase for s in h.received['protocol/status']]
-        assert phases[-1] == 'settle' and last.state == ProtocolStatus.STATE_RUNNING
-        assert any('suspended' in st.message for d in h.diagnostics for st in d.status)
-    finally:
-        h.close()
+    assert call('pause').success
+    feed(h, 0.3)
+    last = h.received['protocol/status'][-1]
+    assert last.phase == 'paused' and 'operator' in last.reason
+    assert h.received['valve_1/command'][-1].voltage == 0.0              # vented
+    assert h.received['loading_servo/command'][-1].mode == LoadCommand.MODE_OFF
+    assert call('resume').success
+    feed(h, 0.3)
+    assert h.received['protocol/status'][-1].phase == 'settle'     # vented: settles again
+    # a suspender: the force leaves its band, the run pauses by itself, then resumes
+    end = time.monotonic() + 0.3
+    while time.monotonic() < end:
+        now = h.tester.get_clock().now().nanoseconds
+        m = WrenchStamped()
+        m.wrench.force.x = -100.0
+        h.send('load_cell_1/force', m, now)
+        h.send('encoder/joint_state', JointState(name=['pulley'], position=[0.0]), now)
+        h.send('valve_1/pressure', FluidPressure(fluid_pressure=ATMOSPHERE_PA), now)
+        h.executor.spin_once(timeout_sec=0.005)
+    last = h.received['protocol/status'][-1]
+    assert last.phase == 'paused' and 'suspended' in last.reason and 'force' in last.reason
+    assert not call('resume').success                  # the suspender holds the run
+    feed(h, 0.8)                                          # good again for 0.3 s
+    phases = [s.phase for s in h.received['protocol/status']]
+    assert phases[-1] == 'settle' and last.state == ProtocolStatus.STATE_RUNNING
+    assert any('suspended' in st.message for d in h.diagnostics for st in d.status)
