@@ -216,7 +216,7 @@ def _cmd_diff(args: argparse.Namespace) -> int:
 def _cmd_size(args: argparse.Namespace) -> int:
     import dataclasses
 
-    from pam_bench.models.straight_fibre import size
+    from pam_bench.models.laws.straight_fibre import size
     if args.inverse:
         return _size_inverse(args)
     missing = [n for n in ('diameter_mm', 'length_mm') if getattr(args, n) is None]
@@ -246,7 +246,7 @@ def _cmd_size(args: argparse.Namespace) -> int:
 def _size_inverse(args: argparse.Namespace) -> int:
     import dataclasses
 
-    from pam_bench.models.straight_fibre import designs_for
+    from pam_bench.models.laws.straight_fibre import designs_for
     if args.contraction_mm is None:
         print('error: --inverse needs --contraction-mm', file=sys.stderr)
         return 2

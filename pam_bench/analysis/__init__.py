@@ -3,5 +3,5 @@
 from __future__ import annotations
 
 __all__ = ['bag_repair', 'bagdiff', 'baginfo', 'bagread', 'bagwrite', 'delivery', 'extract',
-           'force_models', 'identify', 'inverse_export', 'length_laws', 'plots', 'report',
+           'force_models', 'identify', 'inverse_export', 'plots', 'report',
            'servo_bag', 'smoothing', 'static', 'timing', 'types']

@@ -33,6 +33,7 @@ from pam_bench.models.loading_servo import LoadingServoParams
 from pam_bench.models.muscle import MuscleParams
 from pam_bench.models.params import check_known, from_mapping, hint, nearest
 from pam_bench.models.sensors import EncoderParams, LoadCellParams
+from pam_bench.models.straight_fibre_muscle import StraightFibreParams
 from pam_bench.models.torque_servo import TorqueServoParams
 from pam_bench.models.valve import ValveParams
 
@@ -50,7 +51,7 @@ class NodeType:
 
 
 _VALVE = (('valve', ValveParams),)
-_MUSCLE = (('muscle', MuscleParams),)
+_MUSCLE = (('muscle', MuscleParams), ('straight_fibre', StraightFibreParams))
 _CELL = (('load_cell', LoadCellParams),)
 NODE_TYPES = {
     'valve_1': NodeType('pam_bench.nodes.valve_sim', 'ValveSim', models=_VALVE),

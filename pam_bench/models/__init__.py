@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
-__all__ = ['constants', 'coupling', 'errors', 'faults', 'friction', 'inverse', 'loading_servo',
-           'lockstep', 'lti', 'muscle', 'params', 'protocol_io', 'protocols', 'schedules',
-           'sensors', 'straight_fibre', 'suspenders', 'torque_servo', 'valve']
+__all__ = ['bench_muscle', 'constants', 'coupling', 'errors', 'faults', 'friction', 'inverse',
+           'laws', 'loading_servo', 'lockstep', 'lti', 'muscle', 'params', 'protocol_io',
+           'protocols', 'schedules', 'sensors', 'straight_fibre_muscle', 'suspenders',
+           'torque_servo', 'valve']

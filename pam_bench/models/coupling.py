@@ -29,8 +29,8 @@ import dataclasses
 import math
 from typing import Protocol
 
+from pam_bench.models.bench_muscle import BenchMuscle
 from pam_bench.models.errors import ModelError
-from pam_bench.models.muscle import MuscleModel
 
 __all__ = ['Holder', 'SubStepResult', 'solve_substep', 'solve_substeps', 'substep_grid']
 
@@ -80,7 +80,7 @@ def substep_grid(dt_s: float, period_s: float) -> list[float]:
     return steps or [dt_s]
 
 
-def solve_substep(muscle: MuscleModel, holder: Holder, d: float, pressure_pa: float,
+def solve_substep(muscle: BenchMuscle, holder: Holder, d: float, pressure_pa: float,
                   force_guess_n: float) -> tuple[float, float, float, float, int]:
     """One sub-step of length ``d`` (s) ending at gauge pressure ``pressure_pa`` (Pa).
 
@@ -122,7 +122,7 @@ def solve_substep(muscle: MuscleModel, holder: Holder, d: float, pressure_pa: fl
     return f, x, trial[1], trial[2], it
 
 
-def solve_substeps(muscle: MuscleModel, holder: Holder, steps_s: list[float],
+def solve_substeps(muscle: BenchMuscle, holder: Holder, steps_s: list[float],
                    pressures_pa: list[float], force_n: float) -> SubStepResult:
     """Every sub-step of an exchange: lengths (s) and the pressure at the end of each (Pa),
     starting from the force ``force_n`` (N) of the last sub-step.

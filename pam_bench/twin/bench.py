@@ -24,12 +24,14 @@ from __future__ import annotations
 
 import dataclasses
 
+from pam_bench.models.bench_muscle import make_muscle
 from pam_bench.models.constants import SUB_STEP_S
 from pam_bench.models.coupling import solve_substeps, substep_grid
 from pam_bench.models.loading_servo import LoadingServoModel, LoadingServoParams, LoadMode
-from pam_bench.models.muscle import MuscleModel, MuscleParams
+from pam_bench.models.muscle import MuscleParams
 from pam_bench.models.protocols import COMMAND_STEP_S
 from pam_bench.models.sensors import EncoderModel, EncoderParams, LoadCellModel, LoadCellParams
+from pam_bench.models.straight_fibre_muscle import StraightFibreParams
 from pam_bench.models.valve import ValveModel, ValveParams, VolumeEvidence
 
 __all__ = ['BenchState', 'SingleMuscleBench']
@@ -56,10 +58,11 @@ class SingleMuscleBench:
     def __init__(self, valve: ValveParams | None = None, muscle: MuscleParams | None = None,
                  load_cell: LoadCellParams | None = None, encoder: EncoderParams | None = None,
                  servo: LoadingServoParams | None = None, seed: int = 0,
-                 sub_step_s: float = SUB_STEP_S) -> None:
+                 sub_step_s: float = SUB_STEP_S,
+                 straight_fibre: StraightFibreParams | None = None) -> None:
         self.sub_step_s = sub_step_s
         self.valve = ValveModel(valve)
-        self.muscle = MuscleModel(muscle)
+        self.muscle = make_muscle(muscle, straight_fibre)
         self.cell = LoadCellModel(load_cell, seed=seed)
         self.encoder = EncoderModel(encoder)
         self.servo = LoadingServoModel(servo)

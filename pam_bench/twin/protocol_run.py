@@ -35,6 +35,7 @@ from pam_bench.models.protocols import (
 )
 from pam_bench.models.schedules import Reading
 from pam_bench.models.sensors import LoadCellParams
+from pam_bench.models.straight_fibre_muscle import StraightFibreParams
 from pam_bench.models.valve import ValveParams
 from pam_bench.twin.bench import SingleMuscleBench
 
@@ -59,12 +60,13 @@ def run_readings(name: str, readings: list[Reading], settle_s: float, exchange_s
                  load_cell: LoadCellParams | None = None, seed: int = 0,
                  command_step_s: float = COMMAND_STEP_S,
                  record_exchange_s: float = RECORD_EXCHANGE_S,
-                 events: Sequence[tuple[float, str]] = ()) -> TwinRun:
+                 events: Sequence[tuple[float, str]] = (),
+                 straight_fibre: StraightFibreParams | None = None) -> TwinRun:
     """Run a schedule to its end (module docstring); the bench starts at rest. ``events``:
     (sim time s, 'pause' | 'pause_vent' | 'resume'), given to the sequencer at the first tick
     at or after that time, as an operator's service call would be."""
     bench = SingleMuscleBench(valve=valve, muscle=muscle, load_cell=load_cell, servo=servo,
-                              seed=seed, sub_step_s=sub_step_s)
+                              seed=seed, sub_step_s=sub_step_s, straight_fibre=straight_fibre)
     seq = Sequencer(name, readings, settle_s, record_exchange_s=record_exchange_s)
     seq.start(0.0)
     points: list[Point] = []

@@ -24,9 +24,11 @@ import dataclasses
 import numpy as np
 from scipy.optimize import brentq
 
+from pam_bench.models.bench_muscle import make_muscle
 from pam_bench.models.loading_servo import LoadingServoParams, LoadMode
-from pam_bench.models.muscle import MuscleModel, MuscleParams
+from pam_bench.models.muscle import MuscleParams
 from pam_bench.models.schedules import Reading
+from pam_bench.models.straight_fibre_muscle import StraightFibreParams
 from pam_bench.models.valve import ValveModel, ValveParams
 
 __all__ = ['QuasiStaticBench', 'SettledReading', 'settle_schedule']
@@ -47,9 +49,10 @@ class QuasiStaticBench:
     """Valve, muscle and loading servo at equilibrium, friction carried along the path."""
 
     def __init__(self, valve: ValveParams | None = None, muscle: MuscleParams | None = None,
-                 servo: LoadingServoParams | None = None) -> None:
+                 servo: LoadingServoParams | None = None,
+                 straight_fibre: StraightFibreParams | None = None) -> None:
         self.valve = ValveModel(valve)
-        self.muscle = MuscleModel(muscle)
+        self.muscle = make_muscle(muscle, straight_fibre)
         self.servo = servo or LoadingServoParams()
         self.k_b = self.servo.belt_stiffness_n_per_m
         self.x_t = 0.0

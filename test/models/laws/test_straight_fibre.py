@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from pam_bench.models.errors import ParameterError
-from pam_bench.models.straight_fibre import PI2, PI3, TABLE4, contraction_ratio, size
+from pam_bench.models.laws.straight_fibre import PI2, PI3, TABLE4, contraction_ratio, size
 
 # 000 Table 4 as printed: (Phi0 mm, L0 mm, P MPa, F N, dL/L0)
 ROWS = [(30, 120, 0.2, 1, 0.433), (30, 80, 0.45, 1, 0.387), (30, 60, 0.8, 1, 0.345),
@@ -63,7 +63,7 @@ def test_forward_sizing_and_its_json() -> None:
 
 
 def test_inverse_designs_contract_by_the_target_when_sized_forward(tmp_path) -> None:
-    from pam_bench.models.straight_fibre import designs_for
+    from pam_bench.models.laws.straight_fibre import designs_for
     found = designs_for(50.0, 0.030, 0.2e6, 3, 0.001)
     assert len(found) >= 5
     for d in found:
@@ -79,3 +79,27 @@ def test_inverse_designs_contract_by_the_target_when_sized_forward(tmp_path) -> 
     assert res.returncode == 0, res.stderr
     assert len(json.loads(res.stdout)) == len(found)
     assert (tmp_path / 'correlation_graph.png').stat().st_size > 10_000
+
+
+@pytest.mark.parametrize('pi2', [0.25, 0.3, 0.375, 0.45, 0.5])
+@pytest.mark.parametrize('pi3', [1.2, 2.0, 7.2, 50.0, 2880.0])
+def test_the_force_law_reads_the_graph_backwards(pi2: float, pi3: float) -> None:
+    """k = 1, r0 = 0, c = 1: F at the graph's ratio is P L0^2 / pi_3 (000 step 6)."""
+    from pam_bench.models.laws import straight_fibre
+    l0, p = 0.1, 2e5
+    eps = contraction_ratio(pi2, pi3)
+    f = straight_fibre.force(np.array([pi2, 1.0, 0.0, 0.0]), np.array([p]), np.array([eps * l0]),
+                             l0)
+    np.testing.assert_allclose(f, [p * l0 ** 2 / pi3], rtol=1e-9)
+
+
+def test_the_correlation_column_is_continued_with_its_end_segments() -> None:
+    from pam_bench.models.laws.straight_fibre import Correlation
+    c = Correlation(0.3)
+    lo, slope_lo = c.log_pi3(c.ratios[0] - 0.01)
+    hi, slope_hi = c.log_pi3(c.ratios[-1] + 0.001)
+    assert slope_lo > 0 and slope_hi > slope_lo               # the top of the graph is flat
+    np.testing.assert_allclose(lo, np.log10(PI3[0]) - 0.01 * slope_lo, rtol=1e-12)
+    np.testing.assert_allclose(hi, np.log10(PI3[-1]) + 0.001 * slope_hi, rtol=1e-12)
+    with pytest.raises(ParameterError, match='outside the correlation graph'):
+        Correlation(0.55)

@@ -17,6 +17,17 @@ dLc / L0 = (dL / L0) (1 - K_S): the thickness takes away the share K_S of the co
 the only reading that keeps the corrected contraction positive and below the uncorrected one
 for every tabulated s. The muscle's contraction is dL_m = dLc (N + 1) (step 5). Thicknesses
 outside 1..4 mm are refused (the table does not cover them; 000's own prototype has 6 mm).
+
+As a force law (``Correlation``, ``force``, ``LAW``): at gauge pressure p (Pa) and muscle
+contraction ratio eps = dL_m / L_m0, the graph is read backwards. With the segment's ratio
+r = eps / k + r0, the column of the graph at Phi0 / L0 gives log10 pi_3 = lambda(r) (piecewise
+linear between the table's rows, each column being strictly increasing in pi_3, and continued
+with its end segments beyond them), and F = c p L0^2 10^(-lambda(r)). k = 1 - K_S s, r0 = 0,
+c = 1 is 000's procedure as printed (step 3 and 6): then ``force`` and ``size`` are inverse to
+each other. k, r0 and c free let the same law follow a muscle the graph does not cover: 000's
+own prototype (6 mm wall) is reached with one set for its 3- and 4-segment versions
+(``pam_bench.models.straight_fibre_muscle``). In the zoo's law (``LAW``) L0 is the nominal
+length l0 (a segment count only rescales c), Phi0 / L0 is fitted and c by its log10.
 """
 
 from __future__ import annotations
@@ -27,9 +38,10 @@ import math
 import numpy as np
 
 from pam_bench.models.errors import ParameterError
+from pam_bench.models.laws.base import ForceLaw
 
 __all__ = ['PI2', 'PI3', 'TABLE4', 'K_S_PER_MM', 'contraction_ratio', 'SizeResult', 'size',
-           'Design', 'designs_for']
+           'Design', 'designs_for', 'Correlation', 'force', 'LAW']
 
 PI2 = (0.25, 0.375, 0.5)
 """Phi0 / L0 of the table's columns."""
@@ -161,3 +173,51 @@ def designs_for(force_n: float, contraction_m: float, pressure_pa: float, segmen
         out.append(Design(pi2 * l0, segments * l0, l0, pi2, pi3, ratio, factor * ratio,
                           stroke(l0)))
     return out
+
+
+_LOG_PI3 = tuple(math.log10(v) for v in PI3)
+
+
+class Correlation:
+    """The graph's column at one Phi0 / L0 and its inverse lambda(r) = log10 pi_3 (module
+    docstring): piecewise linear in r between the rows, continued with the end segments."""
+
+    def __init__(self, pi2: float) -> None:
+        """Raises: ParameterError: ``pi2`` outside 0.25 .. 0.5."""
+        if not PI2[0] <= pi2 <= PI2[-1]:
+            raise ParameterError(f'Phi0/L0 = {pi2:.4g} outside the correlation graph '
+                                 f'({PI2[0]} .. {PI2[-1]}, 000 section 3.2)')
+        self.pi2 = pi2
+        self.ratios = tuple(float(np.interp(pi2, PI2, TABLE4[i])) for i in range(len(PI3)))
+
+    def log_pi3(self, ratio: float) -> tuple[float, float]:
+        """(lambda(r), d lambda / dr) at the segment's contraction ratio r."""
+        rs, ls = self.ratios, _LOG_PI3
+        i = 0
+        last = len(rs) - 2
+        while i < last and ratio > rs[i + 1]:
+            i += 1
+        slope = (ls[i + 1] - ls[i]) / (rs[i + 1] - rs[i])
+        return ls[i] + slope * (ratio - rs[i]), slope
+
+
+def _lambda(pi2: float, ratio: np.ndarray) -> np.ndarray:
+    """lambda(r) of ``Correlation`` for an array of r (any pi2 in 0.25 .. 0.5)."""
+    rs = np.array([np.interp(pi2, PI2, TABLE4[i]) for i in range(len(PI3))])
+    ls = np.array(_LOG_PI3)
+    lo = ls[0] + (ls[1] - ls[0]) / (rs[1] - rs[0]) * (ratio - rs[0])
+    hi = ls[-1] + (ls[-1] - ls[-2]) / (rs[-1] - rs[-2]) * (ratio - rs[-1])
+    return np.where(ratio < rs[0], lo, np.where(ratio > rs[-1], hi, np.interp(ratio, rs, ls)))
+
+
+def force(th: np.ndarray, p: np.ndarray, x: np.ndarray, l0: float) -> np.ndarray:
+    """The graph read backwards (module docstring) with th = (Phi0 / L0, k, r0, log10 c),
+    L0 = l0; N. c is fitted by its logarithm: it scales the force over decades."""
+    pi2, k, r0, log_c = th
+    lam = _lambda(float(pi2), x / l0 / k + r0)
+    return np.maximum(p, 0.0) * l0 * l0 * 10.0 ** (log_c - np.minimum(lam, 300.0))
+
+
+LAW = ForceLaw('straight_fibre', '000 Table 4 (graph read backwards)',
+               ('phi0_over_l0', 'k', 'r0', 'log10_c'), (0.375, 1.0, 0.1, -1.0),
+               (0.25, 0.05, -0.5, -4.0), (0.5, 3.0, 0.5, 3.0), force)
