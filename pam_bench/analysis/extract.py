@@ -22,9 +22,10 @@ import yaml
 from pam_bench.analysis import plots
 from pam_bench.analysis.baginfo import bag_info
 from pam_bench.analysis.bagread import BagData, Points, StepRecord, read_bags
-from pam_bench.analysis.force_models import fit_force_models
+from pam_bench.analysis.force_models import FORCE_MODELS, fit_force_models
 from pam_bench.analysis.identify import fit_step
 from pam_bench.analysis.inverse_export import inverse_model_dict
+from pam_bench.analysis.law_scores import score
 from pam_bench.analysis.report import report_markdown
 from pam_bench.analysis.smoothing import centred_polyfit
 from pam_bench.analysis.static import gain_summary
@@ -105,31 +106,65 @@ def _largest(points: dict[str, Points], kind: str) -> Points | None:
     return max(found, key=len) if found else None
 
 
-def _model_comparison(points: dict[str, Points], direction: int | None = None
-                      ) -> list[dict[str, Any]]:
-    """Static force models fitted to the isometric and isobaric readings pooled; with
-    ``direction`` (0 up, 1 down) to that branch of every sweep only."""
-    use = [p for p in (_largest(points, 'isometric'), _largest(points, 'isobaric')) if p]
+ISOTONIC_MIN_X_M = 1e-4
+"""An isotonic reading joins the force-law fit once the muscle has contracted this far (m):
+below, the load hangs on the braid's lock-up, which none of the laws describes."""
+
+
+def nominal_length(runs: list[dict[str, Any] | None]) -> float:
+    """The muscle's free length (m) from the first bag's run description: ``muscle.kind``
+    picks ``muscle.nominal_length_m`` or ``straight_fibre.free_length_m``; 0.35 m (004) for a
+    bag without one (a real bench's recorder)."""
+    for run in runs:
+        params = ((run or {}).get('parameters') or {}).get('muscle_1', {})
+        params = params.get('ros__parameters', {})
+        muscle = params.get('muscle', {})
+        if muscle.get('kind') == 'straight_fibre':
+            return float(params.get('straight_fibre', {}).get('free_length_m', 0.25))
+        if 'nominal_length_m' in muscle:
+            return float(muscle['nominal_length_m'])
+    return 0.35
+
+
+def model_comparison(points: dict[str, Points], direction: int | None = None,
+                     nominal_length_m: float = 0.35) -> list[dict[str, Any]]:
+    """Static force laws fitted to the isometric, isobaric and isotonic readings pooled; with
+    ``direction`` (0 up, 1 down) to that branch of every sweep only. Each fit is then scored
+    as a length law on the isotonic readings and as a stiffness law on the isobaric slopes
+    (``analysis.law_scores``)."""
+    kinds = ('isometric', 'isobaric', 'isotonic')
+    use = [p for p in (_largest(points, k) for k in kinds) if p]
     if not use:
         return []
     keep = [np.ones(len(q.t_s), bool) if direction is None else q.direction == direction
             for q in use]
+    for q, k in zip(use, keep, strict=True):     # a load hanging on the locked braid: no law
+        if q.protocol.startswith('isotonic'):
+            k &= q.contraction_m > ISOTONIC_MIN_X_M
     p, x, f = (np.concatenate([getattr(q, c)[k] for q, k in zip(use, keep, strict=True)])
                for c in ('pressure_pa', 'contraction_m', 'force_n'))
-    return fit_force_models(p, x, f)
+    fits = fit_force_models(p, x, f, nominal_length_m)
+    iso, bar = _largest(points, 'isotonic'), _largest(points, 'isobaric')
+    laws = {m.name: m for m in FORCE_MODELS}
+    for fit in fits:
+        score(fit, laws[fit['model']], iso, bar, nominal_length_m)
+    return fits
 
 
-def _branch_comparison(points: dict[str, Points]) -> list[dict[str, Any]]:
+def _branch_comparison(points: dict[str, Points], nominal_length_m: float
+                       ) -> list[dict[str, Any]]:
     """The models fitted to the loading (up) and the unloading (down) branches apart, as 002
     does (its Fig. 11): hysteresis makes one curve through both a compromise."""
-    up, down = _model_comparison(points, 0), _model_comparison(points, 1)
+    up = model_comparison(points, 0, nominal_length_m)
+    down = model_comparison(points, 1, nominal_length_m)
     out = []
     for a in up:
         b = next((m for m in down if m['model'] == a['model']), None)
         if b is not None:
             out.append({'model': a['model'], 'seed': a['seed'], 'n_params': a['n_params'],
                         'loading_rmse_N': a['rmse_N'], 'unloading_rmse_N': b['rmse_N'],
-                        'loading_params': a['params'], 'unloading_params': b['params']})
+                        'loading_params': a['params'], 'unloading_params': b['params'],
+                        'loading_stderr': a['stderr'], 'unloading_stderr': b['stderr']})
     return out
 
 
@@ -176,18 +211,21 @@ def extract(bags: list[str], out_dir: str, figures: bool = True) -> dict[str, An
     if not summary:
         raise ExtractError('too few points to extract anything (need at least two readings '
                            'where the muscle pulls in a series)')
-    models = _model_comparison(data.points)
+    runs = [_run_of(b) for b in bags]      # how each bag was made (or None)
+    l0 = nominal_length(runs)
+    models = model_comparison(data.points, nominal_length_m=l0)
     if models:
         summary['model_comparison'] = [{k: v for k, v in m.items() if not k.startswith('_')}
                                        for m in models]
-        summary['model_comparison_by_branch'] = _branch_comparison(data.points)
+        summary['model_comparison_by_branch'] = _branch_comparison(data.points, l0)
+        summary['model_comparison_length_m'] = l0
     inverse = inverse_model_dict(summary.get('step_response'),
                                  _largest(data.points, 'isometric'))
     t3 = time.perf_counter()
     summary['timing_s'] = {'read_and_static': t1 - t0, 'identification': t2 - t1,
                            'model_comparison': t3 - t2, 'records': len(data.records)}
     summary['bags'] = [str(b) for b in bags]
-    summary['runs'] = [_run_of(b) for b in bags]      # how each bag was made (or None)
+    summary['runs'] = runs
     out = pathlib.Path(out_dir)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = pathlib.Path(tempfile.mkdtemp(prefix=f'.{out.name}.', dir=out.parent))

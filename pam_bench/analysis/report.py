@@ -44,12 +44,19 @@ def report_markdown(s: dict[str, Any]) -> str:
                 lines.append(f"| {key} | {p['degree']} | {coef} | {p['rms_residual']:.4g} |")
             lines.append('')
     if 'model_comparison' in s:
+        l0 = s.get('model_comparison_length_m')
         lines += ['## Static force models', '',
-                  '| model | seed | parameters | RMSE N | max error N | fit s | readings |',
-                  '|---|---|---|---|---|---|---|']
+                  'Fitted to the isometric, isobaric and isotonic readings pooled'
+                  + (f' (l0 = {l0 * 1e3:.0f} mm)' if l0 else '') + '; length: the law solved '
+                  'for x on the isotonic readings; stiffness: its secant -dF/dx against the '
+                  'isobaric slopes (003 Eq. 19).', '',
+                  '| model | seed | parameters | RMSE N | max error N | length RMSE mm | '
+                  'stiffness RMSE kN/m | fit s | readings |', '|---' * 9 + '|']
         for m in sorted(s['model_comparison'], key=lambda m: m['rmse_N']):
             lines.append(f"| {m['model']} | {m['seed']} | {m['n_params']} | {m['rmse_N']:.2f} | "
-                         f"{m['max_error_N']:.1f} | {m['fit_s']:.3f} | {m['n_points']} |")
+                         f"{m['max_error_N']:.1f} | {_opt(m.get('length_rmse_mm'))} | "
+                         f"{_opt(m.get('stiffness_rmse_kN_per_m'))} | {m['fit_s']:.3f} | "
+                         f"{m['n_points']} |")
         lines += ['', 'Parameters with their standard errors:', '']
         for m in sorted(s['model_comparison'], key=lambda m: m['rmse_N']):
             se = m.get('stderr', {})
@@ -65,6 +72,13 @@ def report_markdown(s: dict[str, Any]) -> str:
         for m in s['model_comparison_by_branch']:
             lines.append(f"| {m['model']} | {pooled.get(m['model'], float('nan')):.2f} | "
                          f"{m['loading_rmse_N']:.2f} | {m['unloading_rmse_N']:.2f} |")
+        lines += ['', 'Branch parameters with their standard errors (loading; unloading):', '']
+        for m in s['model_comparison_by_branch']:
+            for branch in ('loading', 'unloading'):
+                se = m.get(f'{branch}_stderr', {})
+                lines.append(f"- {m['model']}, {branch}: " + ', '.join(
+                    f'{k} = {v:.4g} +- {se.get(k, float("nan")):.2g}'
+                    for k, v in m[f'{branch}_params'].items()))
         lines.append('')
     if s.get('inverse_model'):
         lines += [f"Inverse model for the torque servo: `{s['inverse_model']}`.", '']
@@ -77,3 +91,7 @@ def report_markdown(s: dict[str, Any]) -> str:
         lines += ['Timing: ' + ', '.join(f'{k} {v:.2f} s' if isinstance(v, float) else f'{k} {v}'
                                          for k, v in t.items()), '']
     return '\n'.join(lines) + '\n'
+
+
+def _opt(v: float | None) -> str:
+    return '-' if v is None else f'{v:.2f}'

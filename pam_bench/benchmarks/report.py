@@ -17,6 +17,7 @@ from typing import Any
 import yaml
 
 from pam_bench.benchmarks.faults import faults_results, faults_section
+from pam_bench.benchmarks.straight_fibre import straight_fibre_results, straight_fibre_section
 from pam_bench.benchmarks.wallclock import wallclock_results, wallclock_section
 
 __all__ = ['table', 'key_results', 'render', 'methods', 'LONG_RUNS']
@@ -123,6 +124,7 @@ def key_results(r: dict[str, Any]) -> list[Row]:
     rows += _layout_results(r)
     rows += wallclock_results(r, f"`{commit_of(r, 'wallclock')}`")
     rows += faults_results(r, f"`{commit_of(r, 'faults')}`")
+    rows += straight_fibre_results(r, f"`{commit_of(r, 'straight_fibre')}`")
     commit = f"`{commit_of(r, 'scenes')}`"
     for s in r.get('scenes', []):
         if s['scene'] in ('campaign', 'campaign_quick'):
@@ -329,7 +331,8 @@ SECTIONS: list[tuple[str, Callable[..., list[str]]]] = [
     ('record_exchange', _record_exchange), ('extraction', _extraction),
     ('work_precision', _work_precision), ('fidelity', _fidelity),
     ('ros_exchange_step', _ros_exchange_step), ('servo', _servo),
-    ('wallclock', wallclock_section), ('faults', faults_section)]
+    ('wallclock', wallclock_section), ('faults', faults_section),
+    ('straight_fibre', straight_fibre_section)]
 """Section key (of bench.json and methods.yaml) and its table renderer, in report order."""
 
 

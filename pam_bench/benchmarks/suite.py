@@ -223,13 +223,16 @@ def _measure(name: str, quick: bool, out: pathlib.Path, scenes: list[str] | None
     elif name == 'faults':
         from pam_bench.benchmarks.faults import measure_faults
         report['faults'] = measure_faults(out)
+    elif name == 'straight_fibre':
+        from pam_bench.benchmarks.straight_fibre import measure_straight_fibre
+        report['straight_fibre'] = measure_straight_fibre(out)
     elif name == 'wallclock':
         from pam_bench.benchmarks.wallclock import measure_wallclock
         report['wallclock'] = measure_wallclock(out, quick)
 
 
 STUDIES = ('calibration', 'lockstep', 'layouts', 'profile', 'exchange_step', 'record_exchange',
-           'scenes', 'models', 'wallclock', 'faults')
+           'scenes', 'models', 'wallclock', 'faults', 'straight_fibre')
 """The studies of `pam-bench bench`, in the order they run; ``--only`` picks some."""
 FILLS = {'scenes': ('scenes', 'campaign', 'extraction'),
          'models': ('work_precision', 'fidelity', 'ros_exchange_step', 'servo')}

@@ -2,4 +2,4 @@
 
 from __future__ import annotations
 
-__all__ = ['calibration', 'reference_check', 'truth', 'wallclock']
+__all__ = ['calibration', 'prototype', 'reference_check', 'truth', 'wallclock']
