@@ -10,7 +10,9 @@ sqrt(diag((J^T J)^-1) s^2) with s^2 the residual variance (N^2) over n - m degre
 freedom (inf where J^T J is singular: the data do not fix that parameter).
 
 Each model is fitted by nonlinear least squares (scipy ``least_squares``, trust region
-reflective within physical bounds) on the readings where the muscle pulls; reported: RMSE, max
+reflective within physical bounds) on the readings where the muscle pulls, from its start
+point and, for a law that extends another (Kang and Kerscher extend Tondu-Lopez), also from
+the other's optimum, keeping the better; reported: RMSE, max
 error (N), number of parameters, fit time (s).
 """
 
@@ -51,6 +53,7 @@ def fit_force_models(pressure_pa: np.ndarray, contraction_m: np.ndarray, force_n
     p, x, f = (np.asarray(a, dtype=float) for a in (pressure_pa, contraction_m, force_n))
     pulls = f > 0.01 * max(float(f.max(initial=0.0)), 1e-9)
     out = []
+    fitted: dict[str, np.ndarray] = {}
     for m in models:
         use = pulls & (x >= m.min_x_m)
         if use.sum() <= len(m.params):
@@ -65,9 +68,14 @@ def fit_force_models(pressure_pa: np.ndarray, contraction_m: np.ndarray, force_n
             return np.nan_to_num(r, nan=1e3, posinf=1e3, neginf=-1e3)
 
         t0 = time.perf_counter()
-        sol = least_squares(res, np.array(m.start), bounds=(m.lower, m.upper),
-                            x_scale='jac', max_nfev=2000)
+        starts = [np.array(m.start)]
+        parent = fitted.get(m.extends[0]) if m.extends else None
+        if m.extends and parent is not None:
+            starts.append(np.clip(m.extends[1](parent), m.lower, m.upper))
+        sol = min((least_squares(res, s0, bounds=(m.lower, m.upper), x_scale='jac',
+                                 max_nfev=2000) for s0 in starts), key=lambda s: s.cost)
         fit_s = time.perf_counter() - t0
+        fitted[m.name] = sol.x
         r = res(sol.x) * scale
         stderr = _standard_errors(sol.jac * scale, r, len(m.params))
         out.append({'model': m.name, 'seed': m.seed, 'n_params': len(m.params),

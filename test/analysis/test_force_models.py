@@ -60,3 +60,12 @@ def test_standard_errors_shrink_with_noise_and_data() -> None:
         errs.append(fit['stderr']['D0_m'])
     assert errs[0] < 1e-8 and 0 < errs[1] < errs[2]
     np.testing.assert_allclose(errs[2] / errs[1], 4.0, rtol=0.3)
+
+
+def test_a_law_that_extends_another_fits_at_least_as_well() -> None:
+    """Kang and Kerscher contain Tondu-Lopez: each fit also starts from its optimum."""
+    p, x = grid()
+    f = np.maximum(3e-3 * (1 - x / 0.08) ** 1.5 * p, 0.0)        # far from every start point
+    fits = {m['model']: m for m in fit_force_models(p, x, f)}
+    for name in ('kang', 'kerscher'):
+        assert fits[name]['rmse_N'] <= fits['tondu_lopez']['rmse_N'] * (1 + 1e-9)

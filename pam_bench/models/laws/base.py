@@ -30,6 +30,9 @@ class ForceLaw:
         start, lower, upper: fit start and bounds, one per parameter.
         law: the function.
         min_x_m: the law is fitted and scored on readings with x >= this only (m).
+        extends: (name of a law this one contains, the parameters at which this law equals
+            that one given its fitted parameters): a fit also starts there, so it is never
+            worse than the law it extends.
     """
 
     name: str
@@ -40,3 +43,4 @@ class ForceLaw:
     upper: tuple[float, ...]
     law: LawFunction
     min_x_m: float = -math.inf
+    extends: tuple[str, Callable[[np.ndarray], tuple[float, ...]]] | None = None

@@ -1,6 +1,7 @@
 """Kang's pressure-dependent correction (003 Eq. 2) on Tondu-Lopez (002 Eq. 2).
 
-F = q(p) pi r0^2 p [a (1 - e k)^2 - b], q = 1 + c1 exp(-c2 p_bar), N. 003 calls c1 and c2
+F = q(p) pi r0^2 p [a (1 - e k)^2 - b], q = 1 + c1 exp(-c2 p_bar), N; c1 = 0 is
+Tondu-Lopez. 003 calls c1 and c2
 positive and q <= 1 in one breath; c1 is bounded to [-1, 10] so a fit may take either reading
 (q -> 1 at high pressure, where the muscle is cylindrical).
 """
@@ -24,4 +25,5 @@ def force(th: np.ndarray, p: np.ndarray, x: np.ndarray, l0: float) -> np.ndarray
 
 LAW = ForceLaw('kang', '003 Eq. 2 on 002 Eq. 2', ('r0_m', 'alpha0_rad', 'e', 'c1', 'c2_per_bar'),
                (0.01, 0.35, 1.2, 0.0, 1.0), (5e-4, 0.05, 0.1, -1.0, 0.0),
-               (0.1, 1.5, 20.0, 10.0, 50.0), force)
+               (0.1, 1.5, 20.0, 10.0, 50.0), force,
+               extends=('tondu_lopez', lambda th: (*map(float, th), 0.0, 1.0)))
