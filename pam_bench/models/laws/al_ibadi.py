@@ -21,6 +21,17 @@ is far below 1 for any bench pressure in Pa (about 1e-9 p), so the law is kept a
 the pressure unit it was fitted in is left an open question: only ``a`` is used to judge a
 muscle here.
 
+Length of [12] (003 Eq. 14): L = a + b / [1 + (P_g / c)^d]^e - 0.009 L0 sqrt(P_g), with a .. e
+linear in (L0, L0^-0.248, L0^2, L0^3) by the printed matrix (L0, L in m). Read with P_g in bar,
+the unit of 003's tests (0 to 5 bar): a + b = L0 exactly (no contraction without pressure), and
+at L0 = 0.2 m the contraction grows from 25.8 % at 1 bar to 28.9 % at 5 bar; with P_g in kPa it
+would reach 52 %, beyond any braid. The printed c is negative for every L0 of its range (-0.0020
+at 0.15 m, -0.0027 at 0.2 m, -0.0051 at 0.4 m), which makes (P_g / c)^d undefined for the
+fractional d (0.08 .. 0.22); |c| is used (``length_eq14``). Eq. 14 holds no diameter or
+rubber stiffness, so it cannot tell Table 6's A, B and C apart (all 0.2 m): at 5 bar it gives
+28.9 % for all three (Table 6: 29 / 19.5 / 24.3 %) and 30.6 % for D at 0.3 m (28.6 %); that
+is why 003 replaces it with Eq. 17.
+
 Stiffness (003 Eq. 19, from Eq. 12): s = p dV / dL^2 - f_rs / dL - f_c / dL with
 f_rs = s_r A_in / dL (Eq. 10) and f_c = 0.641 N m / dL (Eq. 11); N/m.
 """
@@ -34,7 +45,8 @@ import numpy as np
 from pam_bench.models.laws.base import ForceLaw
 
 __all__ = ['WORK_LOSS_NM', 'volume', 'force', 'force_tangent', 'LAW', 'TANGENT',
-           'length_coefficients', 'max_contraction_ratio', 'length', 'stiffness']
+           'length_coefficients', 'max_contraction_ratio', 'length', 'length_eq14',
+           'eq14_coefficients', 'stiffness']
 
 WORK_LOSS_NM = 0.641
 """003 Eq. 11: contactless loss energy of the rubber tube, N m."""
@@ -96,6 +108,26 @@ def length(p_pa: np.ndarray, l0_m: float, d0_m: float, s_r_n_per_m: float) -> np
     a, b = length_coefficients(d0_m, s_r_n_per_m)
     q = d0_m / s_r_n_per_m
     return l0_m - a * l0_m / (1.0 + np.exp(-b * q * np.asarray(p_pa, float))) ** EXPONENT
+
+
+_EQ14 = np.array([[0.4351, 0.0, 0.0183, -0.0003],
+                  [0.5649, 0.0, -0.0183, 0.0003],
+                  [-0.0141, 0.0, 0.0031, -0.00006],
+                  [0.5487, 0.0, -0.0136, 0.00007],
+                  [0.0, 0.3694, 0.0, 0.0]])
+
+
+def eq14_coefficients(l0_m: float) -> tuple[float, float, float, float, float]:
+    """(a m, b m, c bar as printed, d, e) of 003 Eq. 14 for a free length ``l0_m``."""
+    a, b, c, d, e = _EQ14 @ np.array([l0_m, l0_m ** -0.248, l0_m ** 2, l0_m ** 3])
+    return float(a), float(b), float(c), float(d), float(e)
+
+
+def length_eq14(p_pa: np.ndarray, l0_m: float) -> np.ndarray:
+    """L(p) of 003 Eq. 14 with P_g in bar and |c| (module docstring), m; shape of ``p_pa``."""
+    a, b, c, d, e = eq14_coefficients(l0_m)
+    pg = np.maximum(np.asarray(p_pa, float), 0.0) / 1e5
+    return a + b / (1.0 + (pg / abs(c)) ** d) ** e - 0.009 * l0_m * np.sqrt(pg)
 
 
 def stiffness(p_pa: np.ndarray, x_m: np.ndarray, l0_m: float, d0_m: float, theta0_rad: float,

@@ -55,3 +55,19 @@ def test_al_ibadi_uses_the_secant_from_the_initial_state(x_m: float) -> None:
              - al_ibadi_volume(np.array([l0 - x_m - h]), d0, t0, th, l0)) / (2 * h)
     tangent = -p * dv_dl[0] - (s_r * a_in + WORK_LOSS_NM) / x_m
     assert abs(got[0] - tangent) > 1e-3 * abs(tangent)
+
+
+@pytest.mark.parametrize('l0_m', [0.15, 0.2, 0.3, 0.4])
+def test_eq14_starts_at_the_free_length_and_shortens_with_pressure(l0_m: float) -> None:
+    a, b, c, _, _ = al_ibadi.eq14_coefficients(l0_m)
+    np.testing.assert_allclose(a + b, l0_m, rtol=1e-12)
+    assert c < 0.0                     # as printed: why |c| is used (module docstring)
+    length = al_ibadi.length_eq14(np.linspace(0.0, 5e5, 11), l0_m)
+    np.testing.assert_allclose(length[0], l0_m, rtol=1e-12)
+    assert np.all(np.diff(length) < 0.0)
+
+
+@pytest.mark.parametrize('l0_m, ratio', [(0.2, 0.29), (0.3, 0.286)])   # Table 6: A and D
+def test_eq14_at_5_bar_against_table_6(l0_m: float, ratio: float) -> None:
+    got = 1 - al_ibadi.length_eq14(np.array([5e5]), l0_m)[0] / l0_m
+    np.testing.assert_allclose(got, ratio, atol=0.025)   # D: 30.6 % against 28.6 %
