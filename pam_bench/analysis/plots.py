@@ -154,7 +154,7 @@ def plot_model_residuals(models: list[dict[str, Any]], out: pathlib.Path) -> str
 
 def plot_correlation(designs: list[Any], out: pathlib.Path) -> str:
     """000's correlation graph (dL / L0 against Phi0 / L0, one line per P L0^2 / F of Table
-    4) with the designs' points (``models.straight_fibre.Design``) on it."""
+    4) with the designs' points (``models.laws.straight_fibre.Design``) on it."""
     from pam_bench.models.laws.straight_fibre import PI2, PI3, TABLE4
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
     for i, pi3 in enumerate(PI3):
