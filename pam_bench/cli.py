@@ -59,6 +59,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return 2
     else:
         scene = load_scene(args.scene)
+    if args.params:
+        from pam_bench.config.scene import apply_overlay
+        apply_overlay(scene, args.params)
     out = pathlib.Path(args.out or f'bags/{scene.name}')
     if args.resume and pathlib.Path(args.resume).resolve() == out.resolve():
         print('error: --resume needs a new --out (the old bag is kept)', file=sys.stderr)
@@ -300,15 +303,68 @@ def _cmd_check_drivers(args: argparse.Namespace) -> int:
     return 1 if failed else 0
 
 
+def _figure_table(rows: list[dict]) -> None:
+    print(f"{'figure':48s} {'004':>9s} {'bench':>9s} {'difference':>11s} {'tolerance':>10s}")
+    for r in rows:
+        diff = (f"{r['difference'] * 100:+.1f} %" if r['relative']
+                else f"{r['difference']:+.3g} {r['unit']}")
+        tol = ('>= 004' if r['at_least'] else f"{r['tolerance'] * 100:g} %" if r['relative']
+               else f"{r['tolerance']:g} {r['unit']}")
+        print(f"{r['text'] + ', ' + r['unit']:48s} {r['paper']:9.4g} {r['bench']:9.4g} "
+              f'{diff:>11s} {tol:>10s}  {"ok" if r["ok"] else "MISS"}')
+
+
 def _cmd_calibration(args: argparse.Namespace) -> int:
     from pam_bench.verify.calibration import calibration_figures
+    from pam_bench.verify.figures_004 import figure_rows, measure_004
     fig = calibration_figures(h_s=args.step)
+    measured = measure_004()
+    rows = figure_rows(measured)
     if args.json:
-        print(json.dumps(fig, indent=2))
+        print(json.dumps({**fig, 'figures_004': rows,
+                          'readings_004': {k: v for k, v in measured.items()
+                                           if k != 'isotonic_by_point'}}, indent=2))
+        return 0 if all(r['ok'] for r in rows) else 1
+    print("004's figures on its full grids (quasi-static bench, the extraction's estimators; "
+          'verify/figures_004.py says how each is read):')
+    _figure_table(rows)
+    print(f"  isometric gain as the secant F(6 V) / 6 V: "
+          f"{measured['isometric_gain_secant_by_x']['0']:.1f} N/V at 0 mm, "
+          f"{measured['isometric_gain_secant_by_x']['95']:.1f} N/V at 95 mm; isotonic minimum "
+          f"at ({measured['isotonic_gain_min_u']:.2f} V, {measured['isotonic_gain_min_f']:.0f}"
+          ' N)')
+    print('\nThe dynamic bench on a coarse grid (0.5 V steps, 3 s dwell):')
+    for k, v in fig.items():
+        print(f'  {k:36s} {v:10.3f}')
+    return 0 if all(r['ok'] for r in rows) else 1
+
+
+def _cmd_calibrate(args: argparse.Namespace) -> int:
+    import yaml
+
+    from pam_bench.verify.calibrate import calibrate_004
+    if args.target != '004':
+        print(f'error: unknown target {args.target!r} (known: 004)', file=sys.stderr)
+        return 2
+    print("fitting the muscle to 004's figures (about a minute) ...", flush=True)
+    res = calibrate_004(max_nfev=args.max_evaluations)
+    overlay = {'parameters': {m: {'muscle': res['params']} for m in ('muscle_1', 'muscle_2')}}
+    if args.out:
+        pathlib.Path(args.out).write_text(
+            "# pam-bench calibrate --target 004: muscle parameters fitted to 004's figures\n"
+            + yaml.safe_dump(overlay, sort_keys=False), encoding='utf-8')
+    if args.json:
+        print(json.dumps(res, indent=2))
     else:
-        for k, v in fig.items():
-            print(f'{k:36s} {v:10.3f}')
-    return 0
+        _figure_table(res['figures'])
+        print(f"fit: {res['evaluations']} evaluations in {res['fit_s']:.1f} s, cost "
+              f"{res['cost']:.3g}")
+        for n in res['names']:
+            flag = '  (not fixed by the figures)' if n in res['flags'] else ''
+            print(f"  {n:28s} {res['params'][n]:12.5g} +- {res['stderr'][n]:.2g}{flag}")
+        if args.out:
+            print(f'overlay written to {args.out} (pam-bench run SCENE --params {args.out})')
+    return 0 if all(r['ok'] for r in res['figures']) else 1
 
 
 def _cmd_pingpong(args: argparse.Namespace) -> int:
@@ -411,6 +467,8 @@ def main(argv: list[str] | None = None) -> int:
                    'recorded parameters, seed and layout (into --out)')
     p.add_argument('--out', help='bag directory (default bags/SCENE, replaced)')
     p.add_argument('--overwrite', action='store_true', help='replace --out if it exists')
+    p.add_argument('--params', metavar='FILE', help='parameter overlay (pam-bench calibrate '
+                   "--out): over config/bench.yaml, under the scene's own parameters")
     p.add_argument('--seed', type=int, default=0, help='seed of the sensor noise')
     p.add_argument('--realtime', action='store_true', help='pace sim time to the wall clock')
     p.add_argument('--one-process', action='store_true', help='compose all nodes in one process')
@@ -475,6 +533,14 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument('--json', action='store_true')
     p.add_argument('--step', type=float, default=0.01, help='exchange step, s')
     p.set_defaults(func=_cmd_calibration)
+    p = sub.add_parser('calibrate', help="fit the bench's muscle to 004's figures "
+                       '(--target 004)')
+    p.add_argument('--target', default='004', help="what to fit to (004: the paper's figures)")
+    p.add_argument('--out', help='write the fitted parameters as an overlay (run --params)')
+    p.add_argument('--max-evaluations', type=int, default=60,
+                   help='largest number of residual evaluations')
+    p.add_argument('--json', action='store_true')
+    p.set_defaults(func=_cmd_calibrate)
     p = sub.add_parser('pingpong', help='rclpy round-trip rate between two processes')
     p.add_argument('--count', type=int, default=2000)
     p.add_argument('--json', action='store_true')

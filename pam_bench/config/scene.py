@@ -37,7 +37,8 @@ from pam_bench.models.straight_fibre_muscle import StraightFibreParams
 from pam_bench.models.torque_servo import TorqueServoParams
 from pam_bench.models.valve import ValveParams
 
-__all__ = ['NodeType', 'NODE_TYPES', 'Scene', 'load_scene', 'scene_names', 'SCENE_KEYS']
+__all__ = ['NodeType', 'NODE_TYPES', 'Scene', 'load_scene', 'scene_names', 'SCENE_KEYS',
+           'apply_overlay']
 
 
 @dataclasses.dataclass(frozen=True)
@@ -247,3 +248,27 @@ def _parse_scene(path: pathlib.Path, data: dict[str, Any]) -> Scene:
                  list(nodes), float(duration), parameters, overrides, float(sub),
                  _typed(where, data, 'record_samples', False), path.read_text(encoding='utf-8'),
                  faults)
+
+
+def apply_overlay(scene: Scene, path: str | pathlib.Path) -> None:
+    """Merge a parameter overlay (``pam-bench calibrate --out``, ``run --params``) into a
+    scene: the file holds one key, ``parameters`` (node -> parameters, as in a scene); its
+    values go over config/bench.yaml and under the scene's own. Nodes the scene does not run
+    are skipped (an overlay for two muscles fits a one-muscle scene).
+
+    Raises:
+        ConfigError: an unreadable file, an unknown key, node or parameter (named).
+    """
+    where = f'overlay {pathlib.Path(path).name}'
+    data = read_yaml(pathlib.Path(path))
+    check_known(data, ['parameters'], where)
+    params = data.get('parameters') or {}
+    if not isinstance(params, dict):
+        raise ConfigError(f'{where}: parameters must be a mapping node -> parameters')
+    check_known(params, [n for n in NODE_TYPES if n != 'sim_clock'], f'{where}, parameters')
+    _check_parameters(where, list(params), params)
+    for node in scene.nodes:
+        if node in params:
+            merged = copy.deepcopy(params[node])
+            _merge(merged, scene.parameters.get(node, {}))
+            scene.parameters[node] = merged

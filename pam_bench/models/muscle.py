@@ -5,18 +5,34 @@ Contraction x = l_n - l in m (x < 0 is stretch), gauge pressure p in Pa, force F
 Static force (quasi-static: the muscle's own mass and the gas inertia are neglected):
 
     F = max(0, F_bb(p, x) - F_f)                                             (never pushes)
-    F_bb = g(x) (p - p_th)^+ - k_bl x + k_s (-x)^+
-    g(x) = g_0 (1 - x / x_z)^n  for x < x_z, else 0
+    F_bb = g(x) e(p) - k_bl x + k_s (-x)^+ - k_l (x - x_l)^+
+    g(x) = g_m + (g_0 - g_m) (1 - x / x_m)^n     for x <= x_m
+    g(x) = g_m + g_r (x - x_m)                   for x > x_m
+    e(p) = w [S((p - p_th) / w) - S(-p_th / w)],  S(z) = ln(1 + e^z)   (w > 0; (p - p_th)^+
+                                                                        for w = 0)
 
 - g(x) (N/Pa) is the isometric gain dF/dp at contraction x. It plays the role of
-  pi r0^2 [a (1 - eps)^2 - b] in the Chou-Hannaford / Tondu-Lopez law (001 Eq. 3, 002 Eq. 2)
-  but with the exponent n free, so one smooth curve meets both 004 figures: 284.3 N/V at
-  x = 0 and 17.4 N/V at 95 mm (k_v = 0.1 MPa/V turns N/Pa into N/V: 1e5 g).
-- p_th is the pressure the bladder needs to touch the braid before any pull appears
-  (001 section 5: about 0.01 MPa; 003: about 0.045 MPa).
+  pi r0^2 [a (1 - eps)^2 - b] in the Chou-Hannaford / Tondu-Lopez law (001 Eq. 3, 002 Eq. 2),
+  shaped to 004's isometric figures (section 2.3): 284.3 N/V at x = 0 and a minimum of
+  17.4 N/V at 95 mm over 0..110 mm (k_v = 0.1 MPa/V turns N/Pa into N/V: 1e5 g). A gain that
+  only falls (the ideal braid's, and this law with g_m = g_r = 0) cannot have a minimum inside
+  the range: it keeps falling to 110 mm (BENCHMARKS.md, '004's figures'). Past x_m the gain
+  rises gently and linearly (g_r; n > 1 makes the falling branch flat at x_m, so the gain is
+  continuous and has its minimum there); the muscle stays stable as long as its stiffness
+  -dF/dx = k_bl - g_r e stays positive there, which ``MuscleModel`` checks at the valve's
+  largest pressure (1 MPa).
+- e(p) is the effective pressure: the bladder has to inflate against its own elasticity and
+  close the gap to the braid before the braid takes the load (001 section 5: about 0.01 MPa;
+  003: about 0.045 MPa). The contact grows over a band of width w around p_th rather than at
+  once: the force starts gently at the lowest pressures (004's isotonic minimum of 0.13 mm/V at
+  0 V and 100 N: the first 0.1 V barely moves a loaded muscle) and the lift-off of a light load
+  is spread over w (004's isotonic maximum, 97.16 mm/V at 0.86 V and 50 N). e(0) = 0,
+  de/dp = 1 / (1 + exp(-(p - p_th) / w)), e -> p - p_th - w ln(1 + exp(-p_th / w)) at high p.
 - k_bl is the bladder's own elasticity resisting contraction; k_s the braid lock-up when the
   muscle is stretched below its nominal length, which makes heavy loads barely move the
-  muscle at first (004 isotonic threshold).
+  muscle at first (004 isotonic threshold); k_l the braid locking at its largest contraction
+  x_l = l_n - b cos(54.74 deg) (the angle where 001 Eq. 3's force vanishes; b the thread
+  length below), past which the muscle cannot shorten.
 - F_f is braid friction (``pam_bench.models.friction.MaxwellSlip``) driven by the slip
   coordinate s = x + c_t F_bb^+: the fibres slide over the bladder when the length changes and
   when the braid tension changes (the bladder swelling under pressure stretches the braid by
@@ -25,6 +41,9 @@ Static force (quasi-static: the muscle's own mass and the gas inertia are neglec
   Two bounds keep the friction a reaction that can at most hold the force, never reverse it:
   c_t sum(k_i) < 1 (while the elements stick, dF/dF_bb = 1 - c_t sum k_sticking > 0 at held
   x) and sum(mu_i) < 1 (while they slide, dF/dF_bb = 1 -+ sum mu_i > 0); both are checked.
+
+The default parameters are fitted to 004's figures by ``pam-bench calibrate --target 004``
+(``pam_bench.verify.calibrate``); ``pam-bench calibration`` reports each figure.
 
 Chamber volume from the inextensible-braid kinematics (001 Eq. 1-2): with thread length
 b = l_n / cos(theta_0) and n_t = b sin(theta_0) / (pi d_n) turns,
@@ -41,7 +60,12 @@ from pam_bench.models.errors import ModelError
 from pam_bench.models.friction import FrictionTrial, MaxwellSlip
 from pam_bench.models.params import field
 
-__all__ = ['MuscleParams', 'MuscleModel', 'MuscleOutput', 'MuscleTrial']
+__all__ = ['MuscleParams', 'MuscleModel', 'MuscleOutput', 'MuscleTrial', 'LOCK_COS']
+
+MAX_PRESSURE_PA = 1.0e6
+"""The valve's largest output pressure (004: 0..1 MPa over 0..10 V), Pa."""
+LOCK_COS = 1.0 / math.sqrt(3.0)
+"""cos of the braid's lock angle, 54.74 deg, where 3 cos^2 theta = 1 (001 Eq. 3)."""
 
 MuscleTrial = tuple[float, float, float, FrictionTrial | None]
 """(force N, stiffness -dF/dx N/m, friction N, friction trial or None without hysteresis)."""
@@ -60,15 +84,22 @@ class MuscleParams:
                                    1.0, 54.0)
     gain_n_per_pa: float = field(2.843e-3, 'N/Pa', 'isometric gain g_0 at x = 0',
                                  0.0, 1.0)
-    gain_zero_contraction_m: float = field(0.150, 'm', 'contraction x_z where g(x) reaches 0',
-                                           0.001, 10.0)
-    gain_exponent: float = field(2.65, '-', 'exponent n of the gain curve', 0.1, 20.0)
-    threshold_pressure_pa: float = field(2.0e4, 'Pa', 'pressure p_th before any pull',
-                                         0.0, 1.0e6)
+    gain_min_n_per_pa: float = field(0.0, 'N/Pa', 'smallest isometric gain g_m', 0.0, 1.0)
+    gain_min_contraction_m: float = field(0.150, 'm', 'contraction x_m of the smallest gain',
+                                          0.001, 10.0)
+    gain_exponent: float = field(2.65, '-', 'exponent n of the gain curve', 1.0, 20.0)
+    gain_rise_n_per_pa_m: float = field(0.0, 'N/(Pa m)', 'rise g_r of the gain past x_m',
+                                        0.0, 1.0)
+    threshold_pressure_pa: float = field(2.0e4, 'Pa', 'pressure p_th of the bladder-braid '
+                                         'contact', 0.0, 1.0e6)
+    threshold_width_pa: float = field(0.0, 'Pa', 'width w of the contact band (0: sharp)',
+                                      0.0, 1.0e6)
     bladder_stiffness_n_per_m: float = field(100.0, 'N/m', 'bladder elasticity k_bl',
                                              0.0, 1.0e9)
     stretch_stiffness_n_per_m: float = field(5.0e5, 'N/m', 'braid lock-up stiffness k_s for '
                                              'x < 0', 0.0, 1.0e10)
+    lock_stiffness_n_per_m: float = field(5.0e5, 'N/m', 'braid lock stiffness k_l past the '
+                                          'largest contraction x_l', 0.0, 1.0e10)
     hysteresis: bool = field(True, '-', 'model braid friction (Maxwell-slip)')
     friction_stiffness_n_per_m: list = field([3.0e5, 2.0e5, 1.0e5], 'N/m',
                                              'stiffness k_i of each friction element',
@@ -108,46 +139,76 @@ class MuscleModel:
         if sum(self.p.friction_break_force_ratio) >= 1.0:
             raise ModelError('sum(friction_break_force_ratio) must be < 1: sliding friction '
                              'would exceed the force it resists')
+        if self.p.gain_rise_n_per_pa_m * MAX_PRESSURE_PA >= self.p.bladder_stiffness_n_per_m:
+            raise ModelError('gain_rise_n_per_pa_m * 1 MPa must be < bladder_stiffness_n_per_m: '
+                             'past the gain minimum the muscle would pull harder as it shortens')
         self.friction = MaxwellSlip(self.p.friction_stiffness_n_per_m,
                                     self.p.friction_break_force_n,
                                     self.p.friction_break_force_ratio)
         th0 = math.radians(self.p.braid_angle_deg)
         self._thread_m = self.p.nominal_length_m / math.cos(th0)
         self._turns = self._thread_m * math.sin(th0) / (math.pi * self.p.nominal_diameter_m)
+        self.lock_contraction_m = self.p.nominal_length_m - self._thread_m * LOCK_COS
+        w, pth = self.p.threshold_width_pa, self.p.threshold_pressure_pa
+        self._e0 = w * _softplus(-pth / w) if w > 0.0 else 0.0
 
     def reset(self, contraction_m: float = 0.0, pressure_pa: float = 0.0) -> None:
         """Friction relaxed at the given state."""
         self.friction.reset(self.slip(contraction_m, pressure_pa))
 
     # --- static parts -------------------------------------------------------------------
+    def effective_pressure(self, pressure_pa: float) -> tuple[float, float]:
+        """(e(p) Pa, de/dp) of the bladder-braid contact (module docstring)."""
+        w, pth = self.p.threshold_width_pa, self.p.threshold_pressure_pa
+        p = pressure_pa if pressure_pa > 0.0 else 0.0
+        if w <= 0.0:
+            return (p - pth, 1.0) if p > pth else (0.0, 0.0)
+        z = (p - pth) / w
+        e = w * _softplus(z) - self._e0
+        return (e if e > 0.0 else 0.0), 1.0 / (1.0 + math.exp(-z)) if z > -700.0 else 0.0
+
     def gain(self, contraction_m: float) -> float:
         """g(x), N/Pa."""
-        r = 1.0 - contraction_m / self.p.gain_zero_contraction_m
-        return self.p.gain_n_per_pa * r ** self.p.gain_exponent if r > 0.0 else 0.0
+        return self.gain_and_slope(contraction_m)[0]
 
     def gain_slope(self, contraction_m: float) -> float:
         """dg/dx, N/(Pa m)."""
-        r = 1.0 - contraction_m / self.p.gain_zero_contraction_m
-        if r <= 0.0:
-            return 0.0
-        return (-self.p.gain_n_per_pa * self.p.gain_exponent * r ** (self.p.gain_exponent - 1.0)
-                / self.p.gain_zero_contraction_m)
+        return self.gain_and_slope(contraction_m)[1]
+
+    def gain_and_slope(self, contraction_m: float) -> tuple[float, float]:
+        """(g(x) N/Pa, dg/dx N/(Pa m))."""
+        p = self.p
+        xm, gm = p.gain_min_contraction_m, p.gain_min_n_per_pa
+        if contraction_m <= xm:
+            r = 1.0 - contraction_m / xm
+            rn = r ** (p.gain_exponent - 1.0)
+            return (gm + (p.gain_n_per_pa - gm) * rn * r,
+                    -(p.gain_n_per_pa - gm) * p.gain_exponent * rn / xm)
+        return gm + p.gain_rise_n_per_pa_m * (contraction_m - xm), p.gain_rise_n_per_pa_m
+
+    def backbone_and_stiffness(self, pressure_pa: float, contraction_m: float
+                               ) -> tuple[float, float]:
+        """(F_bb(p, x) N, -dF_bb/dx N/m): friction-free, before the clamp (may be negative)."""
+        p = self.p
+        e = self.effective_pressure(pressure_pa)[0]
+        g, dg = self.gain_and_slope(contraction_m)
+        f = g * e - p.bladder_stiffness_n_per_m * contraction_m
+        k = -dg * e + p.bladder_stiffness_n_per_m
+        if contraction_m < 0.0:
+            f -= p.stretch_stiffness_n_per_m * contraction_m
+            k += p.stretch_stiffness_n_per_m
+        elif contraction_m > self.lock_contraction_m:
+            f -= p.lock_stiffness_n_per_m * (contraction_m - self.lock_contraction_m)
+            k += p.lock_stiffness_n_per_m
+        return f, k
 
     def backbone(self, pressure_pa: float, contraction_m: float) -> float:
         """Friction-free force F_bb(p, x), N (may be negative before the clamp)."""
-        dp = max(pressure_pa - self.p.threshold_pressure_pa, 0.0)
-        f = self.gain(contraction_m) * dp - self.p.bladder_stiffness_n_per_m * contraction_m
-        if contraction_m < 0.0:
-            f -= self.p.stretch_stiffness_n_per_m * contraction_m
-        return f
+        return self.backbone_and_stiffness(pressure_pa, contraction_m)[0]
 
     def backbone_stiffness(self, pressure_pa: float, contraction_m: float) -> float:
         """-dF_bb/dx, N/m."""
-        dp = max(pressure_pa - self.p.threshold_pressure_pa, 0.0)
-        k = -self.gain_slope(contraction_m) * dp + self.p.bladder_stiffness_n_per_m
-        if contraction_m < 0.0:
-            k += self.p.stretch_stiffness_n_per_m
-        return k
+        return self.backbone_and_stiffness(pressure_pa, contraction_m)[1]
 
     def slip(self, contraction_m: float, pressure_pa: float) -> float:
         """Slip coordinate s = x + c_t F_bb^+, m."""
@@ -169,21 +230,7 @@ class MuscleModel:
             (F N, stiffness -dF/dx N/m, friction N, friction trial for ``commit``); F >= 0.
         """
         p = self.p
-        r = 1.0 - contraction_m / p.gain_zero_contraction_m
-        dp = pressure_pa - p.threshold_pressure_pa
-        if dp < 0.0:
-            dp = 0.0
-        if r > 0.0:
-            rn = r ** (p.gain_exponent - 1.0)
-            f_bb = p.gain_n_per_pa * rn * r * dp
-            k_bb = p.gain_n_per_pa * p.gain_exponent * rn / p.gain_zero_contraction_m * dp
-        else:
-            f_bb = k_bb = 0.0
-        f_bb -= p.bladder_stiffness_n_per_m * contraction_m
-        k_bb += p.bladder_stiffness_n_per_m
-        if contraction_m < 0.0:
-            f_bb -= p.stretch_stiffness_n_per_m * contraction_m
-            k_bb += p.stretch_stiffness_n_per_m
+        f_bb, k_bb = self.backbone_and_stiffness(pressure_pa, contraction_m)
         fr = None
         ff = kf = 0.0
         if p.hysteresis:
@@ -218,3 +265,8 @@ class MuscleModel:
     def static_force(self, pressure_pa: float, contraction_m: float) -> float:
         """max(0, F_bb): the friction-free force, N."""
         return max(self.backbone(pressure_pa, contraction_m), 0.0)
+
+
+def _softplus(z: float) -> float:
+    """ln(1 + e^z) without overflow."""
+    return (z if z > 0.0 else 0.0) + math.log1p(math.exp(-abs(z)))

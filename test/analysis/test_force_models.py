@@ -21,7 +21,7 @@ def grid() -> tuple[np.ndarray, np.ndarray]:
     ('al_ibadi', (0.02, 0.40, 1e-3, 200.0)),
     ('al_ibadi_tangent', (0.02, 0.40, 1e-3, 200.0)),
     ('straight_fibre', (0.3, 0.8, 0.1, -1.7)),
-    ('bench_mckibben', (2.8e-3, 0.15, 2.65, 2e4, 100.0)),
+    ('bench_mckibben', (2.8e-3, 1.5e-4, 0.1, 2.2, 1e-4, 5e4, 2e4, 300.0)),
 ])
 def test_model_recovers_its_own_data(name: str, theta: tuple[float, ...]) -> None:
     model = next(m for m in FORCE_MODELS if m.name == name)

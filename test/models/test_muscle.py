@@ -28,7 +28,7 @@ def test_force_never_negative(p_pa: float, x_m: float) -> None:
 
 def test_force_zero_at_and_beyond_max_contraction() -> None:
     m = MuscleModel(MuscleParams(hysteresis=False))
-    for x in (m.p.gain_zero_contraction_m, m.p.gain_zero_contraction_m * 1.5, 1.0):
+    for x in (m.p.gain_min_contraction_m, m.p.gain_min_contraction_m * 1.5, 1.0):
         assert m.step(1e6, x).force_n == 0.0
 
 
@@ -130,3 +130,65 @@ def test_trial_leaves_no_friction_trace_and_commit_equals_step() -> None:
 def test_friction_rejects_a_zero_stiffness_element() -> None:
     with pytest.raises(ValueError):
         MaxwellSlip([3e5, 0.0], [1.0, 2.0], [0.0, 0.0])
+
+
+SHAPED = MuscleParams(gain_min_n_per_pa=1.8e-4, gain_min_contraction_m=0.095, gain_exponent=1.5,
+                      gain_rise_n_per_pa_m=2.5e-4, threshold_pressure_pa=8e4,
+                      threshold_width_pa=4e4, bladder_stiffness_n_per_m=350.0,
+                      hysteresis=False)
+
+
+@pytest.mark.parametrize('p_pa', [0.0, 1e3, 5e4, 8e4, 2e5, 6e5, 1e6])
+def test_effective_pressure_is_a_smooth_ramp(p_pa: float) -> None:
+    """e(0) = 0, de/dp the logistic of (p - p_th) / w, and e -> p - p_th - w ln(1 + e^(-p_th/w))
+    at high pressure; w = 0 is the sharp threshold."""
+    m = MuscleModel(SHAPED)
+    w, pth = SHAPED.threshold_width_pa, SHAPED.threshold_pressure_pa
+    e, de = m.effective_pressure(p_pa)
+    h = 1.0
+    slope = (m.effective_pressure(p_pa + h)[0] - m.effective_pressure(max(p_pa - h, 0.0))[0]) / (
+        p_pa + h - max(p_pa - h, 0.0))
+    np.testing.assert_allclose(de, 1 / (1 + math.exp(-(p_pa - pth) / w)), rtol=1e-12)
+    np.testing.assert_allclose(slope, de, rtol=1e-3, atol=1e-6)
+    if p_pa == 0.0:
+        assert e == 0.0
+    if p_pa == 1e6:
+        np.testing.assert_allclose(e, p_pa - pth - w * math.log1p(math.exp(-pth / w)),
+                                   rtol=1e-9)
+    sharp = MuscleModel(MuscleParams(threshold_width_pa=0.0, threshold_pressure_pa=pth))
+    assert sharp.effective_pressure(p_pa)[0] == max(p_pa - pth, 0.0)
+
+
+def test_gain_is_continuous_with_its_minimum_at_x_m() -> None:
+    m = MuscleModel(SHAPED)
+    xm = SHAPED.gain_min_contraction_m
+    xs = np.linspace(0.0, 0.13, 261)
+    g = np.array([m.gain(x) for x in xs])
+    assert xs[int(np.argmin(g))] == pytest.approx(xm, abs=1e-3)
+    np.testing.assert_allclose(m.gain(xm - 1e-9), m.gain(xm + 1e-9), rtol=1e-6)
+    np.testing.assert_allclose(m.gain(0.0), SHAPED.gain_n_per_pa, rtol=1e-12)
+    np.testing.assert_allclose(m.gain(xm), SHAPED.gain_min_n_per_pa, rtol=1e-12)
+
+
+@pytest.mark.parametrize('x_m', [-0.002, 0.01, 0.05, 0.09, 0.1, 0.12, 0.14])
+@pytest.mark.parametrize('p_pa', [3e4, 2e5, 6e5])
+def test_stiffness_is_minus_the_slope_of_the_backbone(x_m: float, p_pa: float) -> None:
+    m = MuscleModel(SHAPED)
+    h = 1e-7
+    slope = -(m.backbone(p_pa, x_m + h) - m.backbone(p_pa, x_m - h)) / (2 * h)
+    np.testing.assert_allclose(m.backbone_stiffness(p_pa, x_m), slope, rtol=1e-5, atol=1e-3)
+
+
+def test_the_braid_locks_at_its_largest_contraction() -> None:
+    """x_l = l_n - b cos(54.74 deg): 134.9 mm for 004's muscle; past it the muscle is slack."""
+    m = MuscleModel(SHAPED)
+    b = 0.35 / math.cos(math.radians(20.0))
+    np.testing.assert_allclose(m.lock_contraction_m, 0.35 - b / math.sqrt(3.0), rtol=1e-12)
+    assert m.static_force(1e6, m.lock_contraction_m - 1e-3) > 0.0
+    assert m.static_force(1e6, m.lock_contraction_m + 2e-3) == 0.0
+
+
+def test_a_gain_rise_that_would_make_the_muscle_unstable_is_refused() -> None:
+    from pam_bench.models.errors import ModelError
+    with pytest.raises(ModelError, match='gain_rise_n_per_pa_m'):
+        MuscleModel(MuscleParams(gain_rise_n_per_pa_m=1e-3, bladder_stiffness_n_per_m=500.0))
