@@ -361,7 +361,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
               f"{res['cost']:.3g}")
         for n in res['names']:
             flag = '  (not fixed by the figures)' if n in res['flags'] else ''
-            print(f"  {n:28s} {res['params'][n]:12.5g} +- {res['stderr'][n]:.2g}{flag}")
+            print(f"  {n:28s} {res['values'][n]:12.5g} +- {res['stderr'][n]:.2g}{flag}")
         if args.out:
             print(f'overlay written to {args.out} (pam-bench run SCENE --params {args.out})')
     return 0 if all(r['ok'] for r in res['figures']) else 1

@@ -33,7 +33,7 @@ from pam_bench.models.errors import ModelError
 from pam_bench.models.muscle import MuscleParams
 from pam_bench.verify.figures_004 import figure_rows, measure_004
 
-__all__ = ['FREE', 'residuals_004', 'calibrate_004']
+__all__ = ['FREE', 'residuals_004', 'calibrate_004', 'fit_summary']
 
 FREE: tuple[tuple[str, float, float], ...] = (
     ('gain_n_per_pa', 2.0e-3, 4.0e-3),
@@ -88,6 +88,27 @@ def residuals_004(measured: dict[str, Any]) -> np.ndarray:
     ])
 
 
+def fit_summary(names: list[str], theta: np.ndarray, sol: Any, span: np.ndarray,
+                rel_flag: float) -> dict[str, Any]:
+    """Values, standard errors, correlations and flags of a ``least_squares`` solution found
+    in coordinates z = (theta - lower) / span (module docstring): the Jacobian is scaled back
+    to the parameters; a parameter is flagged when its standard error exceeds ``rel_flag``
+    times its value, or it sits at a bound (z = 0 or 1)."""
+    jac = sol.jac / span                               # d residual / d parameter
+    dof = max(len(sol.fun) - len(names), 1)
+    s2 = float(sol.fun @ sol.fun) / dof
+    cov = np.linalg.pinv(jac.T @ jac) * s2
+    stderr = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    with np.errstate(all='ignore'):
+        corr = cov / np.outer(stderr, stderr)
+    at_bound = (sol.x <= 1e-6) | (sol.x >= 1 - 1e-6)
+    flags = [n for n, v, e, b in zip(names, theta, stderr, at_bound, strict=True)
+             if b or not np.isfinite(e) or e > rel_flag * abs(v)]
+    return {'names': names, 'values': dict(zip(names, map(float, theta), strict=True)),
+            'stderr': dict(zip(names, map(float, stderr), strict=True)),
+            'correlation': np.nan_to_num(corr).round(3).tolist(), 'flags': flags}
+
+
 def calibrate_004(base: MuscleParams | None = None, max_nfev: int = 60) -> dict[str, Any]:
     """Fit ``FREE`` to 004's figures from ``base`` (default: the bench's defaults).
 
@@ -115,26 +136,11 @@ def calibrate_004(base: MuscleParams | None = None, max_nfev: int = 60) -> dict[
     sol = least_squares(res, z0, bounds=(0.0, 1.0), diff_step=1e-3, max_nfev=max_nfev)
     fit_s = time.perf_counter() - t0
     theta = lower + sol.x * scale
-    jac = sol.jac / scale                              # d residual / d parameter
-    dof = max(len(sol.fun) - len(names), 1)
-    s2 = float(sol.fun @ sol.fun) / dof
-    try:
-        cov = np.linalg.pinv(jac.T @ jac) * s2
-    except np.linalg.LinAlgError:
-        cov = np.full((len(names), len(names)), np.inf)
-    stderr = np.sqrt(np.maximum(np.diag(cov), 0.0))
-    with np.errstate(all='ignore'):
-        corr = cov / np.outer(stderr, stderr)
-    at_bound = (sol.x <= 1e-6) | (sol.x >= 1 - 1e-6)
-    flags = [n for n, v, e, b in zip(names, theta, stderr, at_bound, strict=True)
-             if b or not np.isfinite(e) or e > abs(v)]
+    summary = fit_summary(names, theta, sol, scale, rel_flag=1.0)
     fitted = _params(theta, base)
     keep = [n for n in names if n != 'friction_stiffness_scale']
     params: dict[str, Any] = {n: float(getattr(fitted, n))
                               for n in keep + ['gain_min_contraction_m']}
     params['friction_stiffness_n_per_m'] = list(fitted.friction_stiffness_n_per_m)
-    return {'params': params, 'values': dict(zip(names, map(float, theta), strict=True)),
-            'stderr': dict(zip(names, map(float, stderr), strict=True)),
-            'correlation': np.nan_to_num(corr).round(3).tolist(), 'names': names,
-            'flags': flags, 'figures': figure_rows(measure_004(muscle=fitted)),
+    return {'params': params, **summary, 'figures': figure_rows(measure_004(muscle=fitted)),
             'cost': float(sol.cost), 'evaluations': int(sol.nfev), 'fit_s': fit_s}

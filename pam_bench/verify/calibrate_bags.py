@@ -1,0 +1,212 @@
+"""Fit the bench's muscle and valve to a lab's own recordings (``pam-bench calibrate BAG``).
+
+The observations are what the extraction reads from the bags (``analysis.bagread``): every
+static reading in time order (isometric: force at held x and u; isotonic: contraction at held
+load and u; isobaric: contraction at held u and set load) and every step record (force
+samples after a valve step at held x). The prediction replays them on the quasi-static bench
+(``twin.quasistatic``): the static readings one after the other on one bench, so the braid
+friction follows the recorded path, and each step record from its settled start with the
+valve's pressure loop integrated exactly at the sample period (every 10th sample is kept).
+
+Residuals are scaled to the bench's tolerances (issue 18): forces in units of 1 % of the load
+cell's 2000 N range (20 N), contractions in 0.5 mm. ``scipy.optimize.least_squares`` (trust
+region reflective) fits the parameters of ``FREE_BAGS`` inside their bounds (the declared
+ranges narrowed to the stable, physical part), normalised to [0, 1]. Standard errors and
+correlations come from the Jacobian at the optimum (``calibrate.fit_summary``); a parameter
+whose error exceeds 5 % of its value, or that sits at a bound, is flagged: the recordings do
+not fix it (e.g. the gain's rise past x_m when no reading goes beyond x_m).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from pam_bench.analysis.bagread import BagData
+from pam_bench.models.errors import ModelError
+from pam_bench.models.loading_servo import LoadingServoParams
+from pam_bench.models.muscle import MuscleParams
+from pam_bench.models.valve import ValveParams
+from pam_bench.twin.quasistatic import QuasiStaticBench
+from pam_bench.verify.calibrate import fit_summary
+
+__all__ = ['FREE_BAGS', 'Observations', 'observations_from_bags', 'observations_from_twin',
+           'predict', 'calibrate_bags', 'FORCE_SCALE_N', 'CONTRACTION_SCALE_M']
+
+FORCE_SCALE_N = 20.0            # 1 % of the load cell's range
+CONTRACTION_SCALE_M = 0.5e-3
+RECORD_STRIDE = 10
+
+FREE_BAGS: tuple[tuple[str, str, float, float], ...] = (
+    ('muscle', 'gain_n_per_pa', 1.0e-3, 6.0e-3),
+    ('muscle', 'gain_min_n_per_pa', 5.0e-5, 5.0e-4),
+    ('muscle', 'gain_min_contraction_m', 0.05, 0.13),
+    ('muscle', 'gain_exponent', 1.1, 4.0),
+    ('muscle', 'gain_rise_n_per_pa_m', 0.0, 2.0e-4),
+    ('muscle', 'threshold_pressure_pa', 2.0e4, 1.5e5),
+    ('muscle', 'threshold_width_pa', 1.0e4, 8.0e4),
+    ('muscle', 'bladder_stiffness_n_per_m', 250.0, 1500.0),
+    ('muscle', 'stretch_stiffness_n_per_m', 5.0e4, 1.0e6),
+    ('muscle', 'friction_stiffness_scale', 0.2, 3.0),
+    ('valve', 'natural_frequency_rad_s', 20.0, 300.0),
+    ('valve', 'damping_ratio', 0.05, 1.2),
+)
+"""(model, parameter, lower, upper); ``friction_stiffness_scale`` multiplies every friction
+element's stiffness (calibrate.FREE)."""
+
+
+@dataclasses.dataclass
+class Observations:
+    """Readings in time order and step records, as the fit needs them (SI units).
+
+    ``readings``: (kind, u V, held or set load N or held x m, measured value: F N for
+    isometric, x m otherwise); ``records``: (x m, u0 V, u1 V, period s, force samples N).
+    """
+
+    readings: list[tuple[str, float, float, float]]
+    records: list[tuple[float, float, float, float, np.ndarray]]
+
+
+def observations_from_bags(data: BagData) -> Observations:
+    """The static readings and step records of bags read by ``analysis.bagread``."""
+    rows = []
+    for name, p in data.points.items():
+        kind = next((k for k in ('isometric', 'isotonic', 'isobaric') if name.startswith(k)),
+                    None)
+        if kind is None:
+            continue
+        for i in range(len(p)):
+            if kind == 'isometric':
+                rows.append((p.t_s[i], kind, p.voltage_v[i], p.series_value[i], p.force_n[i]))
+            elif kind == 'isotonic':
+                rows.append((p.t_s[i], kind, p.voltage_v[i], p.series_value[i],
+                             p.contraction_m[i]))
+            else:
+                rows.append((p.t_s[i], kind, p.voltage_v[i], p.set_value[i],
+                             p.contraction_m[i]))
+    rows.sort(key=lambda r: r[0])
+    recs = [(r.contraction_m, r.voltage_initial_v, r.voltage_final_v, r.sample_period_s,
+             np.asarray(r.force_n, float)) for r in data.records]
+    return Observations([(k, float(u), float(h), float(v)) for _, k, u, h, v in rows], recs)
+
+
+def observations_from_twin(points: Sequence[Any], records: Sequence[Any]) -> Observations:
+    """The same from a numpy-twin run (``twin.protocol_run.TwinRun.points`` / ``records``)."""
+    rows = []
+    for pt in points:
+        r = pt.reading
+        kind = next((k for k in ('isometric', 'isotonic', 'isobaric')
+                     if r.protocol.startswith(k)), None)
+        if kind is None or not r.recorded or r.record_s > 0.0:
+            continue
+        value = pt.measurement.force_n if kind == 'isometric' else pt.measurement.contraction_m
+        rows.append((kind, float(pt.voltage_v), float(r.load_value), float(value)))
+    recs = [(rec.reading.load_value, rec.reading.pre_voltage_v, rec.reading.voltage_v,
+             rec.reading.sample_period_s, np.asarray(rec.samples, float)) for rec in records]
+    return Observations(rows, recs)
+
+
+def predict(obs: Observations, valve: ValveParams, muscle: MuscleParams,
+            servo: LoadingServoParams | None = None) -> tuple[np.ndarray, list[np.ndarray]]:
+    """(predicted reading values, predicted record samples) on the quasi-static bench."""
+    bench = QuasiStaticBench(valve, muscle, servo)
+    out = np.empty(len(obs.readings))
+    for i, (kind, u, held, _) in enumerate(obs.readings):
+        if kind == 'isometric':
+            out[i] = bench.hold_position(u, held).force_n
+        else:
+            out[i] = bench.hold_force(u, held).contraction_m
+    recs = []
+    for x, u0, u1, period, samples in obs.records:
+        b = QuasiStaticBench(valve, muscle, servo)
+        recs.append(b.step_response(x, u0, u1, len(samples) * period, period))
+    return out, recs
+
+
+def _residuals(obs: Observations, pred: tuple[np.ndarray, list[np.ndarray]]) -> np.ndarray:
+    values, recs = pred
+    scale = np.array([FORCE_SCALE_N if k == 'isometric' else CONTRACTION_SCALE_M
+                      for k, _, _, _ in obs.readings])
+    measured = np.array([v for _, _, _, v in obs.readings])
+    parts = [(values - measured) / scale]
+    for (_, _, _, _, samples), model in zip(obs.records, recs, strict=True):
+        parts.append((model[::RECORD_STRIDE] - samples[::RECORD_STRIDE]) / FORCE_SCALE_N)
+    return np.concatenate(parts) if parts else np.zeros(0)
+
+
+def _models(theta: np.ndarray, valve: ValveParams, muscle: MuscleParams
+            ) -> tuple[ValveParams, MuscleParams]:
+    v: dict[str, float] = {}
+    m: dict[str, Any] = {}
+    for (model, name, _, _), value in zip(FREE_BAGS, theta, strict=True):
+        (v if model == 'valve' else m)[name] = float(value)
+    scale = m.pop('friction_stiffness_scale')
+    m['friction_stiffness_n_per_m'] = [k * scale for k in muscle.friction_stiffness_n_per_m]
+    return dataclasses.replace(valve, **v), dataclasses.replace(muscle, **m)
+
+
+def rms_by_kind(obs: Observations, valve: ValveParams, muscle: MuscleParams,
+                servo: LoadingServoParams | None = None) -> dict[str, float]:
+    """RMS of the prediction's error per protocol kind: N (isometric, records) or mm."""
+    values, recs = predict(obs, valve, muscle, servo)
+    out = {}
+    for kind in ('isometric', 'isotonic', 'isobaric'):
+        idx = [i for i, r in enumerate(obs.readings) if r[0] == kind]
+        if idx:
+            err = values[idx] - np.array([obs.readings[i][3] for i in idx])
+            out[kind] = float(np.sqrt(np.mean(err ** 2)) * (1.0 if kind == 'isometric'
+                                                              else 1e3))
+    if recs:
+        err = np.concatenate([m - r[4] for m, r in zip(recs, obs.records, strict=True)])
+        out['step_records'] = float(np.sqrt(np.mean(err ** 2)))
+    return out
+
+
+def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
+                   muscle: MuscleParams | None = None,
+                   servo: LoadingServoParams | None = None,
+                   max_nfev: int = 40) -> dict[str, Any]:
+    """Fit ``FREE_BAGS`` to the observations from ``valve`` / ``muscle`` (default: the
+    bench's defaults). Returns the fitted models (``valve``, ``muscle``), ``values``,
+    ``stderr``, ``correlation``, ``flags``, ``rms_before`` / ``rms_after`` per protocol kind,
+    ``cost``, ``evaluations`` and ``fit_s``.
+
+    Raises:
+        ModelError: the observations hold nothing to fit.
+    """
+    if not obs.readings and not obs.records:
+        raise ModelError('the bags hold no static readings and no step records to fit')
+    valve, muscle = valve or ValveParams(), muscle or MuscleParams()
+    lower = np.array([lo for _, _, lo, _ in FREE_BAGS])
+    upper = np.array([hi for _, _, _, hi in FREE_BAGS])
+    span = upper - lower
+    start = np.array([1.0 if n == 'friction_stiffness_scale'
+                      else getattr(valve if m == 'valve' else muscle, n)
+                      for m, n, _, _ in FREE_BAGS], float)
+    z0 = np.clip((start - lower) / span, 0.0, 1.0)
+    n_res = len(_residuals(obs, predict(obs, valve, muscle, servo)))
+
+    def res(z: np.ndarray) -> np.ndarray:
+        try:
+            v, m = _models(lower + z * span, valve, muscle)
+            return _residuals(obs, predict(obs, v, m, servo))
+        except ModelError:
+            return np.full(n_res, 1e3)
+
+    t0 = time.perf_counter()
+    sol = least_squares(res, z0, bounds=(0.0, 1.0), diff_step=1e-3, max_nfev=max_nfev,
+                        x_scale=1.0)
+    fit_s = time.perf_counter() - t0
+    theta = lower + sol.x * span
+    names = [n for _, n, _, _ in FREE_BAGS]
+    summary = fit_summary(names, theta, sol, span, rel_flag=0.05)
+    v, m = _models(theta, valve, muscle)
+    return {**summary, 'valve': v, 'muscle': m,
+            'rms_before': rms_by_kind(obs, valve, muscle, servo),
+            'rms_after': rms_by_kind(obs, v, m, servo), 'cost': float(sol.cost),
+            'evaluations': int(sol.nfev), 'fit_s': fit_s}
