@@ -339,10 +339,57 @@ def _cmd_calibration(args: argparse.Namespace) -> int:
     return 0 if all(r['ok'] for r in rows) else 1
 
 
+def _calibrate_bags(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    import yaml
+
+    from pam_bench.analysis.bagread import BagError, read_bags
+    from pam_bench.verify.calibrate_bags import calibrate_bags, observations_from_bags
+    try:
+        data = read_bags(args.bags)
+    except BagError as exc:
+        print(f'error: {exc}', file=sys.stderr)
+        return 2
+    obs = observations_from_bags(data)
+    print(f'fitting the muscle and valve to {len(obs.readings)} readings and '
+          f'{len(obs.records)} step records ...', flush=True)
+    res = calibrate_bags(obs, max_nfev=args.max_evaluations)
+    if args.json:
+        print(json.dumps({k: v for k, v in res.items() if k not in ('valve', 'muscle')},
+                         indent=2))
+    else:
+        print('RMS error per protocol (N for forces, mm for contractions), before -> after:')
+        for k, after in res['rms_after'].items():
+            print(f"  {k:14s} {res['rms_before'][k]:9.3f} -> {after:9.3f}")
+        print(f"fit: {res['evaluations']} evaluations in {res['fit_s']:.1f} s")
+        for n in res['names']:
+            flag = '  (not fixed by these recordings)' if n in res['flags'] else ''
+            print(f"  {n:28s} {res['values'][n]:12.5g} +- {res['stderr'][n]:.2g}{flag}")
+        corr, names = res['correlation'], res['names']
+        pairs = [(names[i], names[j], corr[i][j]) for i in range(len(names))
+                 for j in range(i + 1, len(names)) if abs(corr[i][j]) > 0.9]
+        for a, b, c in pairs:
+            print(f'  correlated: {a} and {b} ({c:+.2f})')
+    if args.out:
+        muscle = {k: v for k, v in dataclasses.asdict(res['muscle']).items()}
+        valve = {k: v for k, v in dataclasses.asdict(res['valve']).items()}
+        overlay = {'parameters': {
+            **{f'muscle_{i}': {'muscle': muscle} for i in (1, 2)},
+            **{f'valve_{i}': {'valve': valve} for i in (1, 2)}}}
+        pathlib.Path(args.out).write_text(
+            f"# pam-bench calibrate {' '.join(args.bags)}: muscle and valve fitted to these "
+            'recordings\n' + yaml.safe_dump(overlay, sort_keys=False), encoding='utf-8')
+        print(f'overlay written to {args.out} (pam-bench run SCENE --params {args.out})')
+    return 0
+
+
 def _cmd_calibrate(args: argparse.Namespace) -> int:
     import yaml
 
     from pam_bench.verify.calibrate import calibrate_004
+    if args.bags:
+        return _calibrate_bags(args)
     if args.target != '004':
         print(f'error: unknown target {args.target!r} (known: 004)', file=sys.stderr)
         return 2
@@ -533,9 +580,12 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument('--json', action='store_true')
     p.add_argument('--step', type=float, default=0.01, help='exchange step, s')
     p.set_defaults(func=_cmd_calibration)
-    p = sub.add_parser('calibrate', help="fit the bench's muscle to 004's figures "
-                       '(--target 004)')
-    p.add_argument('--target', default='004', help="what to fit to (004: the paper's figures)")
+    p = sub.add_parser('calibrate', help="fit the bench's muscle (and valve) to recorded bags, "
+                       "or to 004's figures (--target 004)")
+    p.add_argument('bags', nargs='*', help='rosbag2 folders of a campaign (static readings '
+                   'and step records)')
+    p.add_argument('--target', default='004', help="without bags: what to fit to (004: the "
+                   "paper's figures)")
     p.add_argument('--out', help='write the fitted parameters as an overlay (run --params)')
     p.add_argument('--max-evaluations', type=int, default=60,
                    help='largest number of residual evaluations')

@@ -20,6 +20,7 @@ gives the friction-free backbone. Units SI.
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 from scipy.optimize import brentq
@@ -50,7 +51,9 @@ class QuasiStaticBench:
 
     def __init__(self, valve: ValveParams | None = None, muscle: MuscleParams | None = None,
                  servo: LoadingServoParams | None = None,
-                 straight_fibre: StraightFibreParams | None = None) -> None:
+                 straight_fibre: StraightFibreParams | None = None,
+                 overshoot: bool = False) -> None:
+        self.overshoot = overshoot
         self.valve = ValveModel(valve)
         self.muscle = make_muscle(muscle, straight_fibre)
         self.servo = servo or LoadingServoParams()
@@ -75,9 +78,29 @@ class QuasiStaticBench:
         self.p, self.x_t = p, x_t
         return f.force_n
 
+    def turning_pressures(self, p_to: float) -> list[float]:
+        """The pressures where the valve's step response from the present pressure to
+        ``p_to`` turns, ending at ``p_to`` (Pa). Without ``overshoot`` (or below order 2, or
+        at zeta >= 1) just [p_to]; with it, p_to + (p_to - p_0)(-r)^k, k = 1, 2, ..., with
+        r = exp(-zeta pi / sqrt(1 - zeta^2)) the second-order loop's overshoot per half period,
+        until the swing is below 100 Pa: the braid friction is rate independent, so these
+        turning points are all the settling does to it (the pressure ringing shakes the
+        friction towards the middle of its loop)."""
+        v = self.valve.p
+        if not self.overshoot or v.order != 2 or v.damping_ratio >= 1.0:
+            return [p_to]
+        r = math.exp(-v.damping_ratio * math.pi / math.sqrt(1.0 - v.damping_ratio ** 2))
+        out, swing = [], (p_to - self.p) * r
+        while abs(swing) > 100.0:
+            out.append(min(max(p_to + swing, 0.0), v.pressure_max_pa))
+            swing *= -r
+        return out + [p_to]
+
     def hold_position(self, voltage_v: float, contraction_m: float) -> SettledReading:
         """Settle with the encoder held at ``contraction_m`` (m) and u = ``voltage_v`` (V)."""
         p = self.valve.steady_pressure(voltage_v)
+        for q in self.turning_pressures(p)[:-1]:
+            self._commit(q, self.x_t)
         x_t = contraction_m + self._trial_force(p, self.x_t) / self.k_b
         for _ in range(60):
             nxt = contraction_m + self._trial_force(p, x_t) / self.k_b
@@ -92,6 +115,13 @@ class QuasiStaticBench:
         """Settle with the load cell held at ``force_n`` (N) and u = ``voltage_v`` (V); the belt
         stops at the servo's travel ends."""
         p = self.valve.steady_pressure(voltage_v)
+        for q in self.turning_pressures(p)[:-1]:
+            self._settle_force(q, force_n)
+        return self._settle_force(p, force_n, voltage_v)
+
+    def _settle_force(self, p: float, force_n: float, voltage_v: float = 0.0
+                      ) -> SettledReading:
+        """The muscle at pressure ``p`` (Pa) with the load cell held at ``force_n``."""
         lo = self.servo.travel_min_m + force_n / self.k_b
         hi = self.servo.travel_max_m + force_n / self.k_b
         g_lo = self._trial_force(p, lo) - force_n

@@ -91,16 +91,17 @@ def residuals_004(measured: dict[str, Any]) -> np.ndarray:
 def fit_summary(names: list[str], theta: np.ndarray, sol: Any, span: np.ndarray,
                 rel_flag: float) -> dict[str, Any]:
     """Values, standard errors, correlations and flags of a ``least_squares`` solution found
-    in coordinates z = (theta - lower) / span (module docstring): the Jacobian is scaled back
-    to the parameters; a parameter is flagged when its standard error exceeds ``rel_flag``
-    times its value, or it sits at a bound (z = 0 or 1)."""
-    jac = sol.jac / span                               # d residual / d parameter
+    in coordinates z = (theta - lower) / span (module docstring). The covariance is taken in z,
+    where the Jacobian's columns share one scale, and scaled back by span; a parameter is
+    flagged when its standard error exceeds ``rel_flag`` times its value, or it sits at a
+    bound (z = 0 or 1)."""
     dof = max(len(sol.fun) - len(names), 1)
     s2 = float(sol.fun @ sol.fun) / dof
-    cov = np.linalg.pinv(jac.T @ jac) * s2
-    stderr = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    cov_z = np.linalg.pinv(sol.jac.T @ sol.jac) * s2   # in z: the columns are of one scale
+    stderr = np.sqrt(np.maximum(np.diag(cov_z), 0.0)) * span
+    sd_z = np.sqrt(np.maximum(np.diag(cov_z), 0.0))
     with np.errstate(all='ignore'):
-        corr = cov / np.outer(stderr, stderr)
+        corr = cov_z / np.outer(sd_z, sd_z)
     at_bound = (sol.x <= 1e-6) | (sol.x >= 1 - 1e-6)
     flags = [n for n, v, e, b in zip(names, theta, stderr, at_bound, strict=True)
              if b or not np.isfinite(e) or e > rel_flag * abs(v)]

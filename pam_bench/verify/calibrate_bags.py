@@ -4,9 +4,12 @@ The observations are what the extraction reads from the bags (``analysis.bagread
 static reading in time order (isometric: force at held x and u; isotonic: contraction at held
 load and u; isobaric: contraction at held u and set load) and every step record (force
 samples after a valve step at held x). The prediction replays them on the quasi-static bench
-(``twin.quasistatic``): the static readings one after the other on one bench, so the braid
-friction follows the recorded path, and each step record from its settled start with the
-valve's pressure loop integrated exactly at the sample period (every 10th sample is kept).
+(``twin.quasistatic``, with the valve's overshoot turning points: the pressure ringing shakes
+the braid friction towards the middle of its loop, which narrows the hysteresis by about a
+millimetre on the default bench): the static readings one after the other on one bench, so
+the friction follows the recorded path, and each step record from its settled start with
+the valve's pressure loop integrated exactly (ZOH) every 10th sample period, compared with
+every 10th sample.
 
 Residuals are scaled to the bench's tolerances (issue 18): forces in units of 1 % of the load
 cell's 2000 N range (20 N), contractions in 0.5 mm. ``scipy.optimize.least_squares`` (trust
@@ -114,7 +117,7 @@ def observations_from_twin(points: Sequence[Any], records: Sequence[Any]) -> Obs
 def predict(obs: Observations, valve: ValveParams, muscle: MuscleParams,
             servo: LoadingServoParams | None = None) -> tuple[np.ndarray, list[np.ndarray]]:
     """(predicted reading values, predicted record samples) on the quasi-static bench."""
-    bench = QuasiStaticBench(valve, muscle, servo)
+    bench = QuasiStaticBench(valve, muscle, servo, overshoot=True)
     out = np.empty(len(obs.readings))
     for i, (kind, u, held, _) in enumerate(obs.readings):
         if kind == 'isometric':
@@ -123,8 +126,10 @@ def predict(obs: Observations, valve: ValveParams, muscle: MuscleParams,
             out[i] = bench.hold_force(u, held).contraction_m
     recs = []
     for x, u0, u1, period, samples in obs.records:
-        b = QuasiStaticBench(valve, muscle, servo)
-        recs.append(b.step_response(x, u0, u1, len(samples) * period, period))
+        b = QuasiStaticBench(valve, muscle, servo, overshoot=True)
+        n = len(samples[::RECORD_STRIDE])
+        recs.append(b.step_response(x, u0, u1, n * period * RECORD_STRIDE,
+                                    period * RECORD_STRIDE))
     return out, recs
 
 
@@ -135,17 +140,18 @@ def _residuals(obs: Observations, pred: tuple[np.ndarray, list[np.ndarray]]) -> 
     measured = np.array([v for _, _, _, v in obs.readings])
     parts = [(values - measured) / scale]
     for (_, _, _, _, samples), model in zip(obs.records, recs, strict=True):
-        parts.append((model[::RECORD_STRIDE] - samples[::RECORD_STRIDE]) / FORCE_SCALE_N)
+        parts.append((model - samples[::RECORD_STRIDE]) / FORCE_SCALE_N)
     return np.concatenate(parts) if parts else np.zeros(0)
 
 
-def _models(theta: np.ndarray, valve: ValveParams, muscle: MuscleParams
+def _models(theta: np.ndarray, valve: ValveParams, muscle: MuscleParams,
+            free: Sequence[tuple[str, str, float, float]] = FREE_BAGS
             ) -> tuple[ValveParams, MuscleParams]:
     v: dict[str, float] = {}
     m: dict[str, Any] = {}
-    for (model, name, _, _), value in zip(FREE_BAGS, theta, strict=True):
+    for (model, name, _, _), value in zip(free, theta, strict=True):
         (v if model == 'valve' else m)[name] = float(value)
-    scale = m.pop('friction_stiffness_scale')
+    scale = m.pop('friction_stiffness_scale', 1.0)
     m['friction_stiffness_n_per_m'] = [k * scale for k in muscle.friction_stiffness_n_per_m]
     return dataclasses.replace(valve, **v), dataclasses.replace(muscle, **m)
 
@@ -162,7 +168,8 @@ def rms_by_kind(obs: Observations, valve: ValveParams, muscle: MuscleParams,
             out[kind] = float(np.sqrt(np.mean(err ** 2)) * (1.0 if kind == 'isometric'
                                                               else 1e3))
     if recs:
-        err = np.concatenate([m - r[4] for m, r in zip(recs, obs.records, strict=True)])
+        err = np.concatenate([m - r[4][::RECORD_STRIDE]
+                              for m, r in zip(recs, obs.records, strict=True)])
         out['step_records'] = float(np.sqrt(np.mean(err ** 2)))
     return out
 
@@ -170,11 +177,11 @@ def rms_by_kind(obs: Observations, valve: ValveParams, muscle: MuscleParams,
 def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
                    muscle: MuscleParams | None = None,
                    servo: LoadingServoParams | None = None,
-                   max_nfev: int = 40) -> dict[str, Any]:
-    """Fit ``FREE_BAGS`` to the observations from ``valve`` / ``muscle`` (default: the
-    bench's defaults). Returns the fitted models (``valve``, ``muscle``), ``values``,
-    ``stderr``, ``correlation``, ``flags``, ``rms_before`` / ``rms_after`` per protocol kind,
-    ``cost``, ``evaluations`` and ``fit_s``.
+                   max_nfev: int = 60, only: Sequence[str] | None = None) -> dict[str, Any]:
+    """Fit ``FREE_BAGS`` (or the names in ``only``) to the observations from ``valve`` /
+    ``muscle`` (default: the bench's defaults). Returns the fitted models (``valve``,
+    ``muscle``), ``values``, ``stderr``, ``correlation``, ``flags``, ``rms_before`` /
+    ``rms_after`` per protocol kind, ``cost``, ``evaluations`` and ``fit_s``.
 
     Raises:
         ModelError: the observations hold nothing to fit.
@@ -182,18 +189,19 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
     if not obs.readings and not obs.records:
         raise ModelError('the bags hold no static readings and no step records to fit')
     valve, muscle = valve or ValveParams(), muscle or MuscleParams()
-    lower = np.array([lo for _, _, lo, _ in FREE_BAGS])
-    upper = np.array([hi for _, _, _, hi in FREE_BAGS])
+    free = [f for f in FREE_BAGS if only is None or f[1] in only]
+    lower = np.array([lo for _, _, lo, _ in free])
+    upper = np.array([hi for _, _, _, hi in free])
     span = upper - lower
     start = np.array([1.0 if n == 'friction_stiffness_scale'
                       else getattr(valve if m == 'valve' else muscle, n)
-                      for m, n, _, _ in FREE_BAGS], float)
+                      for m, n, _, _ in free], float)
     z0 = np.clip((start - lower) / span, 0.0, 1.0)
     n_res = len(_residuals(obs, predict(obs, valve, muscle, servo)))
 
     def res(z: np.ndarray) -> np.ndarray:
         try:
-            v, m = _models(lower + z * span, valve, muscle)
+            v, m = _models(lower + z * span, valve, muscle, free)
             return _residuals(obs, predict(obs, v, m, servo))
         except ModelError:
             return np.full(n_res, 1e3)
@@ -203,9 +211,9 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
                         x_scale=1.0)
     fit_s = time.perf_counter() - t0
     theta = lower + sol.x * span
-    names = [n for _, n, _, _ in FREE_BAGS]
+    names = [n for _, n, _, _ in free]
     summary = fit_summary(names, theta, sol, span, rel_flag=0.05)
-    v, m = _models(theta, valve, muscle)
+    v, m = _models(theta, valve, muscle, free)
     return {**summary, 'valve': v, 'muscle': m,
             'rms_before': rms_by_kind(obs, valve, muscle, servo),
             'rms_after': rms_by_kind(obs, v, m, servo), 'cost': float(sol.cost),

@@ -64,3 +64,51 @@ def test_a_bad_overlay_is_one_clear_error(tmp_path: pathlib.Path, text: str,
     path.write_text(text)
     with pytest.raises(ConfigError, match=words):
         apply_overlay(load_scene('isometric_quick'), path)
+
+
+def _exact_observations(valve, muscle):
+    """campaign_quick's readings and records with the values the quasi-static bench gives
+    for (valve, muscle): the model the fit uses, so the round trip must be exact."""
+    from pam_bench.config.protocols import protocol_schedule
+    from pam_bench.verify.calibrate_bags import Observations, predict
+    readings, recs = [], []
+    for r in protocol_schedule('campaign_quick', {})[0]:
+        if r.record_s > 0.0:
+            recs.append((r.load_value, r.pre_voltage_v, r.voltage_v, r.sample_period_s,
+                         np.zeros(int(round(r.record_s / r.sample_period_s)))))
+        elif r.recorded:
+            kind = r.protocol.split('_')[0]
+            readings.append((kind, r.voltage_v, r.load_value, 0.0))
+    obs = Observations(readings, recs)
+    values, model = predict(obs, valve, muscle)
+    obs.readings = [(k, u, h, float(v)) for (k, u, h, _), v in zip(readings, values,
+                                                                    strict=True)]
+    for i, (x, u0, u1, period, samples) in enumerate(recs):
+        full = np.repeat(model[i], 10)[:len(samples)]
+        obs.records[i] = (x, u0, u1, period, full)
+    return obs
+
+
+def test_bag_calibration_recovers_a_known_bench() -> None:
+    from pam_bench.models.valve import ValveParams
+    from pam_bench.verify.calibrate_bags import calibrate_bags
+    true_m = dataclasses.replace(MuscleParams(), gain_n_per_pa=3.4e-3,
+                                 threshold_pressure_pa=7.5e4)
+    true_v = dataclasses.replace(ValveParams(), damping_ratio=0.4)
+    obs = _exact_observations(true_v, true_m)
+    res = calibrate_bags(obs, max_nfev=20,
+                         only=('gain_n_per_pa', 'threshold_pressure_pa', 'damping_ratio'))
+    got = res['values']
+    np.testing.assert_allclose(got['gain_n_per_pa'], 3.4e-3, rtol=0.01)
+    np.testing.assert_allclose(got['threshold_pressure_pa'], 7.5e4, rtol=0.01)
+    np.testing.assert_allclose(got['damping_ratio'], 0.4, rtol=0.01)
+    assert res['rms_after']['isometric'] < 0.1 * res['rms_before']['isometric']
+    assert res['flags'] == []
+
+
+def test_calibrate_without_readable_bags_is_one_line(tmp_path: pathlib.Path,
+                                                     capsys: pytest.CaptureFixture) -> None:
+    from pam_bench.cli import main
+    assert main(['calibrate', str(tmp_path / 'nothing')]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith('error:') and err.count('\n') == 1
