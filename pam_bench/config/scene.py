@@ -261,11 +261,14 @@ def apply_overlay(scene: Scene, path: str | pathlib.Path) -> None:
     """
     where = f'overlay {pathlib.Path(path).name}'
     data = read_yaml(pathlib.Path(path))
-    check_known(data, ['parameters'], where)
     params = data.get('parameters') or {}
-    if not isinstance(params, dict):
-        raise ConfigError(f'{where}: parameters must be a mapping node -> parameters')
-    check_known(params, [n for n in NODE_TYPES if n != 'sim_clock'], f'{where}, parameters')
+    try:
+        check_known(data, ['parameters'], where)
+        if not isinstance(params, dict):
+            raise ConfigError(f'{where}: parameters must be a mapping node -> parameters')
+        check_known(params, [n for n in NODE_TYPES if n != 'sim_clock'], f'{where}, parameters')
+    except ParameterError as exc:
+        raise ConfigError(str(exc)) from None
     _check_parameters(where, list(params), params)
     for node in scene.nodes:
         if node in params:

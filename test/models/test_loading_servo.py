@@ -98,9 +98,9 @@ def test_sub_steps_converge_first_order() -> None:
 
 
 def test_torque_saturates_against_a_strong_muscle() -> None:
-    # stretched 5 mm at 0.6 MPa the braid lock-up pulls far more than the drive's 2792 N
+    # stretched 12 mm at 0.6 MPa the braid lock-up pulls far more than the drive's 2792 N
     b = SingleMuscleBench(load_cell=QUIET)
-    b.command_load(LoadMode.POSITION, -0.005, now=True)
+    b.command_load(LoadMode.POSITION, -0.012, now=True)
     b.run(1.0, 0.01)
     b.command_valve(6.0)
     st = b.run(3.0, 0.01)

@@ -28,13 +28,15 @@ def test_position_and_force_hold_agree(x_m: float) -> None:
 
 
 def test_isometric_gain_is_the_muscle_law(truth: dict) -> None:
-    """Friction-free gain = k_v g(x) reduced by the belt stretch: dF/du = k_v g / (1 + K' / k_b)
-    with K' = -g'(x) (p - p_th); bounded between the two ends of the sweep."""
+    """Friction-free gain = k_v g(x) de/dp reduced by the belt stretch: dF/du =
+    k_v g e' / (1 + K' / k_b) with K' = -g'(x) e; bounded by k_v g(x) above and, below, by the
+    slope the contact band leaves at the bottom of the fitted voltages (de/dp < 1 there: the
+    line through the curved foot is up to 10 % flatter at 0 mm)."""
     m = MuscleModel()
     for s in truth['isometric']['series']:
         x = s['x_mm'] * 1e-3
         g = 1e5 * m.gain(x)
-        assert 0.97 * g <= s['gain_N_per_V'] <= g * 1.000001
+        assert 0.90 * g <= s['gain_N_per_V'] <= g * 1.000001
 
 
 def test_step_b_c_are_the_valve_loop(truth: dict) -> None:
