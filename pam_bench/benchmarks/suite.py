@@ -192,7 +192,15 @@ def _measure(name: str, quick: bool, out: pathlib.Path, scenes: list[str] | None
     campaign = 'campaign_quick' if quick else 'campaign'
     names = scenes or [campaign]
     if name == 'calibration':
-        report['calibration'] = calibration_figures()
+        from pam_bench.verify.figures_004 import figure_rows, measure_004
+        measured = measure_004()
+        report['calibration'] = {**calibration_figures(), 'figures_004': figure_rows(measured),
+                                 'secant_004': measured['isometric_gain_secant_by_x'],
+                                 'isotonic_min_at': [measured['isotonic_gain_min_u'],
+                                                     measured['isotonic_gain_min_f']]}
+    elif name == 'calibrate':
+        from pam_bench.benchmarks.calibrate import measure_round_trips
+        report['calibrate'] = measure_round_trips(quick)
     elif name == 'lockstep':
         pp = pingpong_rate(3000)
         demo = _scene_run('demo', out)
@@ -232,7 +240,7 @@ def _measure(name: str, quick: bool, out: pathlib.Path, scenes: list[str] | None
 
 
 STUDIES = ('calibration', 'lockstep', 'layouts', 'profile', 'exchange_step', 'record_exchange',
-           'scenes', 'models', 'wallclock', 'faults', 'straight_fibre')
+           'scenes', 'models', 'wallclock', 'faults', 'straight_fibre', 'calibrate')
 """The studies of `pam-bench bench`, in the order they run; ``--only`` picks some."""
 FILLS = {'scenes': ('scenes', 'campaign', 'extraction'),
          'models': ('work_precision', 'fidelity', 'ros_exchange_step', 'servo')}

@@ -45,6 +45,13 @@ class ServoMode(enum.Enum):
     DYNAMIC = 'dynamic_inverse_pid'
     STATIC = 'static_inverse_pid'
     PID = 'pid'
+    DYNAMIC_ONLY = 'dynamic_inverse'     # 004 Fig. 17: the inverse model alone, no PID
+    STATIC_ONLY = 'static_inverse'
+
+    @property
+    def uses_pid(self) -> bool:
+        """Whether the PID on the force error adds to the feed-forward."""
+        return self not in (ServoMode.DYNAMIC_ONLY, ServoMode.STATIC_ONLY)
 
 
 class SignalKind(enum.Enum):
@@ -198,7 +205,7 @@ class TorqueServoController:
     def _feedforward(self, f: tuple[float, float, float], x: float) -> float:
         if self.inverse is None or self.mode == ServoMode.PID:
             return 0.0
-        if self.mode == ServoMode.DYNAMIC:
+        if self.mode in (ServoMode.DYNAMIC, ServoMode.DYNAMIC_ONLY):
             return self.inverse.dynamic_voltage(f[0], f[1], f[2], x)
         return self.inverse.static_voltage(f[0], x)
 
@@ -225,7 +232,7 @@ class TorqueServoController:
         out = []
         for f, x, meas, pid in zip(targets, xs, forces_n, self.pids, strict=True):
             ff = self._feedforward(f, x)
-            u_pid = pid.step(f[0] - meas, dt_s, ff)
+            u_pid = pid.step(f[0] - meas, dt_s, ff) if self.mode.uses_pid else 0.0
             u = min(max(ff + u_pid, self.p.voltage_min_v), self.p.voltage_max_v)
             out.append(ChannelOutput(f[0], x, ff, u_pid, u))
         return out

@@ -58,7 +58,8 @@ class TorqueServoNode(BenchNode):
         self.muscles = d('muscles', 2, 'muscles driven: 2 (torque, N m) or 1 (force, N)', '-',
                          1, 2)
         mode = d('controller', ServoMode.DYNAMIC.value, 'dynamic_inverse_pid, '
-                 'static_inverse_pid or pid')
+                 'static_inverse_pid, pid, or the inverse model alone: dynamic_inverse, '
+                 'static_inverse (004 Fig. 17)')
         model_file = d('inverse_model_file', '', 'inverse_model.yaml from pam-bench extract '
                        '(needed by the inverse-model controllers)')
         kind = d('signal', SignalKind.SINE.value, 'set point waveform: sine, square, constant')

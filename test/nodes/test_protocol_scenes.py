@@ -45,7 +45,9 @@ def test_isometric_quick_force_is_near_linear_in_u(isometric_bag: pathlib.Path) 
     pts = bag_messages(isometric_bag, '/protocol/point')
     up = [p for p in pts[:7]]
     slope = np.polyfit([p.voltage for p in up[2:]], [p.force for p in up[2:]], 1)[0]
-    assert 250.0 < slope < 300.0          # about 284 N/V at x = 0 (004)
+    # above the contact band the slope is k_v g_0 (316.5 N/V); 004's 284.3 N/V is the line the
+    # extraction fits over the whole sweep (test/verify/test_calibration.py)
+    assert 250.0 < slope < 320.0
 
 
 def test_step_response_records_at_1khz(tmp_path: pathlib.Path, ros_domain: int) -> None:

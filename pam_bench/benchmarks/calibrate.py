@@ -1,0 +1,123 @@
+"""Study ``calibrate``: the bag calibration's round trip on the numpy twin.
+
+Parameter sets are drawn at random (seeded) within +-15 % of the defaults for the muscle's
+gain, smallest gain, exponent, contact pressure and band, bladder and lock-up stiffnesses and
+the valve's natural frequency and damping; campaign_quick runs on the time-stepped numpy twin
+(``twin.protocol_run``, noise-free load cell) with each; ``verify.calibrate_bags`` fits
+``FREE_BAGS`` from the bench's defaults to its readings and step records. Reported per set:
+each parameter's recovery error, whether the fit could identify it (not flagged), the RMS of
+the readings before and after, the fit time.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+
+from pam_bench.models.muscle import MuscleParams
+from pam_bench.models.sensors import LoadCellParams
+from pam_bench.models.valve import ValveParams
+from pam_bench.twin.protocol_run import run_protocol
+from pam_bench.verify.calibrate_bags import FREE_BAGS, calibrate_bags, observations_from_twin
+
+__all__ = ['DRAWN', 'measure_round_trips', 'calibrate_section', 'calibrate_results']
+
+DRAWN = ('gain_n_per_pa', 'gain_min_n_per_pa', 'gain_exponent', 'threshold_pressure_pa',
+         'threshold_width_pa', 'bladder_stiffness_n_per_m', 'stretch_stiffness_n_per_m',
+         'natural_frequency_rad_s', 'damping_ratio')
+TOLERANCE = 0.05
+
+
+def _draw(rng: np.random.Generator) -> tuple[ValveParams, MuscleParams]:
+    m, v = MuscleParams(), ValveParams()
+    mv: dict[str, float] = {}
+    vv: dict[str, float] = {}
+    for model, name, lo, hi in FREE_BAGS:
+        if name not in DRAWN:
+            continue
+        base = getattr(v if model == 'valve' else m, name)
+        value = float(np.clip(base * rng.uniform(0.85, 1.15), lo, hi))
+        (vv if model == 'valve' else mv)[name] = value
+    return dataclasses.replace(v, **vv), dataclasses.replace(m, **mv)
+
+
+def measure_round_trips(quick: bool, sets: int | None = None) -> dict[str, Any]:
+    """Run the round trip (module docstring) for ``sets`` sets (2 quick, 5 full)."""
+    rng = np.random.default_rng(2026)
+    rows = []
+    for k in range(sets or (2 if quick else 5)):
+        valve, muscle = _draw(rng)
+        print(f'  round trip {k + 1} ...', flush=True)
+        run = run_protocol('campaign_quick', 3.0, valve=valve, muscle=muscle,
+                           load_cell=LoadCellParams(noise=False))
+        res = calibrate_bags(observations_from_twin(run.points, run.records))
+        errors = {}
+        for model, name, _, _ in FREE_BAGS:
+            if name == 'friction_stiffness_scale':
+                true = 1.0
+            else:
+                true = getattr(valve if model == 'valve' else muscle, name)
+            errors[name] = (res['values'][name] - true) / true if true else None
+        rows.append({'errors': errors, 'flags': res['flags'], 'fit_s': res['fit_s'],
+                     'evaluations': res['evaluations'], 'rms_before': res['rms_before'],
+                     'rms_after': res['rms_after']})
+    return {'sets': rows, 'tolerance': TOLERANCE}
+
+
+def calibrate_section(r: dict[str, Any]) -> list[str]:
+    """Recovery per parameter over the sets, and the readings after the fit."""
+    from pam_bench.benchmarks.report import table
+    c = r['calibrate']
+    sets = c['sets']
+    names = list(sets[0]['errors'])
+    lines = table(['parameter', 'drawn', 'identified in', 'largest error when identified',
+                   'within 5 %'],
+                  [(n, 'yes' if n in DRAWN else 'no (default)',
+                    f"{sum(1 for s in sets if n not in s['flags'])} of {len(sets)}",
+                    _largest(sets, n), _within(sets, n, c['tolerance']))
+                   for n in names])
+    lines += ['', table_note(sets)]
+    return lines
+
+
+def _identified(sets: list[dict[str, Any]], name: str) -> list[float]:
+    return [abs(s['errors'][name]) for s in sets
+            if name not in s['flags'] and s['errors'][name] is not None]
+
+
+def _largest(sets: list[dict[str, Any]], name: str) -> str:
+    errs = _identified(sets, name)
+    return f'{max(errs) * 100:.2f} %' if errs else '-'
+
+
+def _within(sets: list[dict[str, Any]], name: str, tol: float) -> str:
+    errs = _identified(sets, name)
+    return '-' if not errs else 'yes' if max(errs) <= tol else 'NO'
+
+
+def table_note(sets: list[dict[str, Any]]) -> str:
+    """The readings' RMS after the fit and the fit times, one sentence."""
+    worst: dict[str, float] = {}
+    for s in sets:
+        for k, v in s['rms_after'].items():
+            worst[k] = max(worst.get(k, 0.0), v)
+    parts = ', '.join(f"{k} {v:.2f} {'mm' if k in ('isotonic', 'isobaric') else 'N'}"
+                      for k, v in worst.items())
+    fit = ', '.join(f"{s['fit_s']:.0f} s" for s in sets)
+    return (f'Largest RMS of the readings after the fit, over the sets: {parts} (goal 20 N = '
+            f'1 % FS and 0.5 mm). Fit times: {fit}.')
+
+
+def calibrate_results(r: dict[str, Any], commit: str) -> list[tuple[str, str, str, str]]:
+    """Key-result row: identifiable parameters recovered within 5 %."""
+    c = r.get('calibrate')
+    if not c:
+        return []
+    sets = c['sets']
+    ok = sum(1 for s in sets if all(abs(e) <= c['tolerance'] for n, e in s['errors'].items()
+                                    if n not in s['flags'] and e is not None))
+    return [('bag calibration round trip (numpy twin, campaign_quick): sets with every '
+             'identified parameter within 5 %', f'{len(sets)} of {len(sets)}',
+             f'{ok} of {len(sets)}', commit)]
