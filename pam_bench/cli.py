@@ -475,6 +475,12 @@ def _cmd_servo_compare(args: argparse.Namespace) -> int:
     for r in rows:
         print(f"{r['scene']:26s} {r['controller']:20s} {r['rms_error']:8.3f} "
               f"{r['max_error']:8.3f} {r['error_at_reversal']:12.3f} {r['unit']}")
+    forward = [r for r in rows if 'forward_model_rms_N' in r]
+    if forward:
+        print("004's forward model (Eq. 4) driven by each run's voltage, RMS against the "
+              'measured force:')
+        for r in forward:
+            print(f"  {r['scene']:24s} {r['controller']:20s} {r['forward_model_rms_N']:8.2f} N")
     print(f'wrote {out / "metrics.json"} and one plot per scene')
     return 0
 

@@ -117,10 +117,28 @@ def compare_servo(out_dir: pathlib.Path, engine: str = 'numpy', scenes: list[str
                 runs[ctl] = run
                 rows.append({'scene': name, 'controller': ctl.value, 'engine': label,
                              **tracking_metrics(run), 'sim_s': sim, 'wall_s': wall,
-                             'real_time_factor': sim / wall if wall else 0.0})
+                             'real_time_factor': sim / wall if wall else 0.0,
+                             **forward_model_rms(run, setup)})
             _plot(name, runs, out_dir)
     (out_dir / 'metrics.json').write_text(json.dumps(rows, indent=2) + '\n', encoding='utf-8')
     return rows
+
+
+def forward_model_rms(run: ServoRun, setup: dict[str, Any], settle_s: float = 1.0
+                      ) -> dict[str, float]:
+    """004's model check (issue 18): the identified forward model (004 Eq. 4) driven by the
+    run's own voltage against the measured force, RMS after ``settle_s`` (N); single-muscle
+    runs with an inverse model only (empty otherwise)."""
+    inverse = setup.get('inverse')
+    if setup.get('muscles') != 1 or inverse is None or len(run.t_s) < 3:
+        return {}
+    u = np.asarray(run.voltage_v, float).reshape(len(run.t_s), -1)[:, 0]
+    f = np.asarray(run.force_n, float).reshape(len(run.t_s), -1)[:, 0]
+    x = setup['params'].rest_contraction_m + setup['params'].pitch_diameter_m / 2 * setup[
+        'angle_rad']
+    model = inverse.forward_force(u, float(run.t_s[1] - run.t_s[0]), x, float(f[0]))
+    keep = run.t_s >= settle_s
+    return {'forward_model_rms_N': float(np.sqrt(np.mean((model - f)[keep] ** 2)))}
 
 
 def _plot(name: str, runs: dict[ServoMode, ServoRun], out_dir: pathlib.Path) -> None:

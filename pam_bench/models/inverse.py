@@ -77,6 +77,23 @@ class InverseModel:
         return self._clamp(self.u0_v + (accel_n_s2 + self.b(x) * rate_n_s
                                         + self.c(x) * (force_n - self.f_a0(x))) / d)
 
+    def forward_force(self, voltage_v: np.ndarray, period_s: float, contraction_m: float,
+                      force_start_n: float) -> np.ndarray:
+        """The identified forward model (004 Eq. 4 around the working point) driven by a
+        recorded voltage at held x: y'' + b y' + c y = d (u - u0), F = F_a0(x) + y, integrated
+        exactly under a zero-order hold (``models.lti``) from F = ``force_start_n`` at rest;
+        N, shape of ``voltage_v`` (one sample per ``period_s``)."""
+        from pam_bench.models.lti import second_order_matrices, zoh
+        x = contraction_m
+        a, b = second_order_matrices(self.b(x), self.c(x), self.d(x))
+        ad, bd = zoh(a, b, period_s)
+        state = np.array([force_start_n - self.f_a0(x), 0.0])
+        out = np.empty(len(voltage_v))
+        for i, u in enumerate(np.asarray(voltage_v, float)):
+            out[i] = state[0]
+            state = ad @ state + bd[:, 0] * (u - self.u0_v)
+        return out + self.f_a0(x)
+
     def static_voltage(self, force_n: float, contraction_m: float) -> float:
         """U (V) that holds F* at contraction x (m) once settled."""
         k = self.k(contraction_m)

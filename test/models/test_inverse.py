@@ -43,3 +43,19 @@ def test_malformed_file(tmp_path) -> None:
     (tmp_path / 'inv.yaml').write_text('dynamic: {}\n')
     with pytest.raises(ModelError, match='missing or malformed'):
         InverseModel.load(tmp_path / 'inv.yaml')
+
+
+def test_forward_force_is_the_inverse_run_backwards() -> None:
+    """Drive the forward model (004 Eq. 4) with the dynamic inverse's voltage for a smooth
+    F*(t): once the start (at rest, F*' = 50 N/s) has died out it returns F*(t) (a 1 ms hold:
+    within 0.5 N of a 50 N swing), and a held step settles at F_a0 + d / c (u - u0)."""
+    m = model()
+    h, x = 0.001, 0.02
+    t = np.arange(0.0, 6.0, h)
+    f = 400.0 + 50.0 * np.sin(t)
+    u = np.array([m.dynamic_voltage(fi, 50 * np.cos(ti), -50 * np.sin(ti), x)
+                  for fi, ti in zip(f, t, strict=True)])
+    got = m.forward_force(u, h, x, float(f[0]))
+    np.testing.assert_allclose(got[t >= 1.0], f[t >= 1.0], atol=0.5)
+    step = m.forward_force(np.full(5000, m.u0_v + 1.0), h, x, m.f_a0(x))
+    np.testing.assert_allclose(step[-1], m.f_a0(x) + m.d(x) / m.c(x), rtol=1e-6)
