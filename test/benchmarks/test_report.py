@@ -30,7 +30,7 @@ def _report() -> dict:
 def test_key_results_name_goal_value_and_commit() -> None:
     r = _report()
     rows = key_results(r)
-    assert rows[0][0] == 'isometric gain at x = 0 mm'
+    assert rows[0][0] == "004's figures on its full grids within issue 18's tolerances"
     commits = {f"`{m['commit']}`" for m in r.get('measured', {}).values()} | {f"`{r['commit']}`"}
     assert all(len(row) == 4 and row[3] in commits for row in rows)
     assert any('campaign' in row[0] for row in rows)
