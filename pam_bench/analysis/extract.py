@@ -107,8 +107,9 @@ def _largest(points: dict[str, Points], kind: str) -> Points | None:
 
 
 ISOTONIC_MIN_X_M = 1e-4
-"""An isotonic reading joins the force-law fit once the muscle has contracted this far (m):
-below, the load hangs on the braid's lock-up, which none of the laws describes."""
+"""An isotonic reading joins the force-law fit once the muscle has contracted this far (m),
+and no reading stretched by more than this does: there the load hangs on the braid's
+lock-up, which none of the laws describes."""
 
 
 def nominal_length(runs: list[dict[str, Any] | None]) -> float:
@@ -127,11 +128,12 @@ def nominal_length(runs: list[dict[str, Any] | None]) -> float:
 
 
 def model_comparison(points: dict[str, Points], direction: int | None = None,
-                     nominal_length_m: float = 0.35) -> list[dict[str, Any]]:
+                     nominal_length_m: float = 0.35, scored: bool = True
+                     ) -> list[dict[str, Any]]:
     """Static force laws fitted to the isometric, isobaric and isotonic readings pooled; with
     ``direction`` (0 up, 1 down) to that branch of every sweep only. Each fit is then scored
     as a length law on the isotonic readings and as a stiffness law on the isobaric slopes
-    (``analysis.law_scores``)."""
+    (``analysis.law_scores``; ``scored=False`` leaves that out)."""
     kinds = ('isometric', 'isobaric', 'isotonic')
     use = [p for p in (_largest(points, k) for k in kinds) if p]
     if not use:
@@ -139,15 +141,16 @@ def model_comparison(points: dict[str, Points], direction: int | None = None,
     keep = [np.ones(len(q.t_s), bool) if direction is None else q.direction == direction
             for q in use]
     for q, k in zip(use, keep, strict=True):     # a load hanging on the locked braid: no law
-        if q.protocol.startswith('isotonic'):
-            k &= q.contraction_m > ISOTONIC_MIN_X_M
+        k &= q.contraction_m > (ISOTONIC_MIN_X_M if q.protocol.startswith('isotonic')
+                                else -ISOTONIC_MIN_X_M)
     p, x, f = (np.concatenate([getattr(q, c)[k] for q, k in zip(use, keep, strict=True)])
                for c in ('pressure_pa', 'contraction_m', 'force_n'))
     fits = fit_force_models(p, x, f, nominal_length_m)
     iso, bar = _largest(points, 'isotonic'), _largest(points, 'isobaric')
     laws = {m.name: m for m in FORCE_MODELS}
-    for fit in fits:
-        score(fit, laws[fit['model']], iso, bar, nominal_length_m)
+    if scored:
+        for fit in fits:
+            score(fit, laws[fit['model']], iso, bar, nominal_length_m)
     return fits
 
 
@@ -155,8 +158,8 @@ def _branch_comparison(points: dict[str, Points], nominal_length_m: float
                        ) -> list[dict[str, Any]]:
     """The models fitted to the loading (up) and the unloading (down) branches apart, as 002
     does (its Fig. 11): hysteresis makes one curve through both a compromise."""
-    up = model_comparison(points, 0, nominal_length_m)
-    down = model_comparison(points, 1, nominal_length_m)
+    up = model_comparison(points, 0, nominal_length_m, scored=False)
+    down = model_comparison(points, 1, nominal_length_m, scored=False)
     out = []
     for a in up:
         b = next((m for m in down if m['model'] == a['model']), None)
