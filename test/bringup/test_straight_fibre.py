@@ -16,8 +16,7 @@ def test_quick_campaign_on_the_prototype_and_its_extraction(tmp_path: pathlib.Pa
                                                             ros_domain: int) -> None:
     bag, rep = tmp_path / 'bag', tmp_path / 'report'
     run = subprocess.run([sys.executable, '-m', 'pam_bench.cli', 'run', 'straight_fibre_quick',
-                          '--one-process', '--out', str(bag)], capture_output=True, text=True,
-                         timeout=240)
+                          '--out', str(bag)], capture_output=True, text=True, timeout=240)
     assert run.returncode == 0, run.stdout + run.stderr
     figures = prototype_figures(read_bags([bag]).points, segments=3)
     assert [f['figure'] for f in figures if not f['ok']] == [], figures
