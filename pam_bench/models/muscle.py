@@ -55,12 +55,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Any
 
 from pam_bench.models.errors import ModelError
 from pam_bench.models.friction import FrictionTrial, MaxwellSlip
 from pam_bench.models.params import field
 
-__all__ = ['MuscleParams', 'MuscleModel', 'MuscleOutput', 'MuscleTrial', 'LOCK_COS']
+__all__ = ['FrictionMuscle', 'MuscleParams', 'MuscleModel', 'MuscleOutput', 'MuscleTrial',
+           'LOCK_COS']
 
 MAX_PRESSURE_PA = 1.0e6
 """The valve's largest output pressure (004: 0..1 MPa over 0..10 V), Pa."""
@@ -123,7 +125,73 @@ class MuscleOutput:
     volume_m3: float
 
 
-class MuscleModel:
+class FrictionMuscle:
+    """What every bench muscle shares: its friction-free backbone (``backbone_and_stiffness``,
+    ``backbone``, ``volume``: per law) plus Maxwell-slip friction on s = x + c_t F_bb^+, never
+    pushing (module docstring)."""
+
+    p: Any
+    friction: MaxwellSlip
+
+    def backbone_and_stiffness(self, pressure_pa: float, contraction_m: float
+                               ) -> tuple[float, float]:
+        """(F_bb N, -dF_bb/dx N/m) of the law."""
+        raise NotImplementedError
+
+    def backbone(self, pressure_pa: float, contraction_m: float) -> float:
+        """Friction-free force F_bb(p, x), N."""
+        return self.backbone_and_stiffness(pressure_pa, contraction_m)[0]
+
+    def volume(self, contraction_m: float) -> float:
+        """Chamber volume, m^3."""
+        raise NotImplementedError
+
+    # --- evaluation ---------------------------------------------------------------------
+    def trial(self, pressure_pa: float, contraction_m: float) -> MuscleTrial:
+        """Evaluate the muscle at (p, x) from the kept friction state, without keeping the move.
+
+        Returns:
+            (F N, stiffness -dF/dx N/m, friction N, friction trial for ``commit``); F >= 0.
+        """
+        p = self.p
+        f_bb, k_bb = self.backbone_and_stiffness(pressure_pa, contraction_m)
+        fr = None
+        ff = kf = 0.0
+        if p.hysteresis:
+            tension = f_bb if f_bb > 0.0 else 0.0
+            ct = p.slip_compliance_m_per_n
+            fr = self.friction.trial(contraction_m + ct * tension, tension)
+            ff = fr[0]
+            # -dF/dx through s: ds/dx = 1 - c_t K_bb while the braid is under tension
+            kf = fr[1] * (1.0 - ct * k_bb if f_bb > 0.0 else 1.0)
+        f = f_bb - ff
+        if f <= 0.0:
+            return 0.0, 0.0, ff, fr
+        return f, k_bb + kf, ff, fr
+
+    def commit(self, trial: MuscleTrial) -> None:
+        """Keep the friction state of a ``trial``."""
+        if trial[3] is not None:
+            self.friction.commit(trial[3])
+
+    def step(self, pressure_pa: float, contraction_m: float) -> MuscleOutput:
+        """Move to (p, x), updating the friction state, and return the muscle output.
+
+        Raises:
+            ModelError: p or x is not finite.
+        """
+        if not (math.isfinite(pressure_pa) and math.isfinite(contraction_m)):
+            raise ModelError(f'muscle input not finite: p={pressure_pa!r}, x={contraction_m!r}')
+        t = self.trial(pressure_pa, contraction_m)
+        self.commit(t)
+        return MuscleOutput(t[0], t[1], t[2], self.volume(contraction_m))
+
+    def static_force(self, pressure_pa: float, contraction_m: float) -> float:
+        """max(0, F_bb): the friction-free force, N."""
+        return max(self.backbone(pressure_pa, contraction_m), 0.0)
+
+
+class MuscleModel(FrictionMuscle):
     """Quasi-static McKibben muscle with rate-independent friction hysteresis."""
 
     def __init__(self, params: MuscleParams | None = None) -> None:
@@ -202,10 +270,6 @@ class MuscleModel:
             k += p.lock_stiffness_n_per_m
         return f, k
 
-    def backbone(self, pressure_pa: float, contraction_m: float) -> float:
-        """Friction-free force F_bb(p, x), N (may be negative before the clamp)."""
-        return self.backbone_and_stiffness(pressure_pa, contraction_m)[0]
-
     def backbone_stiffness(self, pressure_pa: float, contraction_m: float) -> float:
         """-dF_bb/dx, N/m."""
         return self.backbone_and_stiffness(pressure_pa, contraction_m)[1]
@@ -221,50 +285,6 @@ class MuscleModel:
         c = min(max(c, 1.0e-6), 1.0)
         s2 = 1.0 - c * c
         return self._thread_m ** 3 * s2 * c / (4.0 * math.pi * self._turns ** 2)
-
-    # --- evaluation ---------------------------------------------------------------------
-    def trial(self, pressure_pa: float, contraction_m: float) -> MuscleTrial:
-        """Evaluate the muscle at (p, x) from the kept friction state, without keeping the move.
-
-        Returns:
-            (F N, stiffness -dF/dx N/m, friction N, friction trial for ``commit``); F >= 0.
-        """
-        p = self.p
-        f_bb, k_bb = self.backbone_and_stiffness(pressure_pa, contraction_m)
-        fr = None
-        ff = kf = 0.0
-        if p.hysteresis:
-            tension = f_bb if f_bb > 0.0 else 0.0
-            ct = p.slip_compliance_m_per_n
-            fr = self.friction.trial(contraction_m + ct * tension, tension)
-            ff = fr[0]
-            # -dF/dx through s: ds/dx = 1 - c_t K_bb while the braid is under tension
-            kf = fr[1] * (1.0 - ct * k_bb if f_bb > 0.0 else 1.0)
-        f = f_bb - ff
-        if f <= 0.0:
-            return 0.0, 0.0, ff, fr
-        return f, k_bb + kf, ff, fr
-
-    def commit(self, trial: MuscleTrial) -> None:
-        """Keep the friction state of a ``trial``."""
-        if trial[3] is not None:
-            self.friction.commit(trial[3])
-
-    def step(self, pressure_pa: float, contraction_m: float) -> MuscleOutput:
-        """Move to (p, x), updating the friction state, and return the muscle output.
-
-        Raises:
-            ModelError: p or x is not finite.
-        """
-        if not (math.isfinite(pressure_pa) and math.isfinite(contraction_m)):
-            raise ModelError(f'muscle input not finite: p={pressure_pa!r}, x={contraction_m!r}')
-        t = self.trial(pressure_pa, contraction_m)
-        self.commit(t)
-        return MuscleOutput(t[0], t[1], t[2], self.volume(contraction_m))
-
-    def static_force(self, pressure_pa: float, contraction_m: float) -> float:
-        """max(0, F_bb): the friction-free force, N."""
-        return max(self.backbone(pressure_pa, contraction_m), 0.0)
 
 
 def _softplus(z: float) -> float:

@@ -50,7 +50,7 @@ import math
 from pam_bench.models.errors import ModelError, ParameterError
 from pam_bench.models.friction import MaxwellSlip
 from pam_bench.models.laws.straight_fibre import Correlation
-from pam_bench.models.muscle import MuscleOutput, MuscleTrial
+from pam_bench.models.muscle import FrictionMuscle
 from pam_bench.models.params import field
 
 __all__ = ['StraightFibreParams', 'StraightFibreMuscle']
@@ -87,7 +87,7 @@ class StraightFibreParams:
                                            'force', 0.0, 1.0e-3)
 
 
-class StraightFibreMuscle:
+class StraightFibreMuscle(FrictionMuscle):
     """Quasi-static straight-fibre muscle with rate-independent hysteresis; the interface of
     ``MuscleModel`` (trial / commit / step / volume / reset / static_force)."""
 
@@ -141,10 +141,6 @@ class StraightFibreMuscle:
             k += p.stretch_stiffness_n_per_m
         return f, k
 
-    def backbone(self, pressure_pa: float, contraction_m: float) -> float:
-        """Friction-free force F_bb(p, x), N."""
-        return self.backbone_and_stiffness(pressure_pa, contraction_m)[0]
-
     def slip(self, contraction_m: float, pressure_pa: float) -> float:
         """Slip coordinate s = x + c_t F_bb^+, m."""
         return contraction_m + self.p.slip_compliance_m_per_n * max(
@@ -157,45 +153,3 @@ class StraightFibreMuscle:
         h = chord * math.sqrt(3.0 * (seg / chord - 1.0) / 8.0)
         r = 0.5 * self.p.bore_m
         return self.p.segments * math.pi * chord * (r * r + 4.0 * r * h / 3.0 + 8.0 * h * h / 15.0)
-
-    # --- evaluation ---------------------------------------------------------------------
-    def trial(self, pressure_pa: float, contraction_m: float) -> MuscleTrial:
-        """Evaluate the muscle at (p, x) from the kept friction state, without keeping it.
-
-        Returns:
-            (F N, stiffness -dF/dx N/m, friction N, friction trial for ``commit``); F >= 0.
-        """
-        f_bb, k_bb = self.backbone_and_stiffness(pressure_pa, contraction_m)
-        fr = None
-        ff = kf = 0.0
-        if self.p.hysteresis:
-            tension = f_bb if f_bb > 0.0 else 0.0
-            ct = self.p.slip_compliance_m_per_n
-            fr = self.friction.trial(contraction_m + ct * tension, tension)
-            ff = fr[0]
-            kf = fr[1] * (1.0 - ct * k_bb if f_bb > 0.0 else 1.0)
-        f = f_bb - ff
-        if f <= 0.0:
-            return 0.0, 0.0, ff, fr
-        return f, k_bb + kf, ff, fr
-
-    def commit(self, trial: MuscleTrial) -> None:
-        """Keep the friction state of a ``trial``."""
-        if trial[3] is not None:
-            self.friction.commit(trial[3])
-
-    def step(self, pressure_pa: float, contraction_m: float) -> MuscleOutput:
-        """Move to (p, x), updating the friction state, and return the muscle output.
-
-        Raises:
-            ModelError: p or x is not finite.
-        """
-        if not (math.isfinite(pressure_pa) and math.isfinite(contraction_m)):
-            raise ModelError(f'muscle input not finite: p={pressure_pa!r}, x={contraction_m!r}')
-        t = self.trial(pressure_pa, contraction_m)
-        self.commit(t)
-        return MuscleOutput(t[0], t[1], t[2], self.volume(contraction_m))
-
-    def static_force(self, pressure_pa: float, contraction_m: float) -> float:
-        """max(0, F_bb): the friction-free force, N."""
-        return max(self.backbone(pressure_pa, contraction_m), 0.0)
