@@ -340,12 +340,14 @@ def _cmd_calibration(args: argparse.Namespace) -> int:
 
 
 def _calibrate_bags(args: argparse.Namespace) -> int:
-    import dataclasses
-
     import yaml
 
     from pam_bench.analysis.bagread import BagError, read_bags
-    from pam_bench.verify.calibrate_bags import calibrate_bags, observations_from_bags
+    from pam_bench.verify.calibrate_bags import (
+        calibrate_bags,
+        observations_from_bags,
+        overlay_of,
+    )
     try:
         data = read_bags(args.bags)
     except BagError as exc:
@@ -372,11 +374,7 @@ def _calibrate_bags(args: argparse.Namespace) -> int:
         for a, b, c in pairs:
             print(f'  correlated: {a} and {b} ({c:+.2f})')
     if args.out:
-        muscle = {k: v for k, v in dataclasses.asdict(res['muscle']).items()}
-        valve = {k: v for k, v in dataclasses.asdict(res['valve']).items()}
-        overlay = {'parameters': {
-            **{f'muscle_{i}': {'muscle': muscle} for i in (1, 2)},
-            **{f'valve_{i}': {'valve': valve} for i in (1, 2)}}}
+        overlay = overlay_of(res['valve'], res['muscle'])
         pathlib.Path(args.out).write_text(
             f"# pam-bench calibrate {' '.join(args.bags)}: muscle and valve fitted to these "
             'recordings\n' + yaml.safe_dump(overlay, sort_keys=False), encoding='utf-8')
@@ -628,8 +626,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument('--scene', action='append', help='scene to time (repeatable)')
     p.add_argument('--only', action='append', metavar='STUDY[,STUDY]',
                    help='run only these studies (calibration, lockstep, layouts, profile, '
-                   'exchange_step, record_exchange, scenes, models) and keep the other figures '
-                   'of bench.json, each with the commit it was measured at')
+                   'exchange_step, record_exchange, scenes, models, wallclock, faults, '
+                   'straight_fibre, calibrate, calibrate_nodes) and keep the other figures of '
+                   'bench.json, each with the commit it was measured at')
     p.add_argument('--render', action='store_true', help='only render BENCHMARKS.md again from '
                    'bench.json and docs/long_runs.md (no measurement)')
     p.set_defaults(func=_cmd_bench)
@@ -642,6 +641,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print('interrupted: nodes stopped, bag closed', file=sys.stderr)
         return 130
+    except BrokenPipeError:            # `pam-bench ... | head`: the reader has gone, no traceback
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
 
 
 if __name__ == '__main__':

@@ -22,7 +22,8 @@ from pam_bench.models.valve import ValveParams
 from pam_bench.twin.protocol_run import run_protocol
 from pam_bench.verify.calibrate_bags import FREE_BAGS, calibrate_bags, observations_from_twin
 
-__all__ = ['DRAWN', 'measure_round_trips', 'calibrate_section', 'calibrate_results']
+__all__ = ['DRAWN', 'draw_parameters', 'measure_round_trips', 'calibrate_section',
+           'calibrate_results']
 
 DRAWN = ('gain_n_per_pa', 'gain_min_n_per_pa', 'gain_exponent', 'threshold_pressure_pa',
          'threshold_width_pa', 'bladder_stiffness_n_per_m', 'stretch_stiffness_n_per_m',
@@ -30,7 +31,9 @@ DRAWN = ('gain_n_per_pa', 'gain_min_n_per_pa', 'gain_exponent', 'threshold_press
 TOLERANCE = 0.05
 
 
-def _draw(rng: np.random.Generator) -> tuple[ValveParams, MuscleParams]:
+def draw_parameters(rng: np.random.Generator) -> tuple[ValveParams, MuscleParams]:
+    """A valve and muscle with ``DRAWN`` uniform within +-15 % of the defaults (clipped to
+    the fit's bounds)."""
     m, v = MuscleParams(), ValveParams()
     mv: dict[str, float] = {}
     vv: dict[str, float] = {}
@@ -48,7 +51,7 @@ def measure_round_trips(quick: bool, sets: int | None = None) -> dict[str, Any]:
     rng = np.random.default_rng(2026)
     rows = []
     for k in range(sets or (2 if quick else 5)):
-        valve, muscle = _draw(rng)
+        valve, muscle = draw_parameters(rng)
         print(f'  round trip {k + 1} ...', flush=True)
         run = run_protocol('campaign_quick', 3.0, valve=valve, muscle=muscle,
                            load_cell=LoadCellParams(noise=False))

@@ -17,6 +17,7 @@ from typing import Any
 import yaml
 
 from pam_bench.benchmarks.calibrate import calibrate_results, calibrate_section
+from pam_bench.benchmarks.calibrate_nodes import calibrate_nodes_results, calibrate_nodes_section
 from pam_bench.benchmarks.faults import faults_results, faults_section
 from pam_bench.benchmarks.straight_fibre import straight_fibre_results, straight_fibre_section
 from pam_bench.benchmarks.wallclock import wallclock_results, wallclock_section
@@ -133,6 +134,7 @@ def key_results(r: dict[str, Any]) -> list[Row]:
     rows += faults_results(r, f"`{commit_of(r, 'faults')}`")
     rows += straight_fibre_results(r, f"`{commit_of(r, 'straight_fibre')}`")
     rows += calibrate_results(r, f"`{commit_of(r, 'calibrate')}`")
+    rows += calibrate_nodes_results(r, f"`{commit_of(r, 'calibrate_nodes')}`")
     commit = f"`{commit_of(r, 'scenes')}`"
     for s in r.get('scenes', []):
         if s['scene'] in ('campaign', 'campaign_quick'):
@@ -364,7 +366,8 @@ SECTIONS: list[tuple[str, Callable[..., list[str]]]] = [
     ('work_precision', _work_precision), ('fidelity', _fidelity),
     ('ros_exchange_step', _ros_exchange_step), ('servo', _servo),
     ('wallclock', wallclock_section), ('faults', faults_section),
-    ('straight_fibre', straight_fibre_section), ('calibrate', calibrate_section)]
+    ('straight_fibre', straight_fibre_section), ('calibrate', calibrate_section),
+    ('calibrate_nodes', calibrate_nodes_section)]
 """Section key (of bench.json and methods.yaml) and its table renderer, in report order."""
 
 

@@ -201,6 +201,9 @@ def _measure(name: str, quick: bool, out: pathlib.Path, scenes: list[str] | None
     elif name == 'calibrate':
         from pam_bench.benchmarks.calibrate import measure_round_trips
         report['calibrate'] = measure_round_trips(quick)
+    elif name == 'calibrate_nodes':
+        from pam_bench.benchmarks.calibrate_nodes import measure_nodes_round_trip
+        report['calibrate_nodes'] = measure_nodes_round_trip(out / 'calibrate_nodes')
     elif name == 'lockstep':
         pp = pingpong_rate(3000)
         demo = _scene_run('demo', out)
@@ -240,7 +243,8 @@ def _measure(name: str, quick: bool, out: pathlib.Path, scenes: list[str] | None
 
 
 STUDIES = ('calibration', 'lockstep', 'layouts', 'profile', 'exchange_step', 'record_exchange',
-           'scenes', 'models', 'wallclock', 'faults', 'straight_fibre', 'calibrate')
+           'scenes', 'models', 'wallclock', 'faults', 'straight_fibre', 'calibrate',
+           'calibrate_nodes')
 """The studies of `pam-bench bench`, in the order they run; ``--only`` picks some."""
 FILLS = {'scenes': ('scenes', 'campaign', 'extraction'),
          'models': ('work_precision', 'fidelity', 'ros_exchange_step', 'servo')}

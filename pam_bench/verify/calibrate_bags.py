@@ -39,7 +39,7 @@ from pam_bench.twin.quasistatic import QuasiStaticBench
 from pam_bench.verify.calibrate import fit_summary
 
 __all__ = ['FREE_BAGS', 'Observations', 'observations_from_bags', 'observations_from_twin',
-           'predict', 'calibrate_bags', 'FORCE_SCALE_N', 'CONTRACTION_SCALE_M']
+           'predict', 'calibrate_bags', 'overlay_of', 'FORCE_SCALE_N', 'CONTRACTION_SCALE_M']
 
 FORCE_SCALE_N = 20.0            # 1 % of the load cell's range
 CONTRACTION_SCALE_M = 0.5e-3
@@ -218,3 +218,11 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
             'rms_before': rms_by_kind(obs, valve, muscle, servo),
             'rms_after': rms_by_kind(obs, v, m, servo), 'cost': float(sol.cost),
             'evaluations': int(sol.nfev), 'fit_s': fit_s}
+
+
+def overlay_of(valve: ValveParams, muscle: MuscleParams) -> dict[str, Any]:
+    """The parameter overlay (``pam-bench run --params``, ``config.scene.apply_overlay``) that
+    puts ``valve`` and ``muscle`` on both sides of the bench."""
+    m, v = dataclasses.asdict(muscle), dataclasses.asdict(valve)
+    return {'parameters': {**{f'muscle_{i}': {'muscle': dict(m)} for i in (1, 2)},
+                           **{f'valve_{i}': {'valve': dict(v)} for i in (1, 2)}}}

@@ -23,6 +23,7 @@ def _start(args: list[str]) -> subprocess.Popen:
                             start_new_session=True)
 
 
+@pytest.mark.wallclock
 def test_sigkilled_recorder_bag_is_repaired(tmp_path: pathlib.Path, ros_domain: int) -> None:
     bag = tmp_path / 'bag'
     emu = _start(['emulate', 'demo'])

@@ -18,6 +18,8 @@ from pam_bench.config.scene import load_scene
 from pam_bench.verify.wallclock import CONTRACTION_BOUND_M, FORCE_BOUND_N, compare_readings
 from test.helpers import bag_messages
 
+pytestmark = pytest.mark.wallclock
+
 # Settled readings: x = 40 mm, u = 0 -> 2 -> 0 V in 1 V steps, 1.5 s dwell (6 readings, 11 s).
 SETTLED = """description: short isometric series for the wall-clock tests
 exchange_step_s: 1.5

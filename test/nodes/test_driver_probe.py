@@ -11,6 +11,8 @@ import time
 
 import pytest
 
+pytestmark = pytest.mark.wallclock
+
 
 def _start(args: list[str]) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, *args], stdout=subprocess.PIPE,

@@ -9,10 +9,13 @@ import subprocess
 import sys
 import time
 
+import pytest
 import rclpy
 from rcl_interfaces.srv import GetParameters
 
 from test.helpers import bag_messages
+
+pytestmark = pytest.mark.wallclock
 
 
 def _start(args: list[str]) -> subprocess.Popen:

@@ -17,6 +17,8 @@ from pam_bench.models.constants import ATMOSPHERE_PA
 from pam_bench.nodes.sequencer import SequencerNode
 from test.nodes.harness import Harness
 
+pytestmark = pytest.mark.wallclock
+
 
 def make(autostart: bool, **extra: object):
     values = {'lockstep': False, 'autostart': autostart, 'protocol': 'isometric_quick',

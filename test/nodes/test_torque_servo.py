@@ -85,6 +85,7 @@ def running(h: Harness) -> bool:
     return bool(st) and st[-1].status == '' and h.received['valve_1/command'][-1].voltage > 0
 
 
+@pytest.mark.wallclock
 def test_setpoint_clamped_and_nan_rejected(harness: Harness) -> None:
     h = harness
     feed_until(h, lambda: running(h), setpoint=40.0)
@@ -98,6 +99,7 @@ def test_setpoint_clamped_and_nan_rejected(harness: Harness) -> None:
     assert h.node.rejected_count > 0
 
 
+@pytest.mark.wallclock
 def test_stale_force_vents_both_valves(harness: Harness) -> None:
     h = harness
     feed_until(h, lambda: running(h), setpoint=2.0)
