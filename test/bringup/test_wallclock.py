@@ -88,6 +88,18 @@ def _wall_run(scene: pathlib.Path, out: pathlib.Path, extra: list[str]) -> subpr
                             start_new_session=True)
 
 
+def _after_kill(bag: pathlib.Path, t_kill: int, out: str) -> str:
+    """What the bag says about the time after the kill (for a failed latency): the last force
+    reading, the sequencer's longest gap between commands, and the run's output."""
+    force = [_ns(m) for m in bag_messages(bag, '/load_cell_1/force')]
+    cmds = sorted(_ns(m) for m in bag_messages(bag, '/loading_servo/command'))
+    after = [t for t in cmds if t > t_kill]
+    gap = max((b - a for a, b in zip(after, after[1:], strict=False)), default=0)
+    last = (max(force) - t_kill) * 1e-9 if force else float('nan')
+    return (f'last force stamp {last:+.3f} s from the kill; longest gap between commands '
+            f'after it {gap * 1e-6:.1f} ms over {len(after)} commands\n{out[-2000:]}')
+
+
 def _pid_of(parent: int, pattern: str, timeout_s: float = 20.0) -> int:
     """The child of ``parent`` whose command line matches ``pattern``."""
     end = time.monotonic() + timeout_s
@@ -132,7 +144,7 @@ def test_killed_device_process_aborts_vents_and_keeps_the_points(
     latency_s = (min(off) - t_kill) * 1e-9
     print(f'kill-to-vent latency {latency_s * 1e3:.0f} ms')
     # stale_timeout_s (0.5 s) counts from the last reading's stamp, up to a tick before the kill
-    assert 0.5 - 0.02 <= latency_s < 0.5 + 0.1
+    assert 0.5 - 0.02 <= latency_s < 0.5 + 0.1, _after_kill(bag, t_kill, ''.join(out))
     assert all(m.voltage == 0.0 for m in bag_messages(bag, '/valve_1/command')
                if _ns(m) >= min(off))
     assert 2 <= len(bag_messages(bag, '/protocol/point')) < 6
