@@ -53,3 +53,34 @@ def test_zoh_near_critical_is_continuous(eps: float) -> None:
     ref = step_response(10.0, 25.0, 25.0, 0.5)
     assert np.all(np.isfinite(ad)) and np.all(np.isfinite(bd))
     np.testing.assert_allclose(bd[0, 0], ref, rtol=1e-9)
+
+
+@pytest.mark.parametrize('zeta', [0.0, 0.05, 0.5, 1.0, 1.2, 3.0, 50.0])
+@pytest.mark.parametrize('w, h', [(30.0, 1e-3), (150.0, 1e-4), (150.0, 1e-3), (150.0, 0.5),
+                                  (900.0, 1e-5), (900.0, 1e-2)])
+def test_two_state_closed_form_matches_expm(zeta: float, w: float, h: float) -> None:
+    """The 2x2 closed form (module docstring of models.lti) against the Van Loan exponential,
+    from lightly damped to stiff, short steps (Ad - I without cancellation) to long ones."""
+    from scipy.linalg import expm
+
+    from pam_bench.models.lti import _zoh_2x2
+    a, bm = second_order_matrices(2.0 * zeta * w, w * w, w * w)
+    fast = _zoh_2x2(a, bm, h)
+    assert fast is not None                      # every case here takes the closed form
+    blk = np.zeros((3, 3))
+    blk[:2, :2], blk[:2, 2:] = a, bm
+    e = expm(blk * h)
+    np.testing.assert_allclose(fast[0], e[:2, :2], rtol=1e-11, atol=1e-13)
+    np.testing.assert_allclose(fast[1], e[:2, 2:], rtol=1e-11, atol=1e-13 * np.abs(e).max())
+
+
+def test_nearly_singular_two_state_system_falls_back_to_expm() -> None:
+    """A first-order loop written with two states (a zero row) has det A = 0: the closed form
+    declines and ``zoh`` still returns the exact update."""
+    from pam_bench.models.lti import _zoh_2x2
+    a = np.array([[-1.0 / 0.02, 0.0], [0.0, 0.0]])
+    bm = np.array([[1.0 / 0.02], [0.0]])
+    assert _zoh_2x2(a, bm, 1e-3) is None
+    ad, bd = zoh(a, bm, 1e-3)
+    np.testing.assert_allclose(ad[0, 0], math.exp(-0.05), rtol=1e-14)
+    np.testing.assert_allclose(bd[0, 0], -math.expm1(-0.05), rtol=1e-14)
