@@ -17,14 +17,11 @@ import pathlib
 import sys
 from typing import Any
 
-__all__ = ['BACKLOG_S', 'CHAIN', 'chain_order', 'run_emulator', 'main']
+__all__ = ['CHAIN', 'chain_order', 'run_emulator', 'main']
 
 CHAIN = ('valve_1', 'valve_2', 'muscle_1', 'muscle_2', 'loading_servo', 'load_cell_1',
          'load_cell_2', 'encoder')
 """Device nodes in the order they step within one tick."""
-
-BACKLOG_S = 0.01
-"""Longest stall of the loop (s) the devices catch up sample by sample (``run_emulator``)."""
 
 
 def chain_order(names: list[str]) -> list[str]:
@@ -92,19 +89,12 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
         services = [serve_services(n) for n in nodes]
         now_ns = nodes[0].now_ns
 
-        backlog = round(BACKLOG_S * 1e9)
-
         def tick() -> None:
-            # Each device samples on its own grid of periods (a hardware-clocked acquisition):
-            # a stall of the loop up to BACKLOG_S is caught up sample by sample, stamped on
-            # the grid; past it the lost samples are dropped and the grid restarts from now.
             t = now_ns()
             for i, node in enumerate(nodes):
-                if not due[i] or t - due[i] > backlog:
-                    due[i] = t
                 if t >= due[i]:
-                    node.on_wall_tick(due[i])
-                    due[i] += periods[i]
+                    due[i] = max(due[i] + periods[i], t - periods[i] // 2)
+                    node.on_wall_tick(t)
                     bus.drain(1 << 30)
 
         def poll() -> None:
@@ -115,8 +105,7 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
         if priority:
             nodes[0].get_logger().info(f'emulator: {set_realtime_priority(priority)}')
         with profiled('emulator'):
-            deadline_spin(nodes, tick, min(periods) * 1e-9, poll, poll_period_s=0.02,
-                          backlog_s=BACKLOG_S)
+            deadline_spin(nodes, tick, min(periods) * 1e-9, poll, poll_period_s=0.02)
     except KeyboardInterrupt:
         pass
     finally:

@@ -61,21 +61,19 @@ def set_realtime_priority(priority: int) -> str:
 
 def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
                   poll: Callable[[], None] | None = None, poll_period_s: float = 0.005,
-                  should_stop: Callable[[], bool] | None = None, backlog_s: float = 0.0
-                  ) -> None:
+                  should_stop: Callable[[], bool] | None = None) -> None:
     """Call ``tick`` every ``period_s`` on a monotonic deadline and serve the nodes'
     subscriptions in between (one wait set, as ``lean_spin``).
 
     The loop sleeps in the wait set until the next deadline or message; a message is handled
     at once. A tick that ends late keeps the phase (the next deadline is one period after the
-    missed one); a loop more than ``backlog_s`` behind starts again from now, dropping the
-    ticks it missed, as a software-timed control loop does (0: at once). A backlog lets a
-    sampling device catch up a stall tick by tick, as a hardware-clocked acquisition delivers
-    the samples of its buffer late rather than never. ``poll`` (services, a bus refresh) runs
-    every ``poll_period_s``. Returns when ``should_stop()`` is true after a tick. SIGINT and
-    SIGTERM end the loop between ticks, never inside one (a tick cut between its publishes
-    would leave a device's outputs half sent), and then raise KeyboardInterrupt. rclpy's timer
-    against this loop: ``BENCHMARKS.md``, "The torque servo on a wall clock".
+    missed one); a loop more than a period behind starts again from now, dropping the ticks it
+    missed, as a driver's control loop does. ``poll`` (services, a bus refresh) runs every
+    ``poll_period_s``. Returns when ``should_stop()`` is true after a tick. SIGINT and SIGTERM
+    end the loop between ticks, never inside one (a tick cut between its publishes would leave
+    a device's outputs half sent), and then raise KeyboardInterrupt. rclpy's timer
+    measured here: ``BENCHMARKS.md``, "The torque servo on a
+    wall clock". SIGINT or SIGTERM raise KeyboardInterrupt.
     """
     from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
     from rclpy.signals import SignalHandlerGuardCondition
@@ -86,7 +84,6 @@ def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
     guard = SignalHandlerGuardCondition(context=ctx)
     wait_set = _rclpy.WaitSet(len(subs), 1, 0, 0, 0, 0, ctx.handle)
     period = max(round(period_s * 1e9), 1)
-    backlog = round(backlog_s * 1e9)
     poll_period = round(poll_period_s * 1e9)
     # Everything built so far (modules, nodes, models) is long-lived: move it out of the
     # collector's generations so that a full collection walks only what the loop allocates
@@ -106,7 +103,7 @@ def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
                 if should_stop is not None and should_stop():
                     return
                 deadline += period
-                if deadline <= now - backlog:
+                if deadline <= now:
                     deadline = now + period
                 continue
             if poll is not None and now >= next_poll:
