@@ -22,8 +22,8 @@ from pam_bench.models.valve import ValveParams
 from pam_bench.twin.protocol_run import run_protocol
 from pam_bench.verify.calibrate_bags import FREE_BAGS, calibrate_bags, observations_from_twin
 
-__all__ = ['DRAWN', 'draw_parameters', 'measure_round_trips', 'calibrate_section',
-           'calibrate_results']
+__all__ = ['DRAWN', 'draw_parameters', 'recovery_errors', 'measure_round_trips',
+           'calibrate_section', 'calibrate_results']
 
 DRAWN = ('gain_n_per_pa', 'gain_min_n_per_pa', 'gain_exponent', 'threshold_pressure_pa',
          'threshold_width_pa', 'bladder_stiffness_n_per_m', 'stretch_stiffness_n_per_m',
@@ -46,6 +46,18 @@ def draw_parameters(rng: np.random.Generator) -> tuple[ValveParams, MuscleParams
     return dataclasses.replace(v, **vv), dataclasses.replace(m, **mv)
 
 
+def recovery_errors(values: dict[str, float], valve: ValveParams, muscle: MuscleParams
+                    ) -> dict[str, float | None]:
+    """Relative error of each fitted ``FREE_BAGS`` value against the drawn ``valve`` and
+    ``muscle`` (the friction scale against 1); None where the true value is 0."""
+    errors: dict[str, float | None] = {}
+    for model, name, _, _ in FREE_BAGS:
+        true = 1.0 if name == 'friction_stiffness_scale' else \
+            getattr(valve if model == 'valve' else muscle, name)
+        errors[name] = (values[name] - true) / true if true else None
+    return errors
+
+
 def measure_round_trips(quick: bool, sets: int | None = None) -> dict[str, Any]:
     """Run the round trip (module docstring) for ``sets`` sets (2 quick, 5 full)."""
     rng = np.random.default_rng(2026)
@@ -56,14 +68,8 @@ def measure_round_trips(quick: bool, sets: int | None = None) -> dict[str, Any]:
         run = run_protocol('campaign_quick', 3.0, valve=valve, muscle=muscle,
                            load_cell=LoadCellParams(noise=False))
         res = calibrate_bags(observations_from_twin(run.points, run.records))
-        errors = {}
-        for model, name, _, _ in FREE_BAGS:
-            if name == 'friction_stiffness_scale':
-                true = 1.0
-            else:
-                true = getattr(valve if model == 'valve' else muscle, name)
-            errors[name] = (res['values'][name] - true) / true if true else None
-        rows.append({'errors': errors, 'flags': res['flags'], 'fit_s': res['fit_s'],
+        rows.append({'errors': recovery_errors(res['values'], valve, muscle),
+                     'flags': res['flags'], 'fit_s': res['fit_s'],
                      'evaluations': res['evaluations'], 'rms_before': res['rms_before'],
                      'rms_after': res['rms_after']})
     return {'sets': rows, 'tolerance': TOLERANCE}

@@ -21,8 +21,8 @@ from typing import Any
 import numpy as np
 import yaml
 
-from pam_bench.benchmarks.calibrate import draw_parameters
-from pam_bench.verify.calibrate_bags import FREE_BAGS, overlay_of
+from pam_bench.benchmarks.calibrate import draw_parameters, recovery_errors
+from pam_bench.verify.calibrate_bags import overlay_of
 
 __all__ = ['measure_nodes_round_trip', 'calibrate_nodes_section', 'calibrate_nodes_results']
 
@@ -62,12 +62,8 @@ def measure_nodes_round_trip(out: pathlib.Path) -> dict[str, Any]:
     print('  through the nodes: the calibrated bench ...', flush=True)
     again, rerun_s = _run(overlay_of(res['valve'], res['muscle']), out, 'calibrated')
     diff = compare_readings(original, again)
-    errors = {}
-    for model, name, _, _ in FREE_BAGS:
-        true = 1.0 if name == 'friction_stiffness_scale' else \
-            getattr(valve if model == 'valve' else muscle, name)
-        errors[name] = (res['values'][name] - true) / true if true else None
-    return {'errors': errors, 'flags': res['flags'], 'fit_s': res['fit_s'],
+    return {'errors': recovery_errors(res['values'], valve, muscle), 'flags': res['flags'],
+            'fit_s': res['fit_s'],
             'evaluations': res['evaluations'], 'rms_before': res['rms_before'],
             'rms_after': res['rms_after'], 'run_s': run_s, 'rerun_s': rerun_s,
             'readings': dataclasses.asdict(diff)}
