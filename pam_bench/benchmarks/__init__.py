@@ -2,5 +2,6 @@
 
 from __future__ import annotations
 
-__all__ = ['faults', 'fidelity', 'pingpong', 'record_exchange', 'sections', 'servo_compare',
-           'suite', 'wallclock', 'work_precision']
+__all__ = ['calibrate', 'calibrate_nodes', 'faults', 'fidelity', 'pingpong', 'profile',
+           'record_exchange', 'report', 'sections', 'servo_compare', 'straight_fibre', 'suite',
+           'wallclock', 'work_precision']
