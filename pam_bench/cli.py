@@ -344,6 +344,7 @@ def _calibrate_bags(args: argparse.Namespace) -> int:
 
     from pam_bench.analysis.bagread import BagError, read_bags
     from pam_bench.verify.calibrate_bags import (
+        PATH_WIDTH_M,
         calibrate_bags,
         observations_from_bags,
         overlay_of,
@@ -356,7 +357,7 @@ def _calibrate_bags(args: argparse.Namespace) -> int:
     obs = observations_from_bags(data)
     print(f'fitting the muscle and valve to {len(obs.readings)} readings and '
           f'{len(obs.records)} step records ...', flush=True)
-    res = calibrate_bags(obs, max_nfev=args.max_evaluations)
+    res = calibrate_bags(obs, max_nfev=args.max_evaluations, replay=args.replay)
     if args.json:
         print(json.dumps({k: v for k, v in res.items() if k not in ('valve', 'muscle')},
                          indent=2))
@@ -365,6 +366,10 @@ def _calibrate_bags(args: argparse.Namespace) -> int:
         for k, after in res['rms_after'].items():
             print(f"  {k:14s} {res['rms_before'][k]:9.3f} -> {after:9.3f}")
         print(f"fit: {res['evaluations']} evaluations in {res['fit_s']:.1f} s")
+        if res['left_out']:
+            print(f"left out (friction loop wider than {PATH_WIDTH_M * 1e3:.0f} mm, the drive's "
+                  'transient places them): ' + ', '.join(
+                      f'{k} {u:g} V {h:g} N' for k, u, h in res['left_out']))
         for n in res['names']:
             flag = '  (not fixed by these recordings)' if n in res['flags'] else ''
             print(f"  {n:28s} {res['values'][n]:12.5g} +- {res['stderr'][n]:.2g}{flag}")
@@ -593,6 +598,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument('--out', help='write the fitted parameters as an overlay (run --params)')
     p.add_argument('--max-evaluations', type=int, default=60,
                    help='largest number of residual evaluations')
+    p.add_argument('--replay', choices=('stepped', 'static'), default='stepped',
+                   help="bags: replay the readings on the time-stepped bench with 004's drive "
+                   '(stepped) or on the quasi-static bench with an ideal drive (static, about '
+                   "four times faster; for a drive that is not 004's)")
     p.add_argument('--json', action='store_true')
     p.set_defaults(func=_cmd_calibrate)
     p = sub.add_parser('pingpong', help='rclpy round-trip rate between two processes')

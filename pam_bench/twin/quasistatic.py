@@ -99,8 +99,14 @@ class QuasiStaticBench:
     def hold_position(self, voltage_v: float, contraction_m: float) -> SettledReading:
         """Settle with the encoder held at ``contraction_m`` (m) and u = ``voltage_v`` (V)."""
         p = self.valve.steady_pressure(voltage_v)
-        for q in self.turning_pressures(p)[:-1]:
-            self._commit(q, self.x_t)
+        for q in self.turning_pressures(p):
+            x_t = self._belt_equilibrium(q, contraction_m)
+            f = self._commit(q, x_t)
+        return SettledReading(voltage_v, p, f, contraction_m, x_t)
+
+    def _belt_equilibrium(self, p: float, contraction_m: float) -> float:
+        """x_t = x_enc + F_m(p, x_t) / k_b by fixed-point iteration (a contraction mapping:
+        |dF/dx| / k_b < 0.02), m."""
         x_t = contraction_m + self._trial_force(p, self.x_t) / self.k_b
         for _ in range(60):
             nxt = contraction_m + self._trial_force(p, x_t) / self.k_b
@@ -108,8 +114,7 @@ class QuasiStaticBench:
             x_t = nxt
             if done:
                 break
-        f = self._commit(p, x_t)
-        return SettledReading(voltage_v, p, f, contraction_m, x_t)
+        return x_t
 
     def hold_force(self, voltage_v: float, force_n: float) -> SettledReading:
         """Settle with the load cell held at ``force_n`` (N) and u = ``voltage_v`` (V); the belt

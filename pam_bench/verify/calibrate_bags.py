@@ -3,13 +3,25 @@
 The observations are what the extraction reads from the bags (``analysis.bagread``): every
 static reading in time order (isometric: force at held x and u; isotonic: contraction at held
 load and u; isobaric: contraction at held u and set load) and every step record (force
-samples after a valve step at held x). The prediction replays them on the quasi-static bench
-(``twin.quasistatic``, with the valve's overshoot turning points: the pressure ringing shakes
-the braid friction towards the middle of its loop, which narrows the hysteresis by about a
-millimetre on the default bench): the static readings one after the other on one bench, so
-the friction follows the recorded path, and each step record from its settled start with
-the valve's pressure loop integrated exactly (ZOH) every 10th sample period, compared with
-every 10th sample.
+samples after a valve step at held x). The prediction replays the static readings in order on
+one bench, so the friction follows the recorded path, in one of two ways (``replay``):
+- 'stepped' (the default): the time-stepped bench (``twin.bench``, 004's drive) for 004's
+  3 s dwell per reading, the first ``TRANSIENT_S`` at the bench's sub-step and the slow
+  settling of the drive's integral action at ``SETTLE_SUB_STEP_S`` (the sub-step law is
+  implicit, so the longer step stays stable). The drive's force loop, speed limit, inertia
+  and gear play decide where inside its friction loop a muscle stops after a new set value
+  (a step of 100 N moves a light, compliant muscle past its quasi-static point and the
+  friction keeps it there), and the position loop's transient shakes the friction at the
+  first pressure of an isometric series;
+- 'static': the quasi-static bench (``twin.quasistatic``) with the valve's overshoot turning
+  points, the muscle end following the belt stretch at each; an ideal drive. About four
+  times faster, and the choice for a bench whose drive is not 004's.
+Each step record is replayed from its settled start with the valve's pressure loop
+integrated exactly (ZOH) every 10th sample period and compared with every 10th sample.
+At the true parameters of a drawn bench, the static replay was up to 25 mm (isobaric) and
+5 N (isometric) away from a protocol run of the time-stepped bench, and biased the fitted
+bladder and friction stiffnesses by 3-12 % (BENCHMARKS.md, 'Calibrating the bench to
+recordings').
 
 Residuals are scaled to the bench's tolerances (issue 18): forces in units of 1 % of the load
 cell's 2000 N range (20 N), contractions in 0.5 mm. ``scipy.optimize.least_squares`` (trust
@@ -18,6 +30,13 @@ ranges narrowed to the stable, physical part), normalised to [0, 1]. Standard er
 correlations come from the Jacobian at the optimum (``calibrate.fit_summary``); a parameter
 whose error exceeds 5 % of its value, or that sits at a bound, is flagged: the recordings do
 not fix it (e.g. the gain's rise past x_m when no reading goes beyond x_m).
+
+Readings no replay can place are left out of the fit and listed: a reading at
+held load whose friction loop, at the starting parameters, is wider than ``PATH_WIDTH_M`` in
+contraction (the muscle settled at that load and voltage from 100 N above against 100 N
+below). There the muscle is so compliant (the gain near its minimum at x_m, a light load) that
+small differences in the transient (the dwell, the settling's sub-step, a drive that is not
+004's) move the reading by millimetres.
 """
 
 from __future__ import annotations
@@ -31,19 +50,29 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from pam_bench.analysis.bagread import BagData
+from pam_bench.models.constants import SUB_STEP_S
 from pam_bench.models.errors import ModelError
-from pam_bench.models.loading_servo import LoadingServoParams
+from pam_bench.models.loading_servo import LoadingServoParams, LoadMode
 from pam_bench.models.muscle import MuscleParams
+from pam_bench.models.sensors import LoadCellParams
 from pam_bench.models.valve import ValveParams
+from pam_bench.twin.bench import SingleMuscleBench
 from pam_bench.twin.quasistatic import QuasiStaticBench
 from pam_bench.verify.calibrate import fit_summary
 
 __all__ = ['FREE_BAGS', 'Observations', 'observations_from_bags', 'observations_from_twin',
-           'predict', 'calibrate_bags', 'overlay_of', 'FORCE_SCALE_N', 'CONTRACTION_SCALE_M']
+           'predict', 'calibrate_bags', 'overlay_of', 'FORCE_SCALE_N', 'CONTRACTION_SCALE_M',
+           'PATH_WIDTH_M', 'path_sensitive']
 
 FORCE_SCALE_N = 20.0            # 1 % of the load cell's range
 CONTRACTION_SCALE_M = 0.5e-3
 RECORD_STRIDE = 10
+REPLAYS = ('stepped', 'static')
+DWELL_S = 3.0                   # 004's dwell
+TRANSIENT_S = 0.5               # at the bench's sub-step, then the slow settling
+SETTLE_SUB_STEP_S = 0.05
+PATH_WIDTH_M = 8.0e-3           # friction loop wider than 16 contraction tolerances
+PATH_PROBE_N = 100.0            # load offset the loop's two sides are approached from
 
 FREE_BAGS: tuple[tuple[str, str, float, float], ...] = (
     ('muscle', 'gain_n_per_pa', 1.0e-3, 6.0e-3),
@@ -114,9 +143,26 @@ def observations_from_twin(points: Sequence[Any], records: Sequence[Any]) -> Obs
     return Observations(rows, recs)
 
 
-def predict(obs: Observations, valve: ValveParams, muscle: MuscleParams,
-            servo: LoadingServoParams | None = None) -> tuple[np.ndarray, list[np.ndarray]]:
-    """(predicted reading values, predicted record samples) on the quasi-static bench."""
+def _replay_stepped(obs: Observations, valve: ValveParams, muscle: MuscleParams,
+                    servo: LoadingServoParams | None) -> np.ndarray:
+    """The static readings in order on one time-stepped bench (module docstring)."""
+    twin = SingleMuscleBench(valve, muscle, LoadCellParams(noise=False), servo=servo)
+    out = np.empty(len(obs.readings))
+    for i, (kind, u, held, _) in enumerate(obs.readings):
+        position = kind == 'isometric'
+        twin.command_valve(u)
+        twin.command_load(LoadMode.POSITION if position else LoadMode.FORCE, held)
+        twin.sub_step_s = SUB_STEP_S
+        twin.run(TRANSIENT_S, TRANSIENT_S)
+        twin.sub_step_s = SETTLE_SUB_STEP_S
+        twin.run(DWELL_S - TRANSIENT_S, DWELL_S)
+        out[i] = twin.f if position else twin.servo.angle * twin.servo.r
+    return out
+
+
+def _replay_static(obs: Observations, valve: ValveParams, muscle: MuscleParams,
+                   servo: LoadingServoParams | None) -> np.ndarray:
+    """The static readings in order on one quasi-static bench (module docstring)."""
     bench = QuasiStaticBench(valve, muscle, servo, overshoot=True)
     out = np.empty(len(obs.readings))
     for i, (kind, u, held, _) in enumerate(obs.readings):
@@ -124,6 +170,22 @@ def predict(obs: Observations, valve: ValveParams, muscle: MuscleParams,
             out[i] = bench.hold_position(u, held).force_n
         else:
             out[i] = bench.hold_force(u, held).contraction_m
+    return out
+
+
+def predict(obs: Observations, valve: ValveParams, muscle: MuscleParams,
+            servo: LoadingServoParams | None = None, replay: str = 'stepped'
+            ) -> tuple[np.ndarray, list[np.ndarray]]:
+    """(predicted reading values, predicted record samples); ``replay``: 'stepped' or
+    'static' (module docstring).
+
+    Raises:
+        ModelError: an unknown ``replay``.
+    """
+    if replay not in REPLAYS:
+        raise ModelError(f'unknown replay {replay!r}: one of {", ".join(REPLAYS)}')
+    out = (_replay_stepped if replay == 'stepped' else _replay_static)(obs, valve, muscle,
+                                                                       servo)
     recs = []
     for x, u0, u1, period, samples in obs.records:
         b = QuasiStaticBench(valve, muscle, servo, overshoot=True)
@@ -133,12 +195,36 @@ def predict(obs: Observations, valve: ValveParams, muscle: MuscleParams,
     return out, recs
 
 
-def _residuals(obs: Observations, pred: tuple[np.ndarray, list[np.ndarray]]) -> np.ndarray:
+def path_sensitive(obs: Observations, valve: ValveParams, muscle: MuscleParams,
+                   servo: LoadingServoParams | None = None) -> list[int]:
+    """Indices of the readings at held load whose friction loop is wider than
+    ``PATH_WIDTH_M`` (module docstring): the contraction at (u, F) reached from F +
+    ``PATH_PROBE_N`` against from F - ``PATH_PROBE_N`` (at least 0), each on a fresh bench."""
+    out, width = [], {}
+    for i, (kind, u, held, _) in enumerate(obs.readings):
+        if kind == 'isometric':
+            continue
+        if (u, held) not in width:
+            xs = []
+            for start in (held + PATH_PROBE_N, max(held - PATH_PROBE_N, 0.0)):
+                b = QuasiStaticBench(valve, muscle, servo, overshoot=True)
+                b.hold_force(u, start)
+                xs.append(b.hold_force(u, held).contraction_m)
+            width[(u, held)] = abs(xs[0] - xs[1])
+        if width[(u, held)] > PATH_WIDTH_M:
+            out.append(i)
+    return out
+
+
+def _residuals(obs: Observations, pred: tuple[np.ndarray, list[np.ndarray]],
+               left_out: Sequence[int] = ()) -> np.ndarray:
     values, recs = pred
     scale = np.array([FORCE_SCALE_N if k == 'isometric' else CONTRACTION_SCALE_M
                       for k, _, _, _ in obs.readings])
     measured = np.array([v for _, _, _, v in obs.readings])
-    parts = [(values - measured) / scale]
+    keep = np.ones(len(obs.readings), bool)
+    keep[list(left_out)] = False
+    parts = [((values - measured) / scale)[keep]]
     for (_, _, _, _, samples), model in zip(obs.records, recs, strict=True):
         parts.append((model - samples[::RECORD_STRIDE]) / FORCE_SCALE_N)
     return np.concatenate(parts) if parts else np.zeros(0)
@@ -157,12 +243,14 @@ def _models(theta: np.ndarray, valve: ValveParams, muscle: MuscleParams,
 
 
 def rms_by_kind(obs: Observations, valve: ValveParams, muscle: MuscleParams,
-                servo: LoadingServoParams | None = None) -> dict[str, float]:
-    """RMS of the prediction's error per protocol kind: N (isometric, records) or mm."""
-    values, recs = predict(obs, valve, muscle, servo)
+                servo: LoadingServoParams | None = None,
+                left_out: Sequence[int] = (), replay: str = 'stepped') -> dict[str, float]:
+    """RMS of the prediction's error per protocol kind: N (isometric, records) or mm; the
+    readings ``left_out`` do not count."""
+    values, recs = predict(obs, valve, muscle, servo, replay)
     out = {}
     for kind in ('isometric', 'isotonic', 'isobaric'):
-        idx = [i for i, r in enumerate(obs.readings) if r[0] == kind]
+        idx = [i for i, r in enumerate(obs.readings) if r[0] == kind and i not in left_out]
         if idx:
             err = values[idx] - np.array([obs.readings[i][3] for i in idx])
             out[kind] = float(np.sqrt(np.mean(err ** 2)) * (1.0 if kind == 'isometric'
@@ -177,11 +265,14 @@ def rms_by_kind(obs: Observations, valve: ValveParams, muscle: MuscleParams,
 def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
                    muscle: MuscleParams | None = None,
                    servo: LoadingServoParams | None = None,
-                   max_nfev: int = 60, only: Sequence[str] | None = None) -> dict[str, Any]:
+                   max_nfev: int = 60, only: Sequence[str] | None = None,
+                   replay: str = 'stepped') -> dict[str, Any]:
     """Fit ``FREE_BAGS`` (or the names in ``only``) to the observations from ``valve`` /
-    ``muscle`` (default: the bench's defaults). Returns the fitted models (``valve``,
+    ``muscle`` (default: the bench's defaults), the readings replayed ``replay`` ('stepped'
+    or 'static', module docstring). Returns the fitted models (``valve``,
     ``muscle``), ``values``, ``stderr``, ``correlation``, ``flags``, ``rms_before`` /
-    ``rms_after`` per protocol kind, ``cost``, ``evaluations`` and ``fit_s``.
+    ``rms_after`` per protocol kind, ``left_out`` (the readings ``path_sensitive`` leaves out:
+    kind, u V, held value), ``cost``, ``evaluations`` and ``fit_s``.
 
     Raises:
         ModelError: the observations hold nothing to fit.
@@ -197,12 +288,13 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
                       else getattr(valve if m == 'valve' else muscle, n)
                       for m, n, _, _ in free], float)
     z0 = np.clip((start - lower) / span, 0.0, 1.0)
-    n_res = len(_residuals(obs, predict(obs, valve, muscle, servo)))
+    left_out = path_sensitive(obs, valve, muscle, servo)
+    n_res = len(_residuals(obs, predict(obs, valve, muscle, servo, replay), left_out))
 
     def res(z: np.ndarray) -> np.ndarray:
         try:
             v, m = _models(lower + z * span, valve, muscle, free)
-            return _residuals(obs, predict(obs, v, m, servo))
+            return _residuals(obs, predict(obs, v, m, servo, replay), left_out)
         except ModelError:
             return np.full(n_res, 1e3)
 
@@ -215,8 +307,9 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
     summary = fit_summary(names, theta, sol, span, rel_flag=0.05)
     v, m = _models(theta, valve, muscle, free)
     return {**summary, 'valve': v, 'muscle': m,
-            'rms_before': rms_by_kind(obs, valve, muscle, servo),
-            'rms_after': rms_by_kind(obs, v, m, servo), 'cost': float(sol.cost),
+            'rms_before': rms_by_kind(obs, valve, muscle, servo, left_out, replay),
+            'rms_after': rms_by_kind(obs, v, m, servo, left_out, replay),
+            'left_out': [obs.readings[i][:3] for i in left_out], 'cost': float(sol.cost),
             'evaluations': int(sol.nfev), 'fit_s': fit_s}
 
 

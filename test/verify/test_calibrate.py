@@ -82,7 +82,7 @@ def _exact_observations(valve, muscle):
             kind = r.protocol.split('_')[0]
             readings.append((kind, r.voltage_v, r.load_value, 0.0))
     obs = Observations(readings, recs)
-    values, model = predict(obs, valve, muscle)
+    values, model = predict(obs, valve, muscle, replay='static')
     obs.readings = [(k, u, h, float(v)) for (k, u, h, _), v in zip(readings, values,
                                                                     strict=True)]
     for i, (x, u0, u1, period, samples) in enumerate(recs):
@@ -99,7 +99,8 @@ def test_bag_calibration_recovers_a_known_bench() -> None:
     true_v = dataclasses.replace(ValveParams(), damping_ratio=0.4)
     obs = _exact_observations(true_v, true_m)
     res = calibrate_bags(obs, max_nfev=20,
-                         only=('gain_n_per_pa', 'threshold_pressure_pa', 'damping_ratio'))
+                         only=('gain_n_per_pa', 'threshold_pressure_pa', 'damping_ratio'),
+                         replay='static')
     got = res['values']
     np.testing.assert_allclose(got['gain_n_per_pa'], 3.4e-3, rtol=0.01)
     np.testing.assert_allclose(got['threshold_pressure_pa'], 7.5e4, rtol=0.01)
@@ -114,3 +115,29 @@ def test_calibrate_without_readable_bags_is_one_line(tmp_path: pathlib.Path,
     assert main(['calibrate', str(tmp_path / 'nothing')]) == 2
     err = capsys.readouterr().err
     assert err.startswith('error:') and err.count('\n') == 1
+
+
+@pytest.mark.parametrize('replay, isotonic_mm', [('stepped', 0.15), ('static', 0.6)])
+def test_replay_of_a_twin_run_at_its_true_parameters(replay: str, isotonic_mm: float) -> None:
+    """The readings of a protocol run of the time-stepped twin, replayed with the same
+    parameters: the stepped replay (004's drive, a coarser sub-step while the force loop
+    settles) lands within 0.15 mm RMS, the quasi-static one within 0.6 mm (its ideal drive
+    leaves out the transient that places the muscle in its friction loop)."""
+    from pam_bench.models.sensors import LoadCellParams
+    from pam_bench.models.valve import ValveParams
+    from pam_bench.twin.protocol_run import run_protocol
+    from pam_bench.verify.calibrate_bags import observations_from_twin, rms_by_kind
+    valve, muscle = ValveParams(), MuscleParams()
+    run = run_protocol('isotonic_quick', 3.0, valve=valve, muscle=muscle,
+                       load_cell=LoadCellParams(noise=False))
+    obs = observations_from_twin(run.points, run.records)
+    assert len(obs.readings) == 42
+    assert rms_by_kind(obs, valve, muscle, replay=replay)['isotonic'] < isotonic_mm
+
+
+def test_an_unknown_replay_is_an_error() -> None:
+    from pam_bench.models.errors import ModelError
+    from pam_bench.models.valve import ValveParams
+    from pam_bench.verify.calibrate_bags import Observations, predict
+    with pytest.raises(ModelError, match="'stepd'"):
+        predict(Observations([], []), ValveParams(), MuscleParams(), replay='stepd')
