@@ -25,7 +25,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.linalg import expm
 
 __all__ = ['zoh', 'second_order_matrices', 'ZohCache']
 
@@ -48,6 +47,7 @@ def zoh(a: np.ndarray, b: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]
         fast = _zoh_2x2(a, b, h)
         if fast is not None:
             return fast
+    from scipy.linalg import expm  # here: its import is a third of a device node's start-up
     blk = np.zeros((n + m, n + m))
     blk[:n, :n] = a
     blk[:n, n:] = b
