@@ -12,16 +12,19 @@ one bench, so the friction follows the recorded path, in one of two ways (``repl
   and gear play decide where inside its friction loop a muscle stops after a new set value
   (a step of 100 N moves a light, compliant muscle past its quasi-static point and the
   friction keeps it there), and the position loop's transient shakes the friction at the
-  first pressure of an isometric series;
+  first pressure of an isometric series. The step records follow on the same bench (004's
+  campaign runs the step responses last): each settles at its start voltage and held x for
+  the dwell, then the valve steps and the bench runs at every 10th sample period;
 - 'static': the quasi-static bench (``twin.quasistatic``) with the valve's overshoot turning
-  points, the muscle end following the belt stretch at each; an ideal drive. About four
-  times faster, and the choice for a bench whose drive is not 004's.
-Each step record is replayed from its settled start with the valve's pressure loop
-integrated exactly (ZOH) every 10th sample period and compared with every 10th sample.
-At the true parameters of a drawn bench, the static replay was up to 25 mm (isobaric) and
-5 N (isometric) away from a protocol run of the time-stepped bench, and biased the fitted
-bladder and friction stiffnesses by 3-12 % (BENCHMARKS.md, 'Calibrating the bench to
-recordings').
+  points, the muscle end following the belt stretch at each; an ideal drive; each step
+  record from its own settled start, the valve's pressure loop integrated exactly (ZOH)
+  every 10th sample period. About four times faster, and the choice for a bench whose drive
+  is not 004's.
+Records are compared at every 10th sample. At the true parameters of a drawn bench, the
+static replay was up to 25 mm (isobaric), 5 N (isometric) and 1.2 N RMS (records) away from
+a protocol run of the time-stepped bench, and biased the fitted bladder and friction
+stiffnesses by 3-12 % (BENCHMARKS.md, 'Calibrating the bench to recordings'): a record's
+start depends on the friction state the records before it left.
 
 Residuals are scaled to the bench's tolerances (issue 18): forces in units of 1 % of the load
 cell's 2000 N range (20 N), contractions in 0.5 mm. ``scipy.optimize.least_squares`` (trust
@@ -144,20 +147,36 @@ def observations_from_twin(points: Sequence[Any], records: Sequence[Any]) -> Obs
 
 
 def _replay_stepped(obs: Observations, valve: ValveParams, muscle: MuscleParams,
-                    servo: LoadingServoParams | None) -> np.ndarray:
-    """The static readings in order on one time-stepped bench (module docstring)."""
+                    servo: LoadingServoParams | None) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The static readings, then the step records, in order on one time-stepped bench
+    (module docstring)."""
     twin = SingleMuscleBench(valve, muscle, LoadCellParams(noise=False), servo=servo)
-    out = np.empty(len(obs.readings))
-    for i, (kind, u, held, _) in enumerate(obs.readings):
-        position = kind == 'isometric'
-        twin.command_valve(u)
-        twin.command_load(LoadMode.POSITION if position else LoadMode.FORCE, held)
+
+    def settle(mode: LoadMode, voltage_v: float, held: float) -> None:
+        twin.command_valve(voltage_v)
+        twin.command_load(mode, held)
         twin.sub_step_s = SUB_STEP_S
         twin.run(TRANSIENT_S, TRANSIENT_S)
         twin.sub_step_s = SETTLE_SUB_STEP_S
         twin.run(DWELL_S - TRANSIENT_S, DWELL_S)
+
+    out = np.empty(len(obs.readings))
+    for i, (kind, u, held, _) in enumerate(obs.readings):
+        position = kind == 'isometric'
+        settle(LoadMode.POSITION if position else LoadMode.FORCE, u, held)
         out[i] = twin.f if position else twin.servo.angle * twin.servo.r
-    return out
+    recs = []
+    for x, u0, u1, period, samples in obs.records:
+        settle(LoadMode.POSITION, u0, x)
+        twin.command_valve(u1)
+        h = period * RECORD_STRIDE
+        twin.sub_step_s = h
+        forces = [twin.f]
+        for _ in range(len(samples[::RECORD_STRIDE]) - 1):
+            twin.step(h)
+            forces.append(twin.f)
+        recs.append(np.array(forces))
+    return out, recs
 
 
 def _replay_static(obs: Observations, valve: ValveParams, muscle: MuscleParams,
@@ -184,8 +203,9 @@ def predict(obs: Observations, valve: ValveParams, muscle: MuscleParams,
     """
     if replay not in REPLAYS:
         raise ModelError(f'unknown replay {replay!r}: one of {", ".join(REPLAYS)}')
-    out = (_replay_stepped if replay == 'stepped' else _replay_static)(obs, valve, muscle,
-                                                                       servo)
+    if replay == 'stepped':
+        return _replay_stepped(obs, valve, muscle, servo)
+    out = _replay_static(obs, valve, muscle, servo)
     recs = []
     for x, u0, u1, period, samples in obs.records:
         b = QuasiStaticBench(valve, muscle, servo, overshoot=True)
