@@ -19,7 +19,7 @@ publish sub-step samples between grid points, and the last one always sits on th
 step 1 needs it like every later step.
 
 A message lost at start-up (a reader matched after the writer's first publish) would stall the
-lock-step: when a tick is not acknowledged within ``nudge_s`` the clock publishes it again; a
+lock-step: while a tick is not acknowledged the clock publishes it again every ``nudge_s``; a
 participant that already stepped to it publishes that step's outputs again (those of
 ``create_step_publisher``) with its acknowledgement, and one still waiting for its inputs
 publishes its previous step's outputs again (the t_0 outputs of ``on_start`` among them), which

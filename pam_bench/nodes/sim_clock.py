@@ -86,9 +86,9 @@ class SimClock(Node):
                             's', 0.0, 60.0)
         self.progress_s = decl('progress_period_s', 2.0, 'wall time between progress lines',
                                's', 0.0, 3600.0)
-        self.nudge_s = decl('nudge_s', 1.0, 'publish a tick again when it is not acknowledged '
-                            'within this wall time (a message lost at start-up)', 's', 0.01,
-                            3600.0)
+        self.nudge_s = decl('nudge_s', 1.0, 'publish a tick again, and again, each time it has '
+                            'not been acknowledged for this wall time (a message lost at '
+                            'start-up)', 's', 0.01, 3600.0)
         self.summary_file = decl('summary_file', '', 'write the run summary here as JSON '
                                  '(empty: print it only)')
         self.timeout_s = decl('stall_timeout_s', 10.0, 'abort when a step is not acknowledged '
@@ -101,7 +101,7 @@ class SimClock(Node):
         self.summary: RunSummary | None = None
         self.acks: set[str] = set()
         self.next_step_ns = 0             # shortest step requested for the next tick
-        self.nudged = False               # the current tick was published again
+        self.nudges = 0                   # times the current tick was published again
         self.expected_total_s = self.duration_s
         self.pub = bus_publisher(self, Clock, topics.CLOCK, RELIABLE)
         bus_subscription(self, StepAck, topics.ACK, self._on_ack, RELIABLE)
@@ -144,7 +144,7 @@ class SimClock(Node):
 
     def _publish(self) -> None:
         self.last_tick_wall = time.monotonic()
-        self.nudged = False
+        self.nudges = 0
         self.pub.publish(Clock(clock=time_of(self.tick_ns)))
 
     def _on_timer(self) -> None:
@@ -172,8 +172,10 @@ class SimClock(Node):
         waited = now - self.last_tick_wall
         if waited > self.timeout_s:
             self._stall()
-        elif waited > self.nudge_s and not self.nudged:
-            self.nudged = True
+        elif waited > (self.nudges + 1) * self.nudge_s:
+            # again every nudge_s: under load a reader can match later than one nudge, and the
+            # outputs sent again with it are lost as the first ones were
+            self.nudges += 1
             self.pub.publish(Clock(clock=time_of(self.tick_ns)))
 
     def _stall(self) -> None:
