@@ -72,8 +72,8 @@ CONTRACTION_SCALE_M = 0.5e-3
 RECORD_STRIDE = 10
 REPLAYS = ('stepped', 'static')
 DWELL_S = 3.0                   # 004's dwell
-TRANSIENT_S = 0.5               # at the bench's sub-step, then the slow settling
-SETTLE_SUB_STEP_S = 0.05
+TRANSIENT_S = 1.0               # at the bench's sub-step, then the slow settling
+SETTLE_SUB_STEP_S = 0.02
 PATH_WIDTH_M = 8.0e-3           # friction loop wider than 16 contraction tolerances
 PATH_PROBE_N = 100.0            # load offset the loop's two sides are approached from
 
