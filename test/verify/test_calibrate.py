@@ -141,3 +141,20 @@ def test_an_unknown_replay_is_an_error() -> None:
     from pam_bench.verify.calibrate_bags import Observations, predict
     with pytest.raises(ModelError, match="'stepd'"):
         predict(Observations([], []), ValveParams(), MuscleParams(), replay='stepd')
+
+
+def test_a_parameter_the_recordings_do_not_reach_stays_at_its_start_and_is_flagged() -> None:
+    """campaign_quick has no reading past x_m once its 6 V, 50 N isobaric readings are left
+    out, so the gain's rise there is free: the weak prior keeps it at its starting value
+    (the data's small errors carried it to -97 % without), and it is flagged."""
+    from pam_bench.models.valve import ValveParams
+    from pam_bench.verify.calibrate_bags import calibrate_bags
+    true_m = dataclasses.replace(MuscleParams(), gain_n_per_pa=3.4e-3)
+    obs = _exact_observations(ValveParams(), true_m)
+    res = calibrate_bags(obs, max_nfev=15, only=('gain_n_per_pa', 'gain_rise_n_per_pa_m'),
+                         replay='static')
+    assert res['left_out'] == [('isobaric', 6.0, 50.0)] * 2
+    np.testing.assert_allclose(res['values']['gain_n_per_pa'], 3.4e-3, rtol=0.01)
+    np.testing.assert_allclose(res['values']['gain_rise_n_per_pa_m'],
+                               MuscleParams().gain_rise_n_per_pa_m, rtol=0.01)
+    assert res['flags'] == ['gain_rise_n_per_pa_m']
