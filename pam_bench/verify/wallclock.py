@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import pathlib
+from collections.abc import Collection
 
 import numpy as np
 
@@ -43,23 +44,30 @@ class ReadingsDiff:
                 and self.max_contraction_m <= CONTRACTION_BOUND_M)
 
 
-def _keyed(path: str | pathlib.Path) -> dict[tuple, tuple[float, float]]:
+def _keyed(path: str | pathlib.Path) -> dict[tuple, tuple[float, float, tuple]]:
     out = {}
     for name, p in read_bags([path]).points.items():
+        kind = name.split('_')[0]
         for i in range(len(p.t_s)):
             key = (name, int(p.series[i]), int(p.step[i]), int(p.direction[i]))
-            out[key] = (float(p.force_n[i]), float(p.contraction_m[i]))
+            held = p.set_value[i] if kind == 'isobaric' else p.series_value[i]
+            out[key] = (float(p.force_n[i]), float(p.contraction_m[i]),
+                        (kind, round(float(p.voltage_v[i]), 9), round(float(held), 9)))
     return out
 
 
-def compare_readings(bag_a: str | pathlib.Path, bag_b: str | pathlib.Path) -> ReadingsDiff:
-    """Compare the characteristic points of two bags reading by reading.
+def compare_readings(bag_a: str | pathlib.Path, bag_b: str | pathlib.Path,
+                     skip: Collection[tuple[str, float, float]] = ()) -> ReadingsDiff:
+    """Compare the characteristic points of two bags reading by reading, leaving out those
+    of ``skip``: (protocol kind, u V, held value: x m for isometric, the load N otherwise), as
+    ``verify.calibrate_bags`` lists the readings it leaves out.
 
     Raises:
         BagError: a bag cannot be read.
     """
     a, b = _keyed(bag_a), _keyed(bag_b)
-    keys = sorted(set(a) & set(b))
+    left = {(k, round(u, 9), round(h, 9)) for k, u, h in skip}
+    keys = sorted(k for k in set(a) & set(b) if a[k][2] not in left)
     if not keys:
         return ReadingsDiff(0, len(a), len(b), float('nan'), float('nan'), float('nan'),
                             float('nan'))
