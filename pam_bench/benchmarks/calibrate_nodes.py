@@ -90,7 +90,8 @@ def calibrate_nodes_section(r: dict[str, Any]) -> list[str]:
               f"{d['max_contraction_m'] * 1e3:.3f} mm); goal 20 N (1 % FS) and 0.5 mm."]
     f = c.get('fitted_readings')
     if f and c.get('left_out'):
-        which = ', '.join(f'{k} {u:g} V {h:g} N' for k, u, h in c['left_out'])
+        which = ', '.join(f'{k} {u:g} V {h:g} N'
+                          for k, u, h in dict.fromkeys(map(tuple, c['left_out'])))
         lines += ['', f"Without the readings the fit leaves out ({which}: a friction loop "
                   f"wider than 8 mm, where the muscle stops is decided by the drive's "
                   f"transient), {f['matched']} readings: force RMS {f['rms_force_n']:.2f} N "
