@@ -20,7 +20,7 @@ demo: setup
 test: setup
 	$(PY) -m ruff check pam_bench test
 	$(PY) -m mypy
-	$(PY) -m pytest -q -p no:xdist -m 'not wallclock' test
+	$(PY) -m pytest -q -n 2 -m 'not wallclock' test
 	PAM_BENCH_TEST_DOMAIN_START=80 $(PY) -m pytest -q -p no:xdist -m wallclock test
 
 lint: setup
