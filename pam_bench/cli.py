@@ -369,7 +369,7 @@ def _calibrate_bags(args: argparse.Namespace) -> int:
         if res['left_out']:
             print(f"left out (friction loop wider than {PATH_WIDTH_M * 1e3:.0f} mm, the drive's "
                   'transient places them): ' + ', '.join(
-                      f'{k} {u:g} V {h:g} N' for k, u, h in res['left_out']))
+                      f'{k} {u:g} V {h:g} N' for k, u, h in dict.fromkeys(res['left_out'])))
         for n in res['names']:
             flag = '  (not fixed by these recordings)' if n in res['flags'] else ''
             print(f"  {n:28s} {res['values'][n]:12.5g} +- {res['stderr'][n]:.2g}{flag}")

@@ -158,3 +158,19 @@ def test_a_parameter_the_recordings_do_not_reach_stays_at_its_start_and_is_flagg
     np.testing.assert_allclose(res['values']['gain_rise_n_per_pa_m'],
                                MuscleParams().gain_rise_n_per_pa_m, rtol=0.01)
     assert res['flags'] == ['gain_rise_n_per_pa_m']
+
+
+def test_calibrate_cli_names_the_readings_it_leaves_out(tmp_path: pathlib.Path,
+                                                         capsys: pytest.CaptureFixture) -> None:
+    from pam_bench.cli import main
+    from test.analysis.bags import write_bag
+    rows = [(2.0, 50.0, 0.070), (2.0, 150.0, 0.048), (6.0, 50.0, 0.112), (6.0, 150.0, 0.085)]
+    write_bag(tmp_path / 'bag', [
+        dict(protocol='isobaric_quick', series=int(u > 2.0), step=k, direction=0,
+             series_value=u, set_value=f, voltage=u, force=f, contraction=x, pressure=u * 1e5)
+        for k, (u, f, x) in enumerate(rows)])
+    assert main(['calibrate', str(tmp_path / 'bag'), '--replay', 'static',
+                 '--max-evaluations', '1']) == 0
+    out = capsys.readouterr().out
+    left = [line for line in out.splitlines() if line.startswith('left out')]
+    assert len(left) == 1 and left[0].endswith(': isobaric 6 V 50 N'), out
