@@ -192,8 +192,9 @@ def _replay_stepped(obs: Observations, valve: ValveParams, muscle: MuscleParams,
 
 
 def _replay_static(obs: Observations, valve: ValveParams, muscle: MuscleParams,
-                   servo: LoadingServoParams | None) -> np.ndarray:
-    """The static readings in order on one quasi-static bench (module docstring)."""
+                   servo: LoadingServoParams | None) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The static readings in order on one quasi-static bench, each step record from its own
+    settled start (module docstring)."""
     bench = QuasiStaticBench(valve, muscle, servo, overshoot=True)
     out = np.empty(len(obs.readings))
     for i, (kind, u, held, _) in enumerate(obs.readings):
@@ -201,7 +202,13 @@ def _replay_static(obs: Observations, valve: ValveParams, muscle: MuscleParams,
             out[i] = bench.hold_position(u, held).force_n
         else:
             out[i] = bench.hold_force(u, held).contraction_m
-    return out
+    recs = []
+    for x, u0, u1, period, samples in obs.records:
+        b = QuasiStaticBench(valve, muscle, servo, overshoot=True)
+        n = len(samples[::RECORD_STRIDE])
+        recs.append(b.step_response(x, u0, u1, n * period * RECORD_STRIDE,
+                                    period * RECORD_STRIDE))
+    return out, recs
 
 
 def predict(obs: Observations, valve: ValveParams, muscle: MuscleParams,
@@ -215,16 +222,8 @@ def predict(obs: Observations, valve: ValveParams, muscle: MuscleParams,
     """
     if replay not in REPLAYS:
         raise ModelError(f'unknown replay {replay!r}: one of {", ".join(REPLAYS)}')
-    if replay == 'stepped':
-        return _replay_stepped(obs, valve, muscle, servo)
-    out = _replay_static(obs, valve, muscle, servo)
-    recs = []
-    for x, u0, u1, period, samples in obs.records:
-        b = QuasiStaticBench(valve, muscle, servo, overshoot=True)
-        n = len(samples[::RECORD_STRIDE])
-        recs.append(b.step_response(x, u0, u1, n * period * RECORD_STRIDE,
-                                    period * RECORD_STRIDE))
-    return out, recs
+    return (_replay_stepped if replay == 'stepped' else _replay_static)(obs, valve, muscle,
+                                                                       servo)
 
 
 def path_sensitive(obs: Observations, valve: ValveParams, muscle: MuscleParams,
@@ -279,7 +278,12 @@ def rms_by_kind(obs: Observations, valve: ValveParams, muscle: MuscleParams,
                 left_out: Sequence[int] = (), replay: str = 'stepped') -> dict[str, float]:
     """RMS of the prediction's error per protocol kind: N (isometric, records) or mm; the
     readings ``left_out`` do not count."""
-    values, recs = predict(obs, valve, muscle, servo, replay)
+    return _rms_of(obs, predict(obs, valve, muscle, servo, replay), left_out)
+
+
+def _rms_of(obs: Observations, pred: tuple[np.ndarray, list[np.ndarray]],
+            left_out: Sequence[int]) -> dict[str, float]:
+    values, recs = pred
     out = {}
     for kind in ('isometric', 'isotonic', 'isobaric'):
         idx = [i for i, r in enumerate(obs.readings) if r[0] == kind and i not in left_out]
@@ -321,7 +325,8 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
                       for m, n, _, _ in free], float)
     z0 = np.clip((start - lower) / span, 0.0, 1.0)
     left_out = path_sensitive(obs, valve, muscle, servo)
-    n_res = len(_residuals(obs, predict(obs, valve, muscle, servo, replay), left_out)) + len(z0)
+    pred0 = predict(obs, valve, muscle, servo, replay)
+    n_res = len(_residuals(obs, pred0, left_out)) + len(z0)
 
     def res(z: np.ndarray) -> np.ndarray:
         try:
@@ -345,7 +350,7 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
                         if n in summary['flags'] or share > PRIOR_SHARE_FLAG]
     v, m = _models(theta, valve, muscle, free)
     return {**summary, 'valve': v, 'muscle': m,
-            'rms_before': rms_by_kind(obs, valve, muscle, servo, left_out, replay),
+            'rms_before': _rms_of(obs, pred0, left_out),
             'rms_after': rms_by_kind(obs, v, m, servo, left_out, replay),
             'left_out': [obs.readings[i][:3] for i in left_out], 'cost': float(sol.cost),
             'evaluations': int(sol.nfev), 'fit_s': fit_s}
