@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
 import pathlib
 import tempfile
 import time
@@ -35,7 +36,7 @@ from pam_bench.models.torque_servo import (  # noqa: E402
 )
 from pam_bench.twin.servo_bench import ServoRun, run_servo, tracking_metrics  # noqa: E402
 
-__all__ = ['servo_scenes', 'compare_servo', 'scene_servo_setup']
+__all__ = ['servo_scenes', 'compare_servo', 'scene_servo_setup', 'one_run', 'worker_domain']
 
 
 def servo_scenes() -> list[str]:
@@ -87,41 +88,102 @@ def servo_run_of_bag(bag: pathlib.Path, muscles: int) -> ServoRun:
 
 
 def compare_servo(out_dir: pathlib.Path, engine: str = 'numpy', scenes: list[str] | None = None,
-                  duration_s: float | None = None, one_process: bool = False
-                  ) -> list[dict[str, Any]]:
+                  duration_s: float | None = None, one_process: bool = False, jobs: int = 1,
+                  domains: list[int] | None = None) -> list[dict[str, Any]]:
     """Run every scene x controller; write out_dir/metrics.json and one PNG per scene.
 
     ``engine``: 'numpy' (the twin) or 'ros' (the nodes; composed in one process with
-    ``one_process``, which gives the same bags faster).
+    ``one_process``, which gives the same bags faster). ``jobs`` > 1 runs that many at once in
+    worker processes, each on a ROS domain of its own (``domains``, default ``worker_domain``
+    of this process's domain): a composed run keeps one core busy, so two jobs on two cores
+    take about half the time.
     """
     label = 'ros, one process' if engine == 'ros' and one_process else engine
     out_dir.mkdir(parents=True, exist_ok=True)
-    rows: list[dict[str, Any]] = []
+    names = scenes or servo_scenes()
+    tasks = [(name, ctl) for name in names for ctl in ServoMode]
+    results: dict[tuple[str, ServoMode], tuple[ServoRun, float, float]] = {}
     with tempfile.TemporaryDirectory(prefix='pam_bench_servo_') as tmp:
-        for name in scenes or servo_scenes():
-            scene = load_scene(name)
-            setup = scene_servo_setup(scene)
-            runs = {}
-            for ctl in ServoMode:
+        if jobs <= 1:
+            for name, ctl in tasks:
                 print(f'{name}: {ctl.value} ({label}) ...', flush=True)
-                t0 = time.perf_counter()
-                if engine == 'ros':
-                    run, wall, sim = _ros_run(scene, ctl, duration_s, pathlib.Path(tmp),
-                                              one_process)
-                else:
-                    sim = duration_s or scene.duration_s
-                    run = run_servo(ctl, setup['signal'], sim, setup['angle_rad'],
-                                    scene.exchange_step_s, setup['inverse'], setup['muscles'],
-                                    setup['params'])
-                    wall = time.perf_counter() - t0
-                runs[ctl] = run
-                rows.append({'scene': name, 'controller': ctl.value, 'engine': label,
-                             **tracking_metrics(run), 'sim_s': sim, 'wall_s': wall,
-                             'real_time_factor': sim / wall if wall else 0.0,
-                             **forward_model_rms(run, setup)})
-            _plot(name, runs, out_dir)
+                results[name, ctl] = one_run(engine, name, ctl, duration_s, tmp, one_process)
+        else:
+            base = int(os.environ.get('ROS_DOMAIN_ID') or 1 + os.getpid() % 100)
+            doms = domains or [worker_domain(base, i) for i in range(jobs)]
+            if len(set(doms)) < jobs:
+                raise ValueError(f'{jobs} jobs need {jobs} different ROS domains, got {doms}')
+            _run_parallel(tasks, results, (engine, duration_s, tmp, one_process), doms, label)
+    rows: list[dict[str, Any]] = []
+    for name in names:
+        setup = scene_servo_setup(load_scene(name))
+        runs = {}
+        for ctl in ServoMode:
+            run, wall, sim = results[name, ctl]
+            runs[ctl] = run
+            rows.append({'scene': name, 'controller': ctl.value, 'engine': label,
+                         **tracking_metrics(run), 'sim_s': sim, 'wall_s': wall,
+                         'real_time_factor': sim / wall if wall else 0.0,
+                         **forward_model_rms(run, setup)})
+        _plot(name, runs, out_dir)
     (out_dir / 'metrics.json').write_text(json.dumps(rows, indent=2) + '\n', encoding='utf-8')
     return rows
+
+
+def one_run(engine: str, name: str, ctl: ServoMode, duration_s: float | None, tmp: str,
+            one_process: bool) -> tuple[ServoRun, float, float]:
+    """One scene with one controller: (its run, wall s, sim s)."""
+    scene = load_scene(name)
+    t0 = time.perf_counter()
+    if engine == 'ros':
+        return _ros_run(scene, ctl, duration_s, pathlib.Path(tmp), one_process)
+    setup = scene_servo_setup(scene)
+    sim = duration_s or scene.duration_s
+    run = run_servo(ctl, setup['signal'], sim, setup['angle_rad'], scene.exchange_step_s,
+                    setup['inverse'], setup['muscles'], setup['params'])
+    return run, time.perf_counter() - t0, sim
+
+
+def worker_domain(base: int, index: int) -> int:
+    """The ROS domain of the ``index``-th worker of a run whose own domain is ``base``: the
+    next ones, wrapped inside 0..101 (the IDs ROS 2 recommends)."""
+    return (base + index) % 102
+
+
+def _worker_init(counter: Any, domains: list[int]) -> None:
+    """A worker process takes the next index and the ROS domain that goes with it."""
+    with counter.get_lock():
+        index = counter.value
+        counter.value += 1
+    os.environ['ROS_DOMAIN_ID'] = str(domains[index])
+    os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+
+
+def _run_parallel(tasks: list[tuple[str, ServoMode]],
+                  results: dict[tuple[str, ServoMode], tuple[ServoRun, float, float]],
+                  how: tuple[str, float | None, str, bool], domains: list[int],
+                  label: str) -> None:
+    """``one_run`` of every task (``how``: engine, duration, folder, one process) in one
+    spawned worker per domain; results keyed by task."""
+    import concurrent.futures
+    import multiprocessing
+
+    ctx = multiprocessing.get_context('spawn')
+    counter = ctx.Value('i', 0)
+    with concurrent.futures.ProcessPoolExecutor(len(domains), mp_context=ctx,
+                                                initializer=_worker_init,
+                                                initargs=(counter, domains)) as pool:
+        futures = {pool.submit(one_run, how[0], name, ctl, how[1], how[2], how[3]):
+                   (name, ctl) for name, ctl in tasks}
+        try:
+            for fut in concurrent.futures.as_completed(futures):
+                name, ctl = futures[fut]
+                results[name, ctl] = fut.result()
+                print(f'{name}: {ctl.value} ({label}) done '
+                      f'({len(results)} of {len(tasks)})', flush=True)
+        except BaseException:
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
 
 
 def forward_model_rms(run: ServoRun, setup: dict[str, Any], settle_s: float = 1.0

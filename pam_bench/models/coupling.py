@@ -93,30 +93,38 @@ def solve_substep(muscle: BenchMuscle, holder: Holder, d: float, pressure_pa: fl
     if not math.isfinite(pressure_pa):
         raise ModelError(f'muscle pressure {pressure_pa!r} is not finite')
     holder.prepare(d)
-    x = holder.contraction(0.0)
-    if not math.isfinite(x):
-        raise ModelError(f'holder position {x!r} is not finite')
-    trial = muscle.trial(pressure_pa, x)
-    f_hi = trial[0]
-    f = 0.0
+    # g(0) = F_m(p, X(0)) >= 0 (the muscle never pushes), so [0, inf) brackets the root: the
+    # iteration starts at the guess, and the force at X(0), F_hi, is evaluated only when a
+    # Newton step leaves the bracket with its lower end 0 untried (or its upper end open);
+    # past F_hi, g < 0 (F_m(X(F)) <= F_hi).
+    lo, hi = 0.0, math.inf
+    f = force_guess_n if force_guess_n > 0.0 else 0.0
+    f_hi = -1.0             # not evaluated yet
     it = 1
-    if f_hi > 0.0:
-        lo, hi = 0.0, f_hi
-        f = min(max(force_guess_n, lo), hi)
-        while True:
-            x = holder.contraction(f)
-            trial = muscle.trial(pressure_pa, x)
-            g = trial[0] - f
-            if g >= 0.0:
-                lo = f
-            else:
-                hi = f
-            if abs(g) <= FORCE_TOLERANCE_N or hi - lo <= FORCE_TOLERANCE_N \
-                    or it >= MAX_ITERATIONS:
-                break
-            it += 1
-            nxt = f + g / (1.0 + trial[1] * holder.compliance(f))
-            f = nxt if lo < nxt < hi else 0.5 * (lo + hi)
+    while True:
+        x = holder.contraction(f)
+        if not math.isfinite(x):
+            raise ModelError(f'holder position {x!r} is not finite')
+        trial = muscle.trial(pressure_pa, x)
+        if f == 0.0:
+            f_hi = trial[0]
+        g = trial[0] - f
+        if g >= 0.0:
+            lo = f
+        else:
+            hi = f
+        if abs(g) <= FORCE_TOLERANCE_N or hi - lo <= FORCE_TOLERANCE_N or it >= MAX_ITERATIONS:
+            break
+        it += 1
+        nxt = f + g / (1.0 + trial[1] * holder.compliance(f))
+        if lo < nxt < hi:
+            f = nxt
+        elif hi < math.inf and (lo > 0.0 or f_hi >= 0.0):
+            f = 0.5 * (lo + hi)
+        elif f_hi < 0.0:
+            f = 0.0
+        else:
+            f = 2.0 * f_hi
     muscle.commit(trial)
     holder.commit(f)
     return f, x, trial[1], trial[2], it

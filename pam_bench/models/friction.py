@@ -58,22 +58,23 @@ class MaxwellSlip:
         load = load_n if load_n > 0.0 else 0.0
         force = 0.0
         k_stick = 0.0
-        zs = []
-        st = []
-        for (k, f0, mu), z in zip(self._elements, self.z, strict=True):
+        zs = list(self.z)
+        st = [True] * len(zs)
+        i = 0
+        for k, f0, mu in self._elements:
             lim = (f0 + mu * load) / k          # m of pre-slide
+            z = zs[i]
             d = s_m - z
             if d >= lim:
-                z = s_m - lim
-                st.append(False)
+                z = zs[i] = s_m - lim
+                st[i] = False
             elif d <= -lim:
-                z = s_m + lim
-                st.append(False)
+                z = zs[i] = s_m + lim
+                st[i] = False
             else:
                 k_stick += k
-                st.append(True)
-            zs.append(z)
             force += k * (s_m - z)
+            i += 1
         return force, k_stick, tuple(zs), tuple(st)
 
     def commit(self, trial: FrictionTrial) -> None:

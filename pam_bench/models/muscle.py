@@ -219,6 +219,7 @@ class MuscleModel(FrictionMuscle):
         self.lock_contraction_m = self.p.nominal_length_m - self._thread_m * LOCK_COS
         w, pth = self.p.threshold_width_pa, self.p.threshold_pressure_pa
         self._e0 = w * _softplus(-pth / w) if w > 0.0 else 0.0
+        self._e_memo = (math.nan, 0.0)   # (p Pa, e(p) Pa): a sub-step tries one pressure
 
     def reset(self, contraction_m: float = 0.0, pressure_pa: float = 0.0) -> None:
         """Friction relaxed at the given state."""
@@ -258,7 +259,11 @@ class MuscleModel(FrictionMuscle):
                                ) -> tuple[float, float]:
         """(F_bb(p, x) N, -dF_bb/dx N/m): friction-free, before the clamp (may be negative)."""
         p = self.p
-        e = self.effective_pressure(pressure_pa)[0]
+        if self._e_memo[0] == pressure_pa:
+            e = self._e_memo[1]
+        else:
+            e = self.effective_pressure(pressure_pa)[0]
+            self._e_memo = (pressure_pa, e)
         g, dg = self.gain_and_slope(contraction_m)
         f = g * e - p.bladder_stiffness_n_per_m * contraction_m
         k = -dg * e + p.bladder_stiffness_n_per_m

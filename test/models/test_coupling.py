@@ -75,6 +75,28 @@ def test_newton_needs_few_iterations_on_a_protocol_like_run() -> None:
     assert res.iterations / len(steps) < 4.0
 
 
+@pytest.mark.parametrize('guess', [0.0, 50.0, 500.0, 5000.0])
+def test_a_slack_muscle_is_found_without_bisection(guess: float) -> None:
+    """Vented, the muscle pulls with nothing: whatever the guess, the solve tries the force at
+    X(0) after at most one Newton step instead of halving the bracket down to 0 N."""
+    drive, muscle = _drive(LoadMode.FORCE, 50.0, 0.107), MuscleModel()
+    muscle.reset(0.107, 0.0)
+    f, _, _, _, it = solve_substep(muscle, drive, 0.005, 0.0, guess)
+    assert f == 0.0
+    assert it <= 2
+
+
+def test_drive_end_follows_a_changed_state() -> None:
+    """The drive keeps its last sub-step end per force; a state set from outside (a restored
+    snapshot) between two asks for the same force must not return the kept one."""
+    drive = _drive(LoadMode.FORCE, 100.0, 0.02)
+    drive.prepare(0.005)
+    x1 = drive.contraction(100.0)
+    assert drive.contraction(100.0) == x1
+    drive.phi += 0.01
+    np.testing.assert_allclose(drive.contraction(100.0) - x1, drive.r * 0.01, rtol=1e-9)
+
+
 @pytest.mark.parametrize('dt, period, expected', [
     (3.0, 0.005, [0.005] * 600), (0.0123, 0.005, [0.005, 0.005, 0.0023]),
     (0.001, 0.005, [0.001]), (1.0, 0.001, [0.001] * 1000)])

@@ -119,6 +119,7 @@ class LoadingServoModel:
         self.torque = 0.0
         self.saturated = False
         self._prep: SubStep | None = None
+        self._end_memo: tuple[object, ...] = (None,)
         self._holder = IdealHolder(self) if not self.p.dynamics else None
 
     # --- commands and state -------------------------------------------------------------
@@ -195,9 +196,18 @@ class LoadingServoModel:
         return round(angle_rad / self.count_rad) * self.count_rad
 
     def _end(self, f: float) -> tuple[float, float, float, float, bool]:
-        """(phi_+, w_+, I_+, tau_+, saturated) of the prepared sub-step for the force f."""
-        assert self._prep is not None, 'prepare() first'
-        d, den, t0, t1, i0, i1, i_lim, ki, w_pos = self._prep
+        """(phi_+, w_+, I_+, tau_+, saturated) of the prepared sub-step for the force f.
+
+        The coupled solve asks for the same force up to three times (position, compliance,
+        commit): the last answer is kept with the prepared sub-step, state and force it is for.
+        """
+        prep = self._prep
+        assert prep is not None, 'prepare() first'
+        key = (prep, f, self.phi, self.w, self.integral)
+        memo = self._end_memo
+        if memo[0] is prep and memo[:5] == key:
+            return memo[5]  # type: ignore[return-value]
+        d, den, t0, t1, i0, i1, i_lim, ki, w_pos = prep
         p, r, j = self.p, self.r, self.p.inertia_kg_m2
         tau = t0 + t1 * f
         sat = abs(tau) > self.tau_max
@@ -216,7 +226,9 @@ class LoadingServoModel:
             w = wm
         elif w < -wm:
             w = -wm
-        return self.phi + d * w, w, i_new, tau, sat
+        out = (self.phi + d * w, w, i_new, tau, sat)
+        self._end_memo = (*key, out)
+        return out
 
     def contraction(self, force_n: float) -> float:
         """X(F): where the prepared sub-step puts the muscle end if the muscle pulls with
@@ -234,12 +246,11 @@ class LoadingServoModel:
         if self._holder is not None:
             return self._holder.compliance(force_n)
         assert self._prep is not None, 'prepare() first'
-        x = self.r * (self._end(force_n)[0] + self.play(force_n)) \
-            + force_n / p.belt_stiffness_n_per_m
+        phi, w, _, _, sat = self._end(force_n)
+        x = self.r * (phi + self.play(force_n)) + force_n / p.belt_stiffness_n_per_m
         if x <= p.travel_min_m or x >= p.travel_max_m:
             return 0.0
         d, den, t1 = self._prep.d, self._prep.den, self._prep.t1
-        _, w, _, _, sat = self._end(force_n)
         if abs(w) >= p.speed_limit_rad_s:
             dw = 0.0
         elif sat:
