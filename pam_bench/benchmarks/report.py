@@ -102,7 +102,24 @@ def _layout_results(r: dict[str, Any]) -> list[Row]:
                      '>= 0.3', f"{row['lockstep_rate_steps_per_s'] / pp:.3f} "
                      f"({row['lockstep_rate_steps_per_s']:.0f} exchanges/s, {pp:.0f} round "
                      'trips/s)', commit))
+    fan = r['layouts'].get('fanout_exchanges_per_s', {})
+    for scene, n in (('demo', '7'), ('servo_sin_t', '10')):
+        row = _layout_row(r, scene, 'separate processes')
+        if row and n in fan:
+            rows.append((f'lock-step with no work, {n} separate-process participants (the '
+                         f'floor under {scene})', '-', f"{fan[n]:.0f} exchanges/s ({scene}: "
+                         f"{row['lockstep_rate_steps_per_s'] / fan[n]:.2f} of it)", commit))
     return rows
+
+
+def servo_compare_results(r: dict[str, Any], commit: str) -> list[Row]:
+    """The key result of the servo_compare study (`make servo-compare` timed)."""
+    sc = r.get('servo_compare')
+    if not sc:
+        return []
+    return [(f"`make servo-compare`: {sc['runs']} runs through the composed nodes",
+             '< 6 min', f"{sc['wall_s'] / 60:.1f} min ({sc['sim_s']:.0f} s simulated, "
+             f"{sc['jobs']} jobs)", commit)]
 
 
 def key_results(r: dict[str, Any]) -> list[Row]:
@@ -130,6 +147,7 @@ def key_results(r: dict[str, Any]) -> list[Row]:
          f"({ls['demo_lockstep_steps_per_s']:.0f} exchanges/s against "
          f"{ls['pingpong_round_trips_per_s']:.0f} round trips/s)", commit)]
     rows += _layout_results(r)
+    rows += servo_compare_results(r, f"`{commit_of(r, 'servo_compare')}`")
     rows += wallclock_results(r, f"`{commit_of(r, 'wallclock')}`")
     rows += faults_results(r, f"`{commit_of(r, 'faults')}`")
     rows += straight_fibre_results(r, f"`{commit_of(r, 'straight_fibre')}`")
@@ -174,7 +192,14 @@ def key_results(r: dict[str, Any]) -> list[Row]:
 def _layouts(r: dict[str, Any]) -> list[str]:
     lay = r['layouts']
     pp = lay['pingpong_round_trips_per_s']
-    return [f'rclpy ping-pong floor in the same run: {pp:.0f} round trips/s.', ''] + table(
+    fan = lay.get('fanout_exchanges_per_s', {})
+    floor = (['A lock-step with no work in the same run (one process ticks, N processes '
+              'spinning as the nodes do acknowledge, the next tick when all have: '
+              '`benchmarks.pingpong.fanout_rate`): ' + ', '.join(
+                  f'{n} participant{"s" if n != "1" else ""} {v:.0f} exchanges/s'
+                  for n, v in fan.items()) + '. The demo has 7 participants, servo_sin_t 10.',
+              ''] if fan else [])
+    return [f'rclpy ping-pong floor in the same run: {pp:.0f} round trips/s.', ''] + floor + table(
         ['scene', 'layout', 'sim time', 'exchanges', 'exchanges/s', 'real-time factor',
          'wall s (lock-step)', 'wall s with start-up', 'round trips per exchange'],
         [(row['scene'], row['layout'], f"{row['sim_s']:.0f} s", row['exchange_steps'],
@@ -358,6 +383,16 @@ def _servo(r: dict[str, Any]) -> list[str]:
                    f"{row['real_time_factor']:.2f}x") for row in r['servo']])
 
 
+def _servo_compare(r: dict[str, Any]) -> list[str]:
+    sc = r['servo_compare']
+    return [f"{sc['runs']} runs, {sc['sim_s']:.0f} s simulated, in {sc['wall_s']:.0f} s of wall "
+            f"time with {sc['jobs']} jobs.", ''] + table(
+        ['scene', 'controller', 'RMS error', 'max', 'sim s', 'wall s', 'real-time factor'],
+        [(row['scene'], row['controller'], f"{row['rms_error']:.3f} {row['unit']}",
+          f"{row['max_error']:.3f}", f"{row['sim_s']:.0f}", f"{row['wall_s']:.1f}",
+          f"{row['real_time_factor']:.2f}x") for row in sc['rows']])
+
+
 SECTIONS: list[tuple[str, Callable[..., list[str]]]] = [
     ('calibration', _calibration), ('lockstep', _lockstep), ('layouts', _layouts),
     ('profile', _profile), ('scenes', _scenes),
@@ -367,7 +402,7 @@ SECTIONS: list[tuple[str, Callable[..., list[str]]]] = [
     ('ros_exchange_step', _ros_exchange_step), ('servo', _servo),
     ('wallclock', wallclock_section), ('faults', faults_section),
     ('straight_fibre', straight_fibre_section), ('calibrate', calibrate_section),
-    ('calibrate_nodes', calibrate_nodes_section)]
+    ('calibrate_nodes', calibrate_nodes_section), ('servo_compare', _servo_compare)]
 """Section key (of bench.json and methods.yaml) and its table renderer, in report order."""
 
 

@@ -160,6 +160,11 @@ def _commit() -> str:
 def _layouts(out: pathlib.Path, quick: bool) -> dict[str, Any]:
     """The same scenes in both layouts, next to the ping-pong floor measured with them."""
     pp = pingpong_rate(3000)
+    from pam_bench.benchmarks.pingpong import fanout_rate
+    fanout = {}
+    for n in (1, 7) if quick else (1, 7, 10):
+        print(f'  lock-step with no work, {n} participants ...', flush=True)
+        fanout[str(n)] = fanout_rate(n, 2000)
     rows = []
     for name in ('demo', 'servo_sin_t', 'campaign_quick') + (() if quick else ('campaign',)):
         for one in (False, True):
@@ -174,7 +179,19 @@ def _layouts(out: pathlib.Path, quick: bool) -> dict[str, Any]:
             row['round_trips_per_exchange'] = pp / row['lockstep_rate_steps_per_s'] \
                 if row['lockstep_rate_steps_per_s'] else None
             rows.append(row)
-    return {'pingpong_round_trips_per_s': pp, 'rows': rows}
+    return {'pingpong_round_trips_per_s': pp, 'fanout_exchanges_per_s': fanout, 'rows': rows}
+
+
+def _servo_compare_nodes(out: pathlib.Path, quick: bool) -> dict[str, Any]:
+    """`make servo-compare`: every servo scene x controller through the composed nodes, one
+    job per CPU; its wall time and rows (quick: servo_sin_t, 2 s runs)."""
+    from pam_bench.benchmarks.servo_compare import compare_servo
+    jobs = os.cpu_count() or 1
+    t0 = time.perf_counter()
+    rows = compare_servo(out / 'servo_compare', 'ros', ['servo_sin_t'] if quick else None,
+                         2.0 if quick else None, one_process=True, jobs=jobs)
+    return {'wall_s': time.perf_counter() - t0, 'jobs': jobs, 'runs': len(rows),
+            'sim_s': sum(r['sim_s'] for r in rows), 'rows': rows}
 
 
 def _profiles(out: pathlib.Path, quick: bool) -> list[dict[str, Any]]:
@@ -237,6 +254,8 @@ def _measure(name: str, quick: bool, out: pathlib.Path, scenes: list[str] | None
     elif name == 'straight_fibre':
         from pam_bench.benchmarks.straight_fibre import measure_straight_fibre
         report['straight_fibre'] = measure_straight_fibre(out)
+    elif name == 'servo_compare':
+        report['servo_compare'] = _servo_compare_nodes(out, quick)
     elif name == 'wallclock':
         from pam_bench.benchmarks.wallclock import measure_wallclock
         report['wallclock'] = measure_wallclock(out, quick)
@@ -244,7 +263,7 @@ def _measure(name: str, quick: bool, out: pathlib.Path, scenes: list[str] | None
 
 STUDIES = ('calibration', 'lockstep', 'layouts', 'profile', 'exchange_step', 'record_exchange',
            'scenes', 'models', 'wallclock', 'faults', 'straight_fibre', 'calibrate',
-           'calibrate_nodes')
+           'calibrate_nodes', 'servo_compare')
 """The studies of `pam-bench bench`, in the order they run; ``--only`` picks some."""
 FILLS = {'scenes': ('scenes', 'campaign', 'extraction'),
          'models': ('work_precision', 'fidelity', 'ros_exchange_step', 'servo')}

@@ -50,6 +50,9 @@ class Holder(Protocol):
     def compliance(self, force_n: float) -> float:
         """dX/dF, m/N."""
 
+    def contraction_and_compliance(self, force_n: float) -> tuple[float, float]:
+        """(X(F) m, dX/dF m/N) in one evaluation."""
+
     def commit(self, force_n: float) -> object:
         """Keep the sub-step with that force."""
 
@@ -102,7 +105,7 @@ def solve_substep(muscle: BenchMuscle, holder: Holder, d: float, pressure_pa: fl
     f_hi = -1.0             # not evaluated yet
     it = 1
     while True:
-        x = holder.contraction(f)
+        x, dxdf = holder.contraction_and_compliance(f)
         if not math.isfinite(x):
             raise ModelError(f'holder position {x!r} is not finite')
         trial = muscle.trial(pressure_pa, x)
@@ -116,7 +119,7 @@ def solve_substep(muscle: BenchMuscle, holder: Holder, d: float, pressure_pa: fl
         if abs(g) <= FORCE_TOLERANCE_N or hi - lo <= FORCE_TOLERANCE_N or it >= MAX_ITERATIONS:
             break
         it += 1
-        nxt = f + g / (1.0 + trial[1] * holder.compliance(f))
+        nxt = f + g / (1.0 + trial[1] * dxdf)
         if lo < nxt < hi:
             f = nxt
         elif hi < math.inf and (lo > 0.0 or f_hi >= 0.0):

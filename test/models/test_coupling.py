@@ -113,3 +113,19 @@ def test_bad_input_raises() -> None:
         solve_substeps(MuscleModel(), IdealHold(0.0, 2e6), [0.001, 0.001], [1e5], 0.0)
     with pytest.raises(ModelError):
         substep_grid(0.0, 0.001)
+
+
+@pytest.mark.parametrize('mode, setpoint', [(LoadMode.FORCE, 300.0), (LoadMode.POSITION, 0.04),
+                                            (LoadMode.OFF, 0.0)])
+@pytest.mark.parametrize('force', [0.5, 50.0, 400.0, 3000.0])
+def test_drive_compliance_is_the_slope_of_its_contraction(mode: LoadMode, setpoint: float,
+                                                          force: float) -> None:
+    """dX/dF the Newton step uses equals the finite difference of X(F) on the piece the force
+    falls on (central, 1e-4 N), and the pair comes from one evaluation."""
+    drive = _drive(mode, setpoint, 0.04)
+    drive.prepare(0.005)
+    x, c = drive.contraction_and_compliance(force)
+    assert x == drive.contraction(force)
+    h = 1e-4
+    slope = (drive.contraction(force + h) - drive.contraction(force - h)) / (2 * h)
+    np.testing.assert_allclose(c, slope, rtol=1e-5, atol=1e-12)

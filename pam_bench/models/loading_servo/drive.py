@@ -242,26 +242,33 @@ class LoadingServoModel:
 
     def compliance(self, force_n: float) -> float:
         """dX/dF of the prepared sub-step at ``force_n`` (the piece the force falls on), m/N."""
+        return self.contraction_and_compliance(force_n)[1]
+
+    def contraction_and_compliance(self, force_n: float) -> tuple[float, float]:
+        """(X(F) m, dX/dF m/N) of the prepared sub-step at ``force_n``: ``contraction`` and
+        ``compliance`` in one evaluation (the coupled solve asks for both at every iterate)."""
         p = self.p
         if self._holder is not None:
-            return self._holder.compliance(force_n)
-        assert self._prep is not None, 'prepare() first'
+            return self._holder.contraction_and_compliance(force_n)
+        prep = self._prep
+        assert prep is not None, 'prepare() first'
         phi, w, _, _, sat = self._end(force_n)
-        x = self.r * (phi + self.play(force_n)) + force_n / p.belt_stiffness_n_per_m
-        if x <= p.travel_min_m or x >= p.travel_max_m:
-            return 0.0
-        d, den, t1 = self._prep.d, self._prep.den, self._prep.t1
-        if abs(w) >= p.speed_limit_rad_s:
-            dw = 0.0
+        bf = p.backlash_force_n
+        a = force_n / bf
+        x = self.r * (phi + self.half_play * (1.0 if a > 1.0 else (-1.0 if a < -1.0 else a))) \
+            + force_n / p.belt_stiffness_n_per_m
+        if x <= p.travel_min_m:
+            return p.travel_min_m, 0.0
+        if x >= p.travel_max_m:
+            return p.travel_max_m, 0.0
+        if abs(w) >= p.speed_limit_rad_s or (prep.w_position is not None and not sat):
+            dw = 0.0                                # at the speed limit; position: compensated
         elif sat:
-            dw = d / p.inertia_kg_m2 * self.r / den
-        elif self._prep.w_position is not None:    # position: the load is compensated
-            dw = 0.0
+            dw = prep.d / p.inertia_kg_m2 * self.r / prep.den
         else:
-            dw = d / p.inertia_kg_m2 * (self.r - t1) / den
-        play = (self.half_play / p.backlash_force_n
-                if abs(force_n) < p.backlash_force_n else 0.0)
-        return self.r * (d * dw + play) + 1.0 / p.belt_stiffness_n_per_m
+            dw = prep.d / p.inertia_kg_m2 * (self.r - prep.t1) / prep.den
+        play = self.half_play / bf if abs(force_n) < bf else 0.0
+        return x, self.r * (prep.d * dw + play) + 1.0 / p.belt_stiffness_n_per_m
 
     def commit(self, force_n: float) -> ServoOutput:
         """Keep the prepared sub-step with the muscle force ``force_n`` (N) at its end."""

@@ -48,6 +48,10 @@ class IdealHolder:
         return (1.0 / p.belt_stiffness_n_per_m if self.drive.mode == LoadMode.POSITION
                 else IDEAL_FORCE_COMPLIANCE_M_PER_N)
 
+    def contraction_and_compliance(self, force_n: float) -> tuple[float, float]:
+        """(X(F) m, dX/dF m/N)."""
+        return self.contraction(force_n), self.compliance(force_n)
+
     def commit(self, force_n: float) -> float:
         """Keep the sub-step: the drive's angle, rate and torque follow the held end; returns
         the contraction, m."""
@@ -79,6 +83,10 @@ class IdealHold:
     def compliance(self, force_n: float) -> float:
         """1 / k_b, m/N."""
         return 1.0 / self.k_b
+
+    def contraction_and_compliance(self, force_n: float) -> tuple[float, float]:
+        """(X(F) m, dX/dF m/N)."""
+        return self.x0 + force_n / self.k_b, 1.0 / self.k_b
 
     def commit(self, force_n: float) -> None:
         """Nothing to keep."""
