@@ -12,8 +12,9 @@ equation fixes the sub-step:
 g is non-increasing in F (the muscle's force falls as its end contracts, the end contracts as
 the force grows) with g(0) >= 0 and g(F_hi) <= 0 for F_hi = F_m(p_+, X(0)), so it has one root
 in [0, F_hi]. It is found by Newton's method on the tangent g' = -K X'(F) - 1 (K = -dF_m/dx),
-kept inside the shrinking bracket (bisection when a step leaves it): the friction is
-piecewise linear, so one or two iterations are usual. The muscle keeps the friction state of
+started at the previous sub-step's force and kept inside the shrinking bracket (bisection when
+a step leaves it; F_hi itself is evaluated only when a step leaves a bracket still open above or
+untried at 0): the friction is piecewise linear, so two or three evaluations are usual. The muscle keeps the friction state of
 the evaluation at the root, the holder keeps its sub-step with that force; a holder that only
 replays the forces (the loading-servo node) reaches the same state bit for bit.
 
