@@ -14,9 +14,10 @@ the force grows) with g(0) >= 0 and g(F_hi) <= 0 for F_hi = F_m(p_+, X(0)), so i
 in [0, F_hi]. It is found by Newton's method on the tangent g' = -K X'(F) - 1 (K = -dF_m/dx),
 started at the previous sub-step's force and kept inside the shrinking bracket (bisection when
 a step leaves it; F_hi itself is evaluated only when a step leaves a bracket still open above or
-untried at 0): the friction is piecewise linear, so two or three evaluations are usual. The muscle keeps the friction state of
-the evaluation at the root, the holder keeps its sub-step with that force; a holder that only
-replays the forces (the loading-servo node) reaches the same state bit for bit.
+untried at 0): the friction is piecewise linear, so two or three evaluations are usual. The
+muscle keeps the friction state of the evaluation at the root, the holder keeps its sub-step
+with that force; a holder that only replays the forces (the loading-servo node) reaches the
+same state bit for bit.
 
 Solving the mechanical coupling inside every sub-step is what lets the devices exchange
 messages only once per exchange step (seconds), not once per millisecond: the exchange

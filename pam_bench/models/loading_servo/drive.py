@@ -119,7 +119,8 @@ class LoadingServoModel:
         self.torque = 0.0
         self.saturated = False
         self._prep: SubStep | None = None
-        self._end_memo: tuple[object, ...] = (None,)
+        self._end_key: tuple[object, ...] = ()
+        self._end_out = (0.0, 0.0, 0.0, 0.0, False)
         self._holder = IdealHolder(self) if not self.p.dynamics else None
 
     # --- commands and state -------------------------------------------------------------
@@ -204,9 +205,8 @@ class LoadingServoModel:
         prep = self._prep
         assert prep is not None, 'prepare() first'
         key = (prep, f, self.phi, self.w, self.integral)
-        memo = self._end_memo
-        if memo[0] is prep and memo[:5] == key:
-            return memo[5]  # type: ignore[return-value]
+        if key == self._end_key:
+            return self._end_out
         d, den, t0, t1, i0, i1, i_lim, ki, w_pos = prep
         p, r, j = self.p, self.r, self.p.inertia_kg_m2
         tau = t0 + t1 * f
@@ -227,7 +227,7 @@ class LoadingServoModel:
         elif w < -wm:
             w = -wm
         out = (self.phi + d * w, w, i_new, tau, sat)
-        self._end_memo = (*key, out)
+        self._end_key, self._end_out = key, out
         return out
 
     def contraction(self, force_n: float) -> float:
@@ -270,8 +270,9 @@ class LoadingServoModel:
         play = self.half_play / bf if abs(force_n) < bf else 0.0
         return x, self.r * (prep.d * dw + play) + 1.0 / p.belt_stiffness_n_per_m
 
-    def commit(self, force_n: float) -> ServoOutput:
-        """Keep the prepared sub-step with the muscle force ``force_n`` (N) at its end."""
+    def commit(self, force_n: float) -> None:
+        """Keep the prepared sub-step with the muscle force ``force_n`` (N) at its end
+        (``output`` then tells where it left the drive)."""
         p = self.p
         if self._holder is not None:
             x = self._holder.commit(force_n)
@@ -287,7 +288,10 @@ class LoadingServoModel:
         self.force_n = force_n
         self.contraction_m = x
         self.encoder_rad = self.quantised(self.angle)
-        return ServoOutput(self.angle, self.w, x, self.torque, self.saturated)
+
+    def output(self) -> ServoOutput:
+        """Pulley angle and rate, muscle end, torque and saturation of the kept state."""
+        return ServoOutput(self.angle, self.w, self.contraction_m, self.torque, self.saturated)
 
     def replay(self, steps_s: list[float], forces_n: list[float]) -> ServoOutput:
         """Follow the sub-steps a coupled solve took: lengths (s) and end forces (N).
@@ -302,5 +306,5 @@ class LoadingServoModel:
             if not math.isfinite(f):
                 raise ModelError(f'muscle force {f!r} is not finite')
             self.prepare(d)
-            out = self.commit(f)
-        return out
+            self.commit(f)
+        return self.output()
