@@ -12,6 +12,8 @@ over its own sub-steps with the latest valve pressure held and the latest drive 
 
 from __future__ import annotations
 
+import math
+
 from typing import Any
 
 from pam_bench_interfaces.msg import DriveLaw, MuscleSamples, MuscleState, PressureSamples
@@ -83,10 +85,11 @@ class MuscleSim(BenchNode):
         """Solve the muscle with its holder over the valve's sub-steps; publish the samples."""
         samples: PressureSamples = inputs[self.p_topic]
         steps, pressures = list(samples.step), list(samples.pressure)
-        for i, p in enumerate(pressures):
-            if not self.finite(p):
-                self.reject('muscle pressure (last valid held)', p)
-                pressures[i] = pressures[i - 1] if i else self.pressure_pa
+        if not all(map(math.isfinite, pressures)):       # (floats: a float64[] field)
+            for i, p in enumerate(pressures):
+                if not self.finite(p):
+                    self.reject('muscle pressure (last valid held)', p)
+                    pressures[i] = pressures[i - 1] if i else self.pressure_pa
         holder = self._holder(inputs[self.law_topic])
         if not self._mounted:                 # mounted slack, where the holder puts the end
             holder.prepare(steps[0])

@@ -302,9 +302,10 @@ class LoadingServoModel:
         if not steps_s or len(steps_s) != len(forces_n):
             raise ModelError(f'drive replay needs as many forces as sub-steps, got '
                              f'{len(forces_n)} forces for {len(steps_s)} sub-steps')
+        if not all(map(math.isfinite, forces_n)):
+            bad = next(f for f in forces_n if not math.isfinite(f))
+            raise ModelError(f'muscle force {bad!r} is not finite')
         for d, f in zip(steps_s, forces_n, strict=True):
-            if not math.isfinite(f):
-                raise ModelError(f'muscle force {f!r} is not finite')
             self.prepare(d)
             self.commit(f)
         return self.output()
