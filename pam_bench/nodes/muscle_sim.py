@@ -13,7 +13,6 @@ over its own sub-steps with the latest valve pressure held and the latest drive 
 from __future__ import annotations
 
 import math
-
 from typing import Any
 
 from pam_bench_interfaces.msg import DriveLaw, MuscleSamples, MuscleState, PressureSamples
