@@ -16,6 +16,28 @@ import time
 __all__ = ['pingpong_rate', 'pong_main', 'fanout_rate', 'fanout_echo_main']
 
 
+def _start_helpers(main: str, count: int) -> list[subprocess.Popen]:
+    """``count`` processes running this module's ``main`` on the run's ROS environment
+    (``ros_env``: loopback discovery, a private domain), which this process joins too."""
+    import os
+
+    from pam_bench.bringup.runner import ros_env
+
+    env = ros_env()
+    procs = [subprocess.Popen([sys.executable, '-c', f'from pam_bench.benchmarks.pingpong '
+                               f'import {main}; {main}()'], env=env) for _ in range(count)]
+    os.environ.update({k: env[k] for k in ('ROS_DOMAIN_ID', 'ROS_AUTOMATIC_DISCOVERY_RANGE')})
+    return procs
+
+
+def _stop(procs: list[subprocess.Popen]) -> None:
+    """Terminate the helpers and wait for them."""
+    for p in procs:
+        p.terminate()
+    for p in procs:
+        p.wait(timeout=10)
+
+
 def pong_main() -> None:
     """Echo every /pp/ping on /pp/pong until shut down."""
     import rclpy
@@ -42,15 +64,9 @@ def pingpong_rate(count: int = 2000, warmup: int = 100) -> float:
     import rclpy
     from rosgraph_msgs.msg import Clock
 
-    from pam_bench.bringup.runner import ros_env
     from pam_bench.nodes.base import RELIABLE
 
-    env = ros_env()
-    proc = subprocess.Popen([sys.executable, '-c',
-                             'from pam_bench.benchmarks.pingpong import pong_main; pong_main()'],
-                            env=env)
-    import os
-    os.environ.update({k: env[k] for k in ('ROS_DOMAIN_ID', 'ROS_AUTOMATIC_DISCOVERY_RANGE')})
+    proc, = _start_helpers('pong_main', 1)
     ctx = rclpy.Context()
     rclpy.init(context=ctx)
     node = rclpy.create_node('ping', context=ctx)
@@ -83,8 +99,7 @@ def pingpong_rate(count: int = 2000, warmup: int = 100) -> float:
     finally:
         node.destroy_node()
         rclpy.try_shutdown(context=ctx)
-        proc.terminate()
-        proc.wait(timeout=10)
+        _stop([proc])
     if not state['t1']:
         raise RuntimeError('ping-pong did not complete')
     return count / (state['t1'] - state['t0'])
@@ -126,20 +141,13 @@ def fanout_rate(participants: int, count: int = 1000, warmup: int = 50) -> float
     Raises:
         RuntimeError: the participants never came up or the count was not reached.
     """
-    import os
-
     import rclpy
     from rosgraph_msgs.msg import Clock
 
-    from pam_bench.bringup.runner import ros_env
     from pam_bench.nodes.base import LOCKSTEP
     from pam_bench.nodes.process import lean_spin
 
-    env = ros_env()
-    procs = [subprocess.Popen([sys.executable, '-c', 'from pam_bench.benchmarks.pingpong '
-                               'import fanout_echo_main; fanout_echo_main()'], env=env)
-             for _ in range(participants)]
-    os.environ.update({k: env[k] for k in ('ROS_DOMAIN_ID', 'ROS_AUTOMATIC_DISCOVERY_RANGE')})
+    procs = _start_helpers('fanout_echo_main', participants)
     ctx = rclpy.Context()
     rclpy.init(context=ctx)
     node = rclpy.create_node('fanout_clock', context=ctx)
@@ -189,10 +197,7 @@ def fanout_rate(participants: int, count: int = 1000, warmup: int = 50) -> float
     finally:
         node.destroy_node()
         rclpy.try_shutdown(context=ctx)
-        for p in procs:
-            p.terminate()
-        for p in procs:
-            p.wait(timeout=10)
+        _stop(procs)
     if not state['t1']:
         raise RuntimeError('fan-out did not complete')
     return count / (state['t1'] - state['t0'])

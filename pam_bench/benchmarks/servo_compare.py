@@ -109,7 +109,8 @@ def compare_servo(out_dir: pathlib.Path, engine: str = 'numpy', scenes: list[str
                 print(f'{name}: {ctl.value} ({label}) ...', flush=True)
                 results[name, ctl] = one_run(engine, name, ctl, duration_s, tmp, one_process)
         else:
-            base = int(os.environ.get('ROS_DOMAIN_ID') or 1 + os.getpid() % 100)
+            from pam_bench.bringup.runner import ros_env
+            base = int(ros_env()['ROS_DOMAIN_ID'])
             doms = domains or [worker_domain(base, i) for i in range(jobs)]
             if len(set(doms)) < jobs:
                 raise ValueError(f'{jobs} jobs need {jobs} different ROS domains, got {doms}')

@@ -199,8 +199,8 @@ class LoadingServoModel:
     def _end(self, f: float) -> tuple[float, float, float, float, bool]:
         """(phi_+, w_+, I_+, tau_+, saturated) of the prepared sub-step for the force f.
 
-        The coupled solve asks for the same force up to three times (position, compliance,
-        commit): the last answer is kept with the prepared sub-step, state and force it is for.
+        The coupled solve asks for the same force twice (its last iterate, then the commit):
+        the last answer is kept with the prepared sub-step, state and force it is for.
         """
         prep = self._prep
         assert prep is not None, 'prepare() first'
@@ -233,12 +233,7 @@ class LoadingServoModel:
     def contraction(self, force_n: float) -> float:
         """X(F): where the prepared sub-step puts the muscle end if the muscle pulls with
         ``force_n`` (N) at its end, m. Continuous and non-decreasing in the force."""
-        p = self.p
-        if self._holder is not None:
-            return self._holder.contraction(force_n)
-        phi = self._end(force_n)[0]
-        x = self.r * (phi + self.play(force_n)) + force_n / p.belt_stiffness_n_per_m
-        return min(max(x, p.travel_min_m), p.travel_max_m)
+        return self.contraction_and_compliance(force_n)[0]
 
     def compliance(self, force_n: float) -> float:
         """dX/dF of the prepared sub-step at ``force_n`` (the piece the force falls on), m/N."""
@@ -253,10 +248,7 @@ class LoadingServoModel:
         prep = self._prep
         assert prep is not None, 'prepare() first'
         phi, w, _, _, sat = self._end(force_n)
-        bf = p.backlash_force_n
-        a = force_n / bf
-        x = self.r * (phi + self.half_play * (1.0 if a > 1.0 else (-1.0 if a < -1.0 else a))) \
-            + force_n / p.belt_stiffness_n_per_m
+        x = self.r * (phi + self.play(force_n)) + force_n / p.belt_stiffness_n_per_m
         if x <= p.travel_min_m:
             return p.travel_min_m, 0.0
         if x >= p.travel_max_m:
@@ -267,6 +259,7 @@ class LoadingServoModel:
             dw = prep.d / p.inertia_kg_m2 * self.r / prep.den
         else:
             dw = prep.d / p.inertia_kg_m2 * (self.r - prep.t1) / prep.den
+        bf = p.backlash_force_n
         play = self.half_play / bf if abs(force_n) < bf else 0.0
         return x, self.r * (prep.d * dw + play) + 1.0 / p.belt_stiffness_n_per_m
 
