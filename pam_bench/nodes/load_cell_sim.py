@@ -19,7 +19,7 @@ from pam_bench_interfaces.msg import MuscleSamples
 from pam_bench.config import topics
 from pam_bench.models.sensors import LoadCellModel, LoadCellParams
 from pam_bench.nodes.base import BenchNode
-from pam_bench.nodes.messages import time_of
+from pam_bench.nodes.messages import force_reading
 from pam_bench.nodes.process import run_node
 
 __all__ = ['LoadCellSim', 'main']
@@ -38,6 +38,7 @@ class LoadCellSim(BenchNode):
         self.model = LoadCellModel(params, seed=seed + zlib.crc32(name.encode()))
         self.topic = topics.muscle_samples(self.channel)
         self.force_n = 0.0
+        self.frame_id = f'load_cell_{self.channel}'
         self._was_saturated = False
         self.pub = self.create_step_publisher(WrenchStamped, topics.load_cell_force(self.channel))
         self.sync_input(MuscleSamples, self.topic, same_step=True)
@@ -72,11 +73,7 @@ class LoadCellSim(BenchNode):
             reported = self.faulty(f)             # injected faults (wall clock)
             if reported is None:
                 continue
-            msg = WrenchStamped()
-            msg.header.stamp = time_of(stamp)
-            msg.header.frame_id = f'load_cell_{self.channel}'
-            msg.wrench.force.x = reported
-            self.pub.publish(msg)
+            self.pub.publish(force_reading(stamp, self.frame_id, reported))
 
 
 def main(args: list[str] | None = None) -> None:

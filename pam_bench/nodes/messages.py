@@ -9,12 +9,14 @@ import struct
 from typing import Any
 
 from builtin_interfaces.msg import Time
+from geometry_msgs.msg import Vector3, Wrench, WrenchStamped
 from pam_bench_interfaces.msg import StepAck
+from std_msgs.msg import Header
 
 from pam_bench.models.lockstep import Ack, StopRequest
 
 __all__ = ['ns_of', 'stamp_of_cdr', 'stamp_of_msg', 'message_class', 'time_of', 'ack_message',
-           'ack_of']
+           'ack_of', 'force_reading']
 
 
 def ns_of(stamp: Time) -> int:
@@ -66,3 +68,41 @@ def time_of(ns: int) -> Time:
     """Integer nanoseconds as a ROS time stamp. The nodes of one process that stamp the same
     tick share one object (it is never changed after it is made)."""
     return Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+
+
+_NO_TORQUE = Vector3()
+_SLOTTED = all(f'_{name}' in cls.__slots__ for cls, names in (
+    (Time, ('sec', 'nanosec')), (Header, ('stamp', 'frame_id')), (Vector3, ('x', 'y', 'z')),
+    (Wrench, ('force', 'torque')), (WrenchStamped, ('header', 'wrench')))
+    for name in (*names, 'check_fields'))
+
+
+def force_reading(t_ns: int, frame_id: str, force_n: float) -> WrenchStamped:
+    """A load cell reading: WrenchStamped stamped ``t_ns`` (ns) with force.x = ``force_n`` (N)
+    and no torque (all receivers share one zero torque vector and must not change it).
+
+    A load cell in a 1 kHz record publishes one per sample. rosidl's keyword constructors
+    check every field of the five nested messages (about 7 us with the stamp); this one fills
+    their value slots directly (about 0.8 us), the way the constructors leave them, when the
+    generated classes have those slots.
+    """
+    if not _SLOTTED:
+        msg = WrenchStamped()
+        msg.header.stamp = time_of(t_ns)
+        msg.header.frame_id = frame_id
+        msg.wrench.force.x = force_n
+        return msg
+    new = object.__new__
+    t = new(Time)
+    t._sec, t._nanosec = divmod(t_ns, 1_000_000_000)
+    h = new(Header)
+    h._stamp, h._frame_id = t, frame_id
+    f = new(Vector3)
+    f._x, f._y, f._z = float(force_n), 0.0, 0.0
+    w = new(Wrench)
+    w._force, w._torque = f, _NO_TORQUE
+    msg = new(WrenchStamped)
+    msg._header, msg._wrench = h, w
+    t._check_fields = h._check_fields = f._check_fields = w._check_fields = False
+    msg._check_fields = False
+    return msg

@@ -38,6 +38,7 @@ from rosgraph_msgs.msg import Clock
 
 from pam_bench.analysis.baginfo import END_KEY, RUN_KEY
 from pam_bench.analysis.types import bench_typestore
+from pam_bench.nodes import cdr
 from pam_bench.nodes.base import BenchNode
 from pam_bench.nodes.intra import bus_subscription
 from pam_bench.nodes.messages import message_class, stamp_of_cdr, stamp_of_msg, time_of
@@ -246,10 +247,15 @@ class Recorder(BenchNode):
             self._write(topic, stamp_of_msg(data), self._cdr(topic, data))
 
     def _cdr(self, topic: str, msg: Any) -> bytes:
-        """CDR of a message object as DDS puts it on the wire. rclpy's serialisation aligns
-        for the elements of an empty sequence of 8-byte numbers even when it is the last field
-        and nothing follows; a reader wants at most 3 bytes of end padding. Such a message is
-        cut at its true end (measured by the bag's typestore) and padded to 4."""
+        """CDR of a message object as DDS puts it on the wire, from ``nodes.cdr``'s encoder of
+        its class where there is one. Else rclpy's serialisation, which aligns for the elements
+        of an empty sequence of 8-byte numbers even when it is the last field and nothing
+        follows, and leaves the end of its buffer as it was; a reader wants at most 3 bytes of
+        end padding. Such a message is cut at its true end (measured by the bag's typestore)
+        and padded to 4 (``cdr.ends_padded`` names the same messages)."""
+        enc = cdr.encoder(type(msg))
+        if enc is not None:
+            return enc(msg)
         raw = serialize_message(msg)
         rule = self._trim.get(topic)
         if rule is None:
@@ -267,7 +273,7 @@ class Recorder(BenchNode):
             return
         prev = t_ns - round(dt_s * 1e9)
         if '/clock' in self.connections:
-            self._write('/clock', prev, serialize_message(Clock(clock=time_of(prev))))
+            self._write('/clock', prev, self._cdr('/clock', Clock(clock=time_of(prev))))
         for topic in self.step_order:
             for data in inputs.get(topic, ()):
                 self._write_any(topic, data)

@@ -206,7 +206,10 @@ class SequencerNode(BenchNode):
     # --- inputs -------------------------------------------------------------------------
     def _update(self, topic: str, msg: Any) -> None:
         if isinstance(msg, list):                   # load-cell samples of one exchange
-            for m in msg:
+            if topic == self.cell_topic and msg:
+                self.samples += [(ns_of(m.header.stamp) * 1e-9, m.wrench.force.x)
+                                 for m in msg[:-1]]
+            for m in msg[-1:]:
                 self._update(topic, m)
             return
         if topic == self.cell_topic:
