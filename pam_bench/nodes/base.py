@@ -20,8 +20,9 @@ step 1 needs it like every later step.
 
 A message lost at start-up (a reader matched after the writer's first publish) would stall the
 lock-step: while a tick is not acknowledged the clock publishes it again every ``nudge_s``; a
-participant that already stepped to it publishes that step's outputs again (those of
-``create_step_publisher``) with its acknowledgement, and one still waiting for its inputs
+participant that already stepped to it publishes that step's outputs (those of
+``create_step_publisher``) and its step before's again with its acknowledgement (a lagged
+consumer, the recorder above all, needs the step before's), and one still waiting for its inputs
 publishes its previous step's outputs again (the t_0 outputs of ``on_start`` among them), which
 is what a consumer waiting on it may lack. Inputs are keyed by stamp, so a repeated message
 changes nothing.
@@ -115,6 +116,7 @@ class BenchNode(Node):
         self.stop_request: StopRequest | None = None      # sent with every acknowledgement
         self.max_next_step_s = 0.0        # longest next exchange step wanted (0: any)
         self._sent: list[tuple[Callable[[Any], None], Any]] = []   # this step's outputs
+        self._sent_before: list[tuple[Callable[[Any], None], Any]] = []   # the step before's
         self._bus = intra.current()
         self._fqn = self.get_fully_qualified_name()
         self._diag_pub = bus_publisher(self, DiagnosticArray, topics.DIAGNOSTICS, RELIABLE)
@@ -316,7 +318,7 @@ class BenchNode(Node):
         t = ns_of(msg.clock)
         if self._last_ns is not None and t <= self._last_ns:
             if t == self._last_ns:        # the clock repeats t_0 until all are ready, and any
-                for send, out in self._sent:      # tick not acknowledged in time
+                for send, out in self._sent_before + self._sent:   # tick not acknowledged
                     send(out)
                 self._ack(t)
             return
@@ -356,7 +358,7 @@ class BenchNode(Node):
                                  if isinstance(val, list) else deserialize_message(val, cls))
         prune(self._sync, self._specs, prev, t)
         self._pending_ns = None
-        self._sent = []
+        self._sent_before, self._sent = self._sent, []
         self._prev_prev_ns = prev
         self._last_ns = t
         self._step_index += 1
