@@ -47,3 +47,23 @@ def test_render_opens_with_key_results_and_includes_long_runs(tmp_path: pathlib.
     for key, _ in SECTIONS:
         assert (f"## {methods()[key]['title']}" in heads) == bool(report.get(key)), key
     assert (tmp_path / 'bench_work_precision.png').exists()
+
+
+def test_best_case_of_separate_processes_adds_the_no_work_floor_and_the_work() -> None:
+    """1 / (1 / no-work rate + 1 / composed rate / cores): 7 participants at 1000/s and a
+    composed demo at 2000/s on 2 cores give 1 / (1 ms + 0.25 ms) = 800/s."""
+    from pam_bench.benchmarks.report import _best_case
+
+    def row(layout: str, rate: float) -> dict[str, object]:
+        return {'scene': 'demo', 'layout': layout, 'sim_s': 10.0, 'exchange_steps': 1000,
+                'lockstep_rate_steps_per_s': rate}
+
+    r = {'machine': {'cpus': 2}, 'layouts': {
+        'pingpong_round_trips_per_s': 2000.0, 'fanout_exchanges_per_s': {'7': 1000.0},
+        'rows': [row('one process', 2000.0), row('separate processes', 300.0)]}}
+    text = ' '.join(_best_case(r))
+    assert 'demo 800 exchanges/s (8.00x real time, 0.40 of the ping-pong, measured 300/s)' \
+        in text
+    assert 'servo_sin_t' not in text                        # no row of it: left out
+    r['layouts']['fanout_exchanges_per_s'] = {}
+    assert _best_case(r) == []
