@@ -112,6 +112,9 @@ class TorqueServoNode(BenchNode):
                                  RELIABLE)
         if not self.lockstep:
             self.create_service(Trigger, topics.SERVO_RESET, self._on_reset)
+        # in lock-step the node has subscriptions only (no timer, no service): it spins on
+        # nodes.process.lean_spin, which costs a fraction of rclpy's executor per message
+        self.LEAN_SPIN = self.lockstep
         if self.lockstep:
             for tp in self.cell_topics:
                 self.sync_input(WrenchStamped, tp)
