@@ -48,7 +48,8 @@ class RunResult:
     wall_s: float = 0.0
     rate: float = 0.0
     summary: str = ''
-    stats: dict[str, Any] = dataclasses.field(default_factory=dict)   # wall clock: per node
+    # wall clock: per node; one process: 'deliveries' (messages to in-process subscriptions)
+    stats: dict[str, Any] = dataclasses.field(default_factory=dict)
 
 
 def ros_env(domain_id: int | None = None, discovery: str = 'LOCALHOST') -> dict[str, str]:
@@ -447,7 +448,9 @@ def _run_in_process(scene: Scene, params: dict[str, Any], domain_id: int | None,
         wall = time.monotonic() - t0
         k = getattr(clock, 'k', 0)
         return RunResult(code, k, k * getattr(clock, 'step_s', 0.0), wall, k / wall)
-    return _result(summary, code)
+    res = _result(summary, code)
+    res.stats['deliveries'] = bus.deliveries      # what separate processes would send by DDS
+    return res
 
 
 def flatten(d: dict[str, Any], prefix: str = '') -> dict[str, Any]:

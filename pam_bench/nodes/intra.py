@@ -52,8 +52,10 @@ class BusPublisher:
         outside listens. With ``to_msg``, ``msg`` may be a plain object (cheaper to build than
         a message) and ``to_msg(msg)`` is what goes on DDS."""
         queue = self.bus.queue
-        for cb in self._subs:
+        subs = self._subs
+        for cb in subs:
             queue.append((cb, msg))
+        self.bus.deliveries += len(subs)
         if self.external:
             self.dds.publish(msg if to_msg is None else to_msg(msg))
 
@@ -69,6 +71,7 @@ class IntraProcessBus:
         self._subs: dict[str, list[Callback]] = collections.defaultdict(list)
         self._publishers: list[BusPublisher] = []
         self.queue: collections.deque[tuple[Callback, Any]] = collections.deque()
+        self.deliveries = 0         # messages handed to in-process subscriptions so far
 
     def subscribers(self, topic: str) -> list[Callback]:
         """The live list of in-process callbacks of ``topic`` (full name)."""

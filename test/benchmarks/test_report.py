@@ -50,8 +50,9 @@ def test_render_opens_with_key_results_and_includes_long_runs(tmp_path: pathlib.
 
 
 def test_best_case_of_separate_processes_adds_the_no_work_floor_and_the_work() -> None:
-    """1 / (1 / no-work rate + 1 / composed rate / cores): 7 participants at 1000/s and a
-    composed demo at 2000/s on 2 cores give 1 / (1 ms + 0.25 ms) = 800/s."""
+    """Without a delivery count, 1 / (1 / no-work rate + 1 / composed rate / cores): 7
+    participants at 1000/s and a composed demo at 2000/s on 2 cores give 1 / (1 ms + 0.25 ms)
+    = 800/s; with one, each delivery costs what one of the no-work lock-step does."""
     from pam_bench.benchmarks.report import _best_case
 
     def row(layout: str, rate: float) -> dict[str, object]:
@@ -65,5 +66,10 @@ def test_best_case_of_separate_processes_adds_the_no_work_floor_and_the_work() -
     assert 'demo 800 exchanges/s (8.00x real time, 0.40 of the ping-pong, measured 300/s)' \
         in text
     assert 'servo_sin_t' not in text                        # no row of it: left out
+    # with the deliveries counted: 7 participants at 1000/s on 2 cores are 14 deliveries in
+    # 2 ms of CPU, 143 us each; 21 deliveries are 3 ms, 1.5 ms on 2 cores, plus 0.25 ms work
+    r['layouts']['rows'][0]['deliveries_per_exchange'] = 21.0
+    text = ' '.join(_best_case(r))
+    assert 'demo 21.0 deliveries at 143 us, 571 exchanges/s (5.71x real time, 0.29 of' in text
     r['layouts']['fanout_exchanges_per_s'] = {}
     assert _best_case(r) == []

@@ -32,6 +32,9 @@ def test_deliveries_are_queued_in_publish_order_and_drained_in_order() -> None:
     assert got == []                                   # queued, not called in place
     assert bus.drain(10) == 4
     assert got == [('a1', 1), ('a2', 1), ('a1', 2), ('a2', 2)]
+    assert bus.deliveries == 4                         # counted: one per subscriber
+    BusPublisher(bus, '/nobody', FakeDds()).publish(3)
+    assert bus.deliveries == 4
 
 
 def test_a_chain_of_replies_runs_in_one_loop_without_recursion() -> None:
