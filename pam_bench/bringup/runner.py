@@ -77,6 +77,23 @@ def _die_with_parent() -> None:
         pass
 
 
+def _batch_child() -> None:
+    """In a lock-step node process: ``_die_with_parent``, and the SCHED_BATCH policy.
+
+    A lock-step run is throughput work: no deadline, only the exchanges per second. With
+    more node processes than cores, the default policy lets every message wake-up preempt the
+    running process, and each preemption is a context switch the exchange pays for; SCHED_BATCH
+    (Linux, no privilege needed) keeps the nice level and drops that wake-up preemption
+    (BENCHMARKS.md, Long runs, "Lock-step processes under SCHED_BATCH"). Wall-clock runs keep
+    the default policy (or their SCHED_FIFO control loop).
+    """
+    _die_with_parent()
+    try:
+        os.sched_setscheduler(0, os.SCHED_BATCH, os.sched_param(0))
+    except (AttributeError, OSError):
+        pass
+
+
 def _result(summary: RunSummary | None, code: int) -> RunResult:
     if summary is None:
         return RunResult(code)
@@ -170,6 +187,8 @@ def _run_processes(scene: Scene, params: dict[str, Any], domain_id: int | None,
         with open(pfile, 'w', encoding='utf-8') as fh:
             yaml.safe_dump(params, fh)
         log = open(os.path.join(tmp, 'nodes.log'), 'w+', encoding='utf-8')
+        paced = bool(params['sim_clock']['ros__parameters'].get('realtime'))
+        child = _die_with_parent if paced else _batch_child     # paced: wake-ups matter
         try:
             order = [n for n in scene.nodes if n != 'recorder']
             if 'recorder' in scene.nodes:
@@ -178,12 +197,12 @@ def _run_processes(scene: Scene, params: dict[str, Any], domain_id: int | None,
                 procs[name] = subprocess.Popen(_in_netns(name, netns, [
                     sys.executable, '-m', NODE_TYPES[name].module, '--ros-args',
                     '-r', f'__node:={name}', '--params-file', pfile]),
-                    env=env, stdout=log, stderr=subprocess.STDOUT, preexec_fn=_die_with_parent)
+                    env=env, stdout=log, stderr=subprocess.STDOUT, preexec_fn=child)
             clock = subprocess.Popen(_in_netns('sim_clock', netns, [
                 sys.executable, '-m', NODE_TYPES['sim_clock'].module, '--ros-args',
                 '-r', '__node:=sim_clock', '--params-file', pfile]),
                 env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                preexec_fn=_die_with_parent)
+                preexec_fn=child)
             watcher = threading.Thread(target=_watch, args=(dict(procs), clock, failed),
                                        daemon=True)
             watcher.start()
