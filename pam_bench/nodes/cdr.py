@@ -128,9 +128,10 @@ class _Gen:
             self.lines.append(f'{ind}for s in {v}:')
             self.lines.append(f'{ind}    _string(b, s)')
         elif '/' in base:
+            m = f'm{len(self.lines)}'    # a name per loop: a nested loop must not rebind it
             self.lines.append(f'{ind}_count(b, len({v}))')
-            self.lines.append(f'{ind}for m in {v}:')
-            self.message(_class_of(base), 'm', ind + '    ')
+            self.lines.append(f'{ind}for {m} in {v}:')
+            self.message(_class_of(base), m, ind + '    ')
             self.flush(ind + '    ')
         else:
             raise _Unsupported(kind)
