@@ -1,4 +1,4 @@
-"""The identified inverse model as one YAML file (read by ``pam_bench.models.inverse``).
+"""The identified inverse model as one YAML file (read by ``pam_bench.control.inverse``).
 
 Dynamic part: the b, c, d, F_a0 polynomials of the step-response fits (004 Eq. 2) and the
 working-point voltage u0 of the up steps they came from. Static part: per isometric series the

@@ -16,12 +16,12 @@ from typing import Any
 import numpy as np
 
 from pam_bench.analysis.identify import fit_step
+from pam_bench.control.torque_servo import ServoMode, Signal, SignalKind
 from pam_bench.models.loading_servo import LoadingServoParams, LoadMode
 from pam_bench.models.muscle import MuscleParams
-from pam_bench.models.schedules import Direction, Reading
 from pam_bench.models.sensors import LoadCellParams
-from pam_bench.models.torque_servo import ServoMode, Signal, SignalKind
 from pam_bench.models.valve import ValveParams
+from pam_bench.protocol.schedules import Direction, Reading
 from pam_bench.twin.bench import SingleMuscleBench
 from pam_bench.twin.protocol_run import run_readings
 from pam_bench.twin.servo_bench import run_servo, tracking_metrics

@@ -50,11 +50,12 @@ def cause_of(filename: str, function: str) -> str:
         return 'message objects'
     if 'rclpy' in f:
         return 'DDS and executor'
-    if any(k in f for k in ('pam_bench/models/lockstep', 'pam_bench/nodes/base',
+    if any(k in f for k in ('pam_bench/sim/', 'pam_bench/nodes/base',
                             'pam_bench/nodes/intra', 'pam_bench/nodes/sim_clock',
                             'pam_bench/nodes/recorder')):
         return 'lock-step bookkeeping'
-    if 'pam_bench/models' in f or '/numpy/' in f or '/scipy/' in f:
+    if any(k in f for k in ('pam_bench/models', 'pam_bench/control', 'pam_bench/protocol',
+                            '/numpy/', '/scipy/')):
         return 'physics'
     if 'pam_bench/nodes' in f:
         return 'node glue'

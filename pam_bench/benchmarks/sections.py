@@ -22,7 +22,7 @@ from pam_bench.benchmarks.work_precision import work_precision  # noqa: E402
 from pam_bench.bringup.runner import run_scene  # noqa: E402
 from pam_bench.config.paths import config_dir  # noqa: E402
 from pam_bench.config.scene import load_scene  # noqa: E402
-from pam_bench.models.inverse import InverseModel  # noqa: E402
+from pam_bench.control.inverse import InverseModel  # noqa: E402
 from pam_bench.verify.reference_check import FULL_SCALE_N  # noqa: E402
 
 __all__ = ['measure', 'plot_work_precision']

@@ -26,14 +26,14 @@ import numpy as np  # noqa: E402
 
 from pam_bench.analysis.servo_bag import read_servo_states  # noqa: E402
 from pam_bench.config.scene import Scene, load_scene, scene_names  # noqa: E402
-from pam_bench.models.inverse import InverseModel  # noqa: E402
-from pam_bench.models.params import from_mapping  # noqa: E402
-from pam_bench.models.torque_servo import (  # noqa: E402
+from pam_bench.control.inverse import InverseModel  # noqa: E402
+from pam_bench.control.torque_servo import (  # noqa: E402
     ServoMode,
     Signal,
     SignalKind,
     TorqueServoParams,
 )
+from pam_bench.models.params import from_mapping  # noqa: E402
 from pam_bench.twin.servo_bench import ServoRun, run_servo, tracking_metrics  # noqa: E402
 
 __all__ = ['servo_scenes', 'compare_servo', 'scene_servo_setup', 'one_run', 'worker_domain']

@@ -193,7 +193,7 @@ def drive_rows(steps: list[float]) -> list[dict[str, Any]]:
 
 def torque_loop_rows(steps: list[float], inverse: Any) -> list[dict[str, Any]]:
     """Closed torque loop at exchange step h against h = 0.1 ms (module docstring)."""
-    from pam_bench.models.torque_servo import ServoMode, Signal, SignalKind
+    from pam_bench.control.torque_servo import ServoMode, Signal, SignalKind
     from pam_bench.twin.servo_bench import run_servo
     sig = Signal(SignalKind.SINE, 5.0, 1.0)
     dur = 3.0

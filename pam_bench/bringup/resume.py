@@ -7,7 +7,7 @@ import pathlib
 from pam_bench.analysis.bagread import read_bags
 from pam_bench.config.protocols import protocol_schedule
 from pam_bench.config.scene import Scene
-from pam_bench.models.schedules import resume_index
+from pam_bench.protocol.schedules import resume_index
 
 __all__ = ['resume_reading']
 
@@ -18,7 +18,7 @@ def resume_reading(scene: Scene, bag: str | pathlib.Path) -> tuple[int, int]:
     The points in ``bag`` (a run of the same scene, complete or cut short; its last bag closes
     valid whatever stopped it) mark the readings taken; the run restarts at the first reading
     the bag lacks (the sequencer first takes the bench along that series' path to it:
-    ``models.schedules.with_approach``).
+    ``protocol.schedules.with_approach``).
 
     Raises:
         analysis.bagread.BagError: the bag cannot be read or holds no points.

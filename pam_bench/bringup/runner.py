@@ -33,7 +33,7 @@ from typing import Any
 import yaml
 
 from pam_bench.config.scene import NODE_TYPES, Scene
-from pam_bench.models.lockstep import RunSummary
+from pam_bench.sim.lockstep import RunSummary
 
 __all__ = ['RunResult', 'ros_env', 'run_scene', 'node_error']
 

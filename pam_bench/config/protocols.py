@@ -14,7 +14,7 @@ from typing import Any
 from pam_bench.config.paths import config_dir
 from pam_bench.config.yaml_io import ConfigError, parse_yaml, read_yaml
 from pam_bench.models.params import hint
-from pam_bench.models.schedules import Reading, check_protocol, schedule_from_config
+from pam_bench.protocol.schedules import Reading, check_protocol, schedule_from_config
 
 __all__ = ['load_protocols', 'protocol_config', 'protocol_schedule', 'parse_overrides']
 
@@ -58,6 +58,6 @@ def protocol_config(name: str, overrides: Mapping[str, Any] | None = None,
 def protocol_schedule(name: str, overrides: Mapping[str, Any] | None = None,
                       table: Mapping[str, Any] | None = None) -> tuple[list[Reading], float]:
     """Readings and settle time (s) of protocol ``name`` with ``overrides`` (see
-    ``models.schedules.schedule_from_config``)."""
+    ``protocol.schedules.schedule_from_config``)."""
     table = load_protocols() if table is None else table
     return schedule_from_config(name, protocol_config(name, overrides, table), table)

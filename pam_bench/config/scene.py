@@ -6,7 +6,7 @@ longest exchange step: the devices ask for shorter ones where they need them), `
 sub-step of the valve's pressure samples, which the muscle and the drive are solved on inside
 every exchange; 5 ms by default), optional ``record_samples`` (record those sub-step samples,
 ``sim/valve_N/samples`` and ``sim/muscle_N/samples``, too; false by default: they are most of
-a bag), optional ``faults`` (injected faults, wall clock only: ``models.faults``), optional
+a bag), optional ``faults`` (injected faults, wall clock only: ``sim.faults``), optional
 ``parameters`` (per node, merged over
 config/bench.yaml) and optional ``protocol_overrides`` (merged over the protocol's entry in
 config/protocols.yaml). ``node_parameters`` returns the parameters of every node of the run in
@@ -26,16 +26,16 @@ from pam_bench.config.paths import config_dir, scenes_dir
 from pam_bench.config.protocols import protocol_config
 from pam_bench.config.topics import EVENT_TOPICS, step_topics
 from pam_bench.config.yaml_io import ConfigError, read_yaml
+from pam_bench.control.torque_servo import TorqueServoParams
 from pam_bench.models.constants import SUB_STEP_S
 from pam_bench.models.errors import ParameterError
-from pam_bench.models.faults import Fault, parse_faults
 from pam_bench.models.loading_servo import LoadingServoParams
 from pam_bench.models.muscle import MuscleParams
 from pam_bench.models.params import check_known, from_mapping, hint, nearest
 from pam_bench.models.sensors import EncoderParams, LoadCellParams
 from pam_bench.models.straight_fibre_muscle import StraightFibreParams
-from pam_bench.models.torque_servo import TorqueServoParams
 from pam_bench.models.valve import ValveParams
+from pam_bench.sim.faults import Fault, parse_faults
 
 __all__ = ['NodeType', 'NODE_TYPES', 'Scene', 'load_scene', 'scene_names', 'SCENE_KEYS',
            'apply_overlay']
@@ -149,7 +149,7 @@ SCENE_KEYS: dict[str, tuple[type | tuple[type, ...], str]] = {
     'record_samples': (bool, 'true or false'),
     'parameters': (dict, 'a mapping node -> parameters'),
     'protocol_overrides': (dict, 'a mapping of protocol keys'),
-    'faults': (list, 'a list of faults (models.faults)'),
+    'faults': (list, 'a list of faults (sim.faults)'),
 }
 """Every key a scene file may hold: its type and how the error message names that type."""
 REQUIRED = ('nodes', 'exchange_step_s')

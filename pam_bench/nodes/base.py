@@ -1,6 +1,6 @@
 """Shared machinery of the bench nodes: typed parameters, diagnostics and the lock-step step.
 
-Lock-step (docs/design.md, "Time"; the rules are ``models.lockstep``): ``sim_clock`` publishes
+Lock-step (docs/design.md, "Time"; the rules are ``sim.lockstep``): ``sim_clock`` publishes
 /clock at t_k. A participant steps to t_k once it holds, for each of its synchronous inputs,
 the message stamped exactly t_(k-1) (every participant publishes every output at every step).
 It then publishes its outputs stamped t_k and a StepAck. Inputs are buffered by stamp, so a
@@ -67,12 +67,12 @@ from rosgraph_msgs.msg import Clock
 
 from pam_bench.config import topics
 from pam_bench.models.errors import ParameterError
-from pam_bench.models.faults import Fault, parse_faults, sensor_value
-from pam_bench.models.lockstep import Ack, InputSpec, StopRequest, prune, take_inputs
 from pam_bench.models.params import ParamInfo, describe, from_mapping, param_infos
 from pam_bench.nodes import intra
 from pam_bench.nodes.intra import bus_publisher, bus_subscription
 from pam_bench.nodes.messages import ack_message, ns_of, stamp_of_cdr, stamp_of_msg, time_of
+from pam_bench.sim.faults import Fault, parse_faults, sensor_value
+from pam_bench.sim.lockstep import Ack, InputSpec, StopRequest, prune, take_inputs
 
 __all__ = ['BenchNode', 'RELIABLE', 'LOCKSTEP', 'DRIVER', 'SENSOR']
 
@@ -280,7 +280,7 @@ class BenchNode(Node):
         rate_hz = self.declare_typed('rate_hz', default_rate_hz, 'update rate on a wall clock '
                                      '(lockstep false)', 'Hz', 1.0, 10000.0)
         text = self.declare_typed('faults_yaml', '', 'wall clock: faults injected into this '
-                                  "device (YAML list, models.faults; from a scene's faults)")
+                                  "device (YAML list, sim.faults; from a scene's faults)")
         self.faults = parse_faults(yaml.safe_load(text) if text else [], [self.get_name()])
         if self.faults and self.lockstep:
             raise ParameterError(f'{self.get_name()}: faults run on a wall clock (lockstep '

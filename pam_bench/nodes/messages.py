@@ -1,5 +1,5 @@
 """Message helpers of the bench nodes: stamps as integer nanoseconds, message classes by name,
-acknowledgements between their plain form (``models.lockstep.Ack``) and StepAck."""
+acknowledgements between their plain form (``sim.lockstep.Ack``) and StepAck."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from geometry_msgs.msg import Vector3, Wrench, WrenchStamped
 from pam_bench_interfaces.msg import StepAck
 from std_msgs.msg import Header
 
-from pam_bench.models.lockstep import Ack, StopRequest
+from pam_bench.sim.lockstep import Ack, StopRequest
 
 __all__ = ['ns_of', 'stamp_of_cdr', 'stamp_of_msg', 'message_class', 'time_of', 'ack_message',
            'ack_of', 'force_reading']

@@ -4,7 +4,7 @@ Reads ``load_cell_N/force``, ``encoder/joint_state`` and ``valve_N/pressure``; c
 ``valve_N/command`` and ``loading_servo/command`` at every tick; publishes one
 ``protocol/point`` at the end of every dwell, one ``protocol/step_response`` per recorded step,
 and ``protocol/status``. The protocol logic is the pure
-``pam_bench.models.protocols.Sequencer``; this node only ticks it.
+``pam_bench.protocol.sequencer.Sequencer``; this node only ticks it.
 
 Start: with ``autostart`` the protocol named by ``protocol`` begins at t_0; otherwise (and at
 any time when idle) a ``protocol/run`` RunProtocol goal starts one, with optional YAML
@@ -50,8 +50,12 @@ from pam_bench.config import topics
 from pam_bench.config.protocols import load_protocols, parse_overrides, protocol_schedule
 from pam_bench.models.constants import ATMOSPHERE_PA, LOAD_CELL_RANGE_N, PULLEY_PITCH_DIAMETER_M
 from pam_bench.models.errors import ParameterError
-from pam_bench.models.lockstep import EventStepRequest, StopRequest
-from pam_bench.models.protocols import (
+from pam_bench.nodes.base import RELIABLE, SENSOR, BenchNode
+from pam_bench.nodes.intra import bus_publisher
+from pam_bench.nodes.messages import ns_of, time_of
+from pam_bench.nodes.process import run_node
+from pam_bench.protocol.schedules import with_approach
+from pam_bench.protocol.sequencer import (
     COMMAND_STEP_S,
     RECORD_EXCHANGE_S,
     Limits,
@@ -61,12 +65,8 @@ from pam_bench.models.protocols import (
     Sequencer,
     StepRecord,
 )
-from pam_bench.models.schedules import with_approach
-from pam_bench.models.suspenders import Suspenders, parse_rules
-from pam_bench.nodes.base import RELIABLE, SENSOR, BenchNode
-from pam_bench.nodes.intra import bus_publisher
-from pam_bench.nodes.messages import ns_of, time_of
-from pam_bench.nodes.process import run_node
+from pam_bench.protocol.suspenders import Suspenders, parse_rules
+from pam_bench.sim.lockstep import EventStepRequest, StopRequest
 
 __all__ = ['SequencerNode', 'main']
 
@@ -112,7 +112,7 @@ class SequencerNode(BenchNode):
         self.pause_vent = pause_action == 'vent'
         self.suspenders = Suspenders(parse_rules(yaml.safe_load(d(
             'suspenders_yaml', '', 'YAML list of suspenders: {input: force | contraction | '
-            'pressure, low, high, stale_s, resume_after_s} (models.suspenders)') or '') or []))
+            'pressure, low, high, stale_s, resume_after_s} (protocol.suspenders)') or '') or []))
         self.end_linger_s = d('end_linger_s', 0.5, 'without lock-step: time between the end '
                               'of the protocol and the exit of the node (stop_on_end)', 's',
                               0.0, 60.0)

@@ -10,7 +10,7 @@ protocol ends: in the ack itself, so the last step is the same in every run). A 
 at t_N + 1 ns lets every participant (the recorder above all) take in the data stamped t_N;
 once all have acknowledged it the clock writes its ``RunSummary`` as JSON to ``summary_file``
 (when set), prints it as one line and exits with the run's exit code. The rules (step
-negotiation, flush tick, stop request, states) are ``models.lockstep``. With ``realtime`` the
+negotiation, flush tick, stop request, states) are ``sim.lockstep``. With ``realtime`` the
 ticks are paced to the wall clock.
 """
 
@@ -28,7 +28,12 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
 from pam_bench.config import topics
-from pam_bench.models.lockstep import (
+from pam_bench.nodes.base import RELIABLE, BenchNode
+from pam_bench.nodes.intra import bus_publisher, bus_subscription
+from pam_bench.nodes.messages import ack_of, time_of
+from pam_bench.nodes.process import install_interrupt_handlers, lean_spin, start_node
+from pam_bench.nodes.profiling import profiled
+from pam_bench.sim.lockstep import (
     FLUSH_NS,
     ClockState,
     RunSummary,
@@ -37,11 +42,6 @@ from pam_bench.models.lockstep import (
     negotiate,
     request_ns,
 )
-from pam_bench.nodes.base import RELIABLE, BenchNode
-from pam_bench.nodes.intra import bus_publisher, bus_subscription
-from pam_bench.nodes.messages import ack_of, time_of
-from pam_bench.nodes.process import install_interrupt_handlers, lean_spin, start_node
-from pam_bench.nodes.profiling import profiled
 
 __all__ = ['SimClock', 'windowed_rate', 'ETA_WINDOW_S', 'main']
 

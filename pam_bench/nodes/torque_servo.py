@@ -33,15 +33,15 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
 from pam_bench.config import topics
-from pam_bench.models.errors import ParameterError
-from pam_bench.models.inverse import InverseModel
-from pam_bench.models.torque_servo import (
+from pam_bench.control.inverse import InverseModel
+from pam_bench.control.torque_servo import (
     ServoMode,
     Signal,
     SignalKind,
     TorqueServoController,
     TorqueServoParams,
 )
+from pam_bench.models.errors import ParameterError
 from pam_bench.nodes.base import RELIABLE, SENSOR, BenchNode
 from pam_bench.nodes.messages import ns_of, time_of
 from pam_bench.nodes.process import run_node

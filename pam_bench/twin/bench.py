@@ -29,10 +29,10 @@ from pam_bench.models.constants import SUB_STEP_S
 from pam_bench.models.coupling import solve_substeps, substep_grid
 from pam_bench.models.loading_servo import LoadingServoModel, LoadingServoParams, LoadMode
 from pam_bench.models.muscle import MuscleParams
-from pam_bench.models.protocols import COMMAND_STEP_S
 from pam_bench.models.sensors import EncoderModel, EncoderParams, LoadCellModel, LoadCellParams
 from pam_bench.models.straight_fibre_muscle import StraightFibreParams
 from pam_bench.models.valve import ValveModel, ValveParams, VolumeEvidence
+from pam_bench.protocol.sequencer import COMMAND_STEP_S
 
 __all__ = ['BenchState', 'SingleMuscleBench']
 

@@ -1,6 +1,6 @@
 """A protocol run on the numpy bench, tick for tick as the lock-step nodes run it.
 
-The sequencer's own state machine (``models.protocols.Sequencer``) drives the numpy bench
+The sequencer's own state machine (``protocol.sequencer.Sequencer``) drives the numpy bench
 (``twin.bench.SingleMuscleBench``) with the exchange steps the ROS sim clock would take: the
 scene's longest step, cut by the sequencer's requests (the next reading, ``command_step_s`` at
 every new reading or phase, at most ``record_exchange_s`` in a record) and by the valve's
@@ -22,9 +22,12 @@ from typing import Any
 from pam_bench.config.protocols import protocol_schedule
 from pam_bench.models.constants import SUB_STEP_S
 from pam_bench.models.loading_servo import LoadingServoParams
-from pam_bench.models.lockstep import EventStepRequest, negotiate
 from pam_bench.models.muscle import MuscleParams
-from pam_bench.models.protocols import (
+from pam_bench.models.sensors import LoadCellParams
+from pam_bench.models.straight_fibre_muscle import StraightFibreParams
+from pam_bench.models.valve import ValveParams
+from pam_bench.protocol.schedules import Reading
+from pam_bench.protocol.sequencer import (
     COMMAND_STEP_S,
     RECORD_EXCHANGE_S,
     Measurement,
@@ -33,10 +36,7 @@ from pam_bench.models.protocols import (
     Sequencer,
     StepRecord,
 )
-from pam_bench.models.schedules import Reading
-from pam_bench.models.sensors import LoadCellParams
-from pam_bench.models.straight_fibre_muscle import StraightFibreParams
-from pam_bench.models.valve import ValveParams
+from pam_bench.sim.lockstep import EventStepRequest, negotiate
 from pam_bench.twin.bench import SingleMuscleBench
 
 __all__ = ['TwinRun', 'run_readings', 'run_protocol']

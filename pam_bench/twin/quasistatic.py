@@ -28,9 +28,9 @@ from scipy.optimize import brentq
 from pam_bench.models.bench_muscle import make_muscle
 from pam_bench.models.loading_servo import LoadingServoParams, LoadMode
 from pam_bench.models.muscle import MuscleParams
-from pam_bench.models.schedules import Reading
 from pam_bench.models.straight_fibre_muscle import StraightFibreParams
 from pam_bench.models.valve import ValveModel, ValveParams
+from pam_bench.protocol.schedules import Reading
 
 __all__ = ['QuasiStaticBench', 'SettledReading', 'settle_schedule']
 

@@ -22,6 +22,12 @@ import dataclasses
 
 import numpy as np
 
+from pam_bench.control.torque_servo import (
+    ServoMode,
+    Signal,
+    TorqueServoController,
+    TorqueServoParams,
+)
 from pam_bench.models.coupling import solve_substeps
 from pam_bench.models.loading_servo import (
     IdealHold,
@@ -31,12 +37,6 @@ from pam_bench.models.loading_servo import (
 )
 from pam_bench.models.muscle import MuscleModel, MuscleParams
 from pam_bench.models.sensors import EncoderModel, LoadCellModel, LoadCellParams
-from pam_bench.models.torque_servo import (
-    ServoMode,
-    Signal,
-    TorqueServoController,
-    TorqueServoParams,
-)
 from pam_bench.models.valve import ValveModel, ValveParams
 
 __all__ = ['ServoRun', 'run_servo', 'tracking_metrics']

@@ -21,9 +21,9 @@ import numpy as np
 from pam_bench.models.constants import LOAD_CELL_RANGE_N, SUB_STEP_S
 from pam_bench.models.loading_servo import LoadingServoParams, LoadMode
 from pam_bench.models.muscle import MuscleParams
-from pam_bench.models.schedules import Direction, Reading
 from pam_bench.models.sensors import LoadCellParams
 from pam_bench.models.valve import ValveParams
+from pam_bench.protocol.schedules import Direction, Reading
 from pam_bench.twin.protocol_run import run_readings
 
 __all__ = ['FULL_SCALE_N', 'series_readings', 'run_against_twin', 'compare_run']

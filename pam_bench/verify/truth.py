@@ -44,8 +44,8 @@ from pam_bench.config.scene import load_scene
 from pam_bench.models.loading_servo import LoadingServoParams
 from pam_bench.models.muscle import MuscleParams
 from pam_bench.models.params import from_mapping
-from pam_bench.models.schedules import Reading
 from pam_bench.models.valve import ValveParams
+from pam_bench.protocol.schedules import Reading
 from pam_bench.twin.quasistatic import QuasiStaticBench, SettledReading
 
 __all__ = ['truth_summary', 'scene_schedule', 'scene_models', 'compare']

@@ -11,7 +11,7 @@ import pytest
 from pam_bench.analysis.bagread import BagError, read_bags
 from pam_bench.analysis.extract import extract
 from pam_bench.cli import main as cli
-from pam_bench.models.inverse import InverseModel
+from pam_bench.control.inverse import InverseModel
 from test.analysis.bags import write_bag
 from test.analysis.test_identify import synth
 
@@ -117,7 +117,7 @@ def test_polynomials_in_mm_and_m_agree() -> None:
     scaled z makes the coefficients identical, and both evaluate to the same value."""
     from pam_bench.analysis.extract import coefficient_polynomials
     from pam_bench.analysis.inverse_export import smoothing_polynomial
-    from pam_bench.models.inverse import Poly
+    from pam_bench.control.inverse import Poly
     x_mm = np.arange(0.0, 85.0, 5.0)
     y = 18.8 - 0.08 * x_mm + 3e-4 * x_mm ** 2 + 1e-7 * x_mm ** 5
     fits = [{'x_mm': x, 'direction': 'up', 'u1_V': 5.0, 'b': v, 'c': 1.0, 'd': 1.0,

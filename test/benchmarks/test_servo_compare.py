@@ -11,7 +11,7 @@ import pathlib
 import pytest
 
 from pam_bench.benchmarks.servo_compare import _worker_init, compare_servo, worker_domain
-from pam_bench.models.torque_servo import ServoMode
+from pam_bench.control.torque_servo import ServoMode
 from test.conftest import next_domain
 
 TIMING = ('wall_s', 'real_time_factor')

@@ -11,7 +11,7 @@ from pam_bench.analysis.bagwrite import write_bag
 from pam_bench.bringup.resume import resume_reading
 from pam_bench.config.protocols import protocol_schedule
 from pam_bench.config.scene import load_scene
-from pam_bench.models.schedules import with_approach
+from pam_bench.protocol.schedules import with_approach
 
 SCENE = load_scene('isometric_quick')
 READINGS, _ = protocol_schedule(SCENE.protocol)

@@ -9,7 +9,7 @@ import pytest
 
 from pam_bench.bringup.runner import run_scene
 from pam_bench.config.scene import load_scene
-from pam_bench.models.schedules import Direction
+from pam_bench.protocol.schedules import Direction
 from test.conftest import next_domain
 from test.helpers import bag_messages
 

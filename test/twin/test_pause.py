@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pam_bench.models.protocols import Phase
 from pam_bench.models.sensors import LoadCellParams
+from pam_bench.protocol.sequencer import Phase
 from pam_bench.twin.protocol_run import run_protocol
 
 OVERRIDES = {'x_m': [0.04, 0.04, 0.01], 'voltage_v': [0.0, 3.0, 1.0], 'dwell_s': 3.0}
@@ -52,7 +52,7 @@ def test_a_vented_pause_settles_again_and_still_takes_every_reading() -> None:
 @pytest.mark.parametrize('phase_before', [Phase.SETTLE, Phase.DWELL])
 def test_pause_and_resume_state_machine(phase_before: Phase) -> None:
     from pam_bench.config.protocols import protocol_schedule
-    from pam_bench.models.protocols import Measurement, Sequencer
+    from pam_bench.protocol.sequencer import Measurement, Sequencer
     readings, settle = protocol_schedule('isometric_quick', OVERRIDES)
     seq = Sequencer('isometric_quick', readings, settle)
     seq.start(0.0)

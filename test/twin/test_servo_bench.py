@@ -7,8 +7,8 @@ import pathlib
 import numpy as np
 import pytest
 
-from pam_bench.models.inverse import InverseModel
-from pam_bench.models.torque_servo import ServoMode, Signal, SignalKind
+from pam_bench.control.inverse import InverseModel
+from pam_bench.control.torque_servo import ServoMode, Signal, SignalKind
 from pam_bench.twin.servo_bench import run_servo, tracking_metrics
 
 MODEL = pathlib.Path(__file__).resolve().parents[2] / 'config' / 'inverse_model.yaml'

@@ -7,7 +7,7 @@ import math
 import pytest
 
 from pam_bench.models.errors import ParameterError
-from pam_bench.models.suspenders import Rule, Suspenders, parse_rules
+from pam_bench.protocol.suspenders import Rule, Suspenders, parse_rules
 
 
 @pytest.mark.parametrize('value, age, words', [

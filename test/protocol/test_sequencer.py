@@ -7,9 +7,9 @@ import pytest
 
 from pam_bench.models.errors import ParameterError
 from pam_bench.models.loading_servo import LoadMode
-from pam_bench.models.protocols import Measurement, Phase, Sequencer
-from pam_bench.models.schedules import schedule_from_config
-from test.models.test_schedules import QUICK_ISO, STEP
+from pam_bench.protocol.schedules import schedule_from_config
+from pam_bench.protocol.sequencer import Measurement, Phase, Sequencer
+from test.protocol.test_schedules import QUICK_ISO, STEP
 
 
 def test_sequencer_reads_after_each_dwell() -> None:

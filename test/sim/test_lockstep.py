@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from pam_bench.models.lockstep import (
+from pam_bench.sim.lockstep import (
     FLUSH_NS,
     MIN_STEP_NS,
     EventStepRequest,

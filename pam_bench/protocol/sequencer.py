@@ -13,8 +13,8 @@ import enum
 from pam_bench.models.constants import LOAD_CELL_RANGE_N
 from pam_bench.models.errors import ParameterError
 from pam_bench.models.loading_servo import LoadMode
-from pam_bench.models.protocol_io import Commands, Measurement, Point, RecordWindow, StepRecord
-from pam_bench.models.schedules import Reading
+from pam_bench.protocol.io import Commands, Measurement, Point, RecordWindow, StepRecord
+from pam_bench.protocol.schedules import Reading
 
 __all__ = ['Phase', 'Measurement', 'Limits', 'Point', 'StepRecord', 'Commands', 'Sequencer',
            'COMMAND_STEP_S', 'RECORD_EXCHANGE_S']

@@ -7,8 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from pam_bench.models.errors import ModelError
-from pam_bench.models.torque_servo import (
+from pam_bench.control.torque_servo import (
     Pid,
     ServoMode,
     Signal,
@@ -17,6 +16,7 @@ from pam_bench.models.torque_servo import (
     TorqueServoParams,
     split_torque,
 )
+from pam_bench.models.errors import ModelError
 
 R = 0.06366 / 2
 

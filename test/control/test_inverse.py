@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from pam_bench.control.inverse import InverseModel, Poly
 from pam_bench.models.errors import ModelError
-from pam_bench.models.inverse import InverseModel, Poly
 
 
 def const(v: float) -> Poly:

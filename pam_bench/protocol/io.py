@@ -2,7 +2,7 @@
 
 A ``Measurement`` is the latest force, contraction and pressure; a ``Point`` a reading taken;
 a ``StepRecord`` the 1 kHz force after a valve step (filled by stamp in a ``RecordWindow``);
-``Commands`` what the sequencer sends at a tick. Used by ``models.protocols``, the node and
+``Commands`` what the sequencer sends at a tick. Used by ``protocol.sequencer``, the node and
 the twin.
 """
 
@@ -11,7 +11,7 @@ from __future__ import annotations
 import dataclasses
 
 from pam_bench.models.loading_servo import LoadMode
-from pam_bench.models.schedules import Reading
+from pam_bench.protocol.schedules import Reading
 
 __all__ = ['Measurement', 'Point', 'StepRecord', 'Commands', 'RecordWindow']
 

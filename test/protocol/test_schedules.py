@@ -7,7 +7,7 @@ import pytest
 
 from pam_bench.models.errors import ParameterError
 from pam_bench.models.loading_servo import LoadMode
-from pam_bench.models.schedules import Direction, resume_index, schedule_from_config, sweep
+from pam_bench.protocol.schedules import Direction, resume_index, schedule_from_config, sweep
 
 FULL = {
     'isometric': {'kind': 'isometric', 'x_m': [0.0, 0.110, 0.005], 'voltage_v': [0, 6, 0.1]},

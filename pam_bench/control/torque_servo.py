@@ -15,7 +15,7 @@ loses its force control): with the base force F_b = max(F_p, F_min + |M*| / (2 r
 Per muscle i the valve voltage is u_i = u_ff,i + u_pid,i, clamped to [u_min, u_max]:
 
 - ``dynamic``: u_ff from the identified inverse of 004 Eq. 2,
-  u_ff = u0 + (F*'' + b(x) F*' + c(x) (F* - F_a0(x))) / d(x)   (``pam_bench.models.inverse``)
+  u_ff = u0 + (F*'' + b(x) F*' + c(x) (F* - F_a0(x))) / d(x)   (``pam_bench.control.inverse``)
 - ``static``:  u_ff = (F* - F0(x)) / k(x)   (isometric surface, no dynamics)
 - ``pid``:     u_ff = 0
 - PID on e = F* - F_measured (N -> V): u_pid = K_p e + K_i int(e) + K_d D, with the derivative
@@ -30,9 +30,9 @@ import dataclasses
 import enum
 import math
 
+from pam_bench.control.inverse import InverseModel
 from pam_bench.models.constants import PULLEY_PITCH_DIAMETER_M
 from pam_bench.models.errors import ModelError
-from pam_bench.models.inverse import InverseModel
 from pam_bench.models.params import field
 
 __all__ = ['ServoMode', 'SignalKind', 'Signal', 'split_torque', 'Pid', 'TorqueServoParams',
