@@ -2,22 +2,16 @@
 
 from __future__ import annotations
 
+import os
+import runpy
 from glob import glob
 
 from setuptools import find_packages, setup
 
 PACKAGE = 'pam_bench'
-NODES = {
-    'sim_clock': 'pam_bench.nodes.sim_clock',
-    'valve_sim': 'pam_bench.nodes.valve_sim',
-    'muscle_sim': 'pam_bench.nodes.muscle_sim',
-    'load_cell_sim': 'pam_bench.nodes.load_cell_sim',
-    'encoder_sim': 'pam_bench.nodes.encoder_sim',
-    'loading_servo_sim': 'pam_bench.nodes.loading_servo_sim',
-    'sequencer': 'pam_bench.nodes.sequencer',
-    'recorder': 'pam_bench.nodes.recorder',
-    'torque_servo': 'pam_bench.nodes.torque_servo',
-}
+# the node executables: the one list of them (imports nothing, so read without the package)
+HERE = os.path.dirname(os.path.abspath(__file__))
+NODES = runpy.run_path(os.path.join(HERE, 'pam_bench', 'config', 'executables.py'))['EXECUTABLES']
 
 setup(
     name=PACKAGE,

@@ -2,6 +2,6 @@
 
 from __future__ import annotations
 
-__all__ = ['bag_repair', 'bagdiff', 'baginfo', 'bagread', 'bagwrite', 'delivery', 'extract',
-           'force_models', 'identify', 'inverse_export', 'plots', 'report',
-           'servo_bag', 'smoothing', 'static', 'timing', 'types']
+__all__ = ['bag_repair', 'bagdiff', 'baginfo', 'bagread', 'bagwrite', 'delivery', 'errors',
+           'extract', 'force_models', 'identify', 'inverse_export', 'law_scores', 'plots',
+           'report', 'servo_bag', 'smoothing', 'static', 'timing', 'types']

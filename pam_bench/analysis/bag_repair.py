@@ -16,7 +16,7 @@ import pathlib
 import shutil
 from typing import Any
 
-from pam_bench.analysis.bagread import BagError
+from pam_bench.analysis.errors import BagError
 from pam_bench.analysis.types import bench_typestore
 
 __all__ = ['RepairReport', 'repair_bag']

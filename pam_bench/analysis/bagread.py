@@ -15,18 +15,17 @@ from typing import Any
 import numpy as np
 from rosbags.rosbag2 import Reader
 
+from pam_bench.analysis.errors import BagError
 from pam_bench.analysis.types import bench_typestore
 from pam_bench.config import topics
 
-__all__ = ['BagError', 'Points', 'StepRecord', 'BagData', 'read_bags', 'open_bag',
+__all__ = ['Points', 'StepRecord', 'BagData', 'read_bags', 'open_bag',
            'topic_messages']
 
 POINT_TOPIC = topics.absolute(topics.POINT)
 RECORD_TOPIC = topics.absolute(topics.RECORD)
 
 
-class BagError(Exception):
-    """A bag cannot be read or holds nothing to extract."""
 
 
 @dataclasses.dataclass

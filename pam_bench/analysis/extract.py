@@ -22,6 +22,7 @@ import yaml
 from pam_bench.analysis import plots
 from pam_bench.analysis.baginfo import bag_info
 from pam_bench.analysis.bagread import BagData, Points, StepRecord, read_bags
+from pam_bench.analysis.errors import ExtractError
 from pam_bench.analysis.force_models import FORCE_MODELS, fit_force_models
 from pam_bench.analysis.identify import fit_step
 from pam_bench.analysis.inverse_export import inverse_model_dict
@@ -30,11 +31,9 @@ from pam_bench.analysis.report import report_markdown
 from pam_bench.analysis.smoothing import centred_polyfit
 from pam_bench.analysis.static import gain_summary
 
-__all__ = ['extract', 'step_summary', 'coefficient_polynomials', 'ExtractError']
+__all__ = ['extract', 'step_summary', 'coefficient_polynomials']
 
 
-class ExtractError(Exception):
-    """Nothing could be extracted (too few points to fit, ...)."""
 
 
 def _fit_one(r: StepRecord) -> dict[str, Any]:

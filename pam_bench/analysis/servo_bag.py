@@ -7,7 +7,8 @@ from typing import Any
 
 import numpy as np
 
-from pam_bench.analysis.bagread import BagError, open_bag
+from pam_bench.analysis.bagread import open_bag
+from pam_bench.analysis.errors import BagError
 from pam_bench.analysis.types import bench_typestore
 from pam_bench.config import topics
 

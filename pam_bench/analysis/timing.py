@@ -4,6 +4,11 @@ A loop that should tick every ``T`` seconds is judged by its periods ``dt_k = t_
 (from monotonic tick times, or from the header stamps of what it published): mean, median,
 99th percentile and largest, and the share of periods more than ``late_s`` (0.5 ms by default)
 longer than ``T``. Issue 16 asks for p99 <= 1.5 ms and under 1 % late at T = 1 ms.
+
+``period_stats`` judges a whole array of tick times; ``PeriodStats`` does the same while the
+loop runs, in fixed memory: every period goes into an HdrHistogram (1 us to 60 s, three
+significant digits: percentiles within 0.1 %), so a six-hour run at 1 kHz keeps the same
+few hundred kilobytes as a one-second one.
 """
 
 from __future__ import annotations
@@ -11,8 +16,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+from hdrh.histogram import HdrHistogram
 
-__all__ = ['period_stats', 'LATE_S']
+__all__ = ['period_stats', 'PeriodStats', 'LATE_S']
 
 LATE_S = 0.5e-3
 """A period this much longer than the nominal one counts as late (s)."""
@@ -44,3 +50,55 @@ def period_stats(times_ns: Sequence[int] | np.ndarray, period_s: float,
             'max_s': float(dt.max()),
             'max_at_s': float((t[int(dt.argmax()) + 1] - t[0]) * 1e-9),
             'late_share': float(np.mean(dt > period_s + late_s))}
+
+
+class PeriodStats:
+    """Streaming ``period_stats``: fixed memory whatever the run's length.
+
+    Args:
+        period_s: the nominal period T, s.
+        late_s: lateness beyond T that counts a period as late, s.
+    """
+
+    HIGHEST_NS = 60_000_000_000
+    """Longest period the histogram holds (60 s); a longer one counts as 60 s."""
+
+    def __init__(self, period_s: float, late_s: float = LATE_S) -> None:
+        self.period_s = period_s
+        self._late_ns = round((period_s + late_s) * 1e9)
+        self._hist = HdrHistogram(1000, self.HIGHEST_NS, 3)
+        self._first_ns: int | None = None
+        self._last_ns: int | None = None
+        self._max_ns = 0
+        self._max_at_ns = 0
+        self._late = 0
+        self._sum_ns = 0
+        self.ticks = 0
+
+    def tick(self, t_ns: int) -> None:
+        """One tick at monotonic time ``t_ns``."""
+        self.ticks += 1
+        last, self._last_ns = self._last_ns, t_ns
+        if last is None:
+            self._first_ns = t_ns
+            return
+        dt = t_ns - last
+        self._sum_ns += dt
+        self._hist.record_value(min(max(dt, 1000), self.HIGHEST_NS))
+        if dt > self._late_ns:
+            self._late += 1
+        if dt > self._max_ns:
+            self._max_ns, self._max_at_ns = dt, t_ns
+
+    def stats(self) -> dict[str, float] | None:
+        """As ``period_stats`` returns them (None before two ticks)."""
+        if self.ticks < 2 or self._first_ns is None:
+            return None
+        n = self.ticks - 1
+        return {'ticks': float(self.ticks), 'period_s': float(self.period_s),
+                'mean_s': self._sum_ns / n * 1e-9,
+                'p50_s': self._hist.get_value_at_percentile(50) * 1e-9,
+                'p99_s': self._hist.get_value_at_percentile(99) * 1e-9,
+                'max_s': self._max_ns * 1e-9,
+                'max_at_s': (self._max_at_ns - self._first_ns) * 1e-9,
+                'late_share': self._late / n}

@@ -35,8 +35,8 @@ def draw_parameters(rng: np.random.Generator) -> tuple[ValveParams, MuscleParams
     """A valve and muscle with ``DRAWN`` uniform within +-15 % of the defaults (clipped to
     the fit's bounds)."""
     m, v = MuscleParams(), ValveParams()
-    mv: dict[str, float] = {}
-    vv: dict[str, float] = {}
+    mv: dict[str, Any] = {}
+    vv: dict[str, Any] = {}
     for model, name, lo, hi in FREE_BAGS:
         if name not in DRAWN:
             continue

@@ -44,20 +44,20 @@ def _ros_sweep(out: pathlib.Path, quick: bool) -> dict[str, Any]:
                      'max_error': float(np.max(np.abs(f - ref))), 'unit': 'N',
                      'pct_fs': 100 * float(np.max(np.abs(f - ref))) / FULL_SCALE_N})
     dur = 1.0 if quick else 2.0
-    ref = None
+    sref: tuple[Any, Any] | None = None
     for h in (0.001, 0.002, 0.005):
         sc = dataclasses.replace(load_scene('servo_sin_t'), exchange_step_s=h, duration_s=dur)
         bag = out / f'servo_{h}'
         res = run_scene(sc, str(bag), quiet=True)
         s = read_servo_states(bag)
         t = s['t_s'] - s['t_s'][0]
-        if ref is None:
-            ref = (t, s['torque_measured'])
-        m = np.interp(ref[0], t, s['torque_measured'])
-        keep = ref[0] >= 0.3
+        if sref is None:
+            sref = (t, s['torque_measured'])
+        m = np.interp(sref[0], t, s['torque_measured'])
+        keep = sref[0] >= 0.3
         rows.append({'scene': f'servo_sin_t ({dur:g} s)', 'exchange_step_s': h,
                      'wall_s': res.wall_s, 'real_time_factor': res.sim_s / res.wall_s,
-                     'max_error': float(np.max(np.abs(m - ref[1])[keep])), 'unit': 'N m',
+                     'max_error': float(np.max(np.abs(m - sref[1])[keep])), 'unit': 'N m',
                      'rms_tracking_error': float(np.sqrt(np.mean(
                          (s['torque_setpoint'] - s['torque_measured'])[t >= 0.3] ** 2))),
                      'pct_fs': None})

@@ -31,9 +31,7 @@ from pam_bench.control.torque_servo import (  # noqa: E402
     ServoMode,
     Signal,
     SignalKind,
-    TorqueServoParams,
 )
-from pam_bench.models.params import from_mapping  # noqa: E402
 from pam_bench.twin.servo_bench import ServoRun, run_servo, tracking_metrics  # noqa: E402
 
 __all__ = ['servo_scenes', 'compare_servo', 'scene_servo_setup', 'one_run', 'worker_domain']
@@ -45,21 +43,17 @@ def servo_scenes() -> list[str]:
 
 
 def scene_servo_setup(scene: Scene) -> dict[str, Any]:
-    """The servo's settings in a scene: signal, angle, muscles, params, inverse model."""
-    params = scene.node_parameters('', 0, False)
-    ts = params['torque_servo']['ros__parameters']
-    ls = params['loading_servo']['ros__parameters']
-    muscles = int(ts.get('muscles', 2))
-    sig = Signal(SignalKind(ts.get('signal', 'sine')), float(ts.get('amplitude', 5.0)),
-                 float(ts.get('omega_rad_s', 1.0)), float(ts.get('offset', 0.0)),
-                 float(ts.get('period_s', 3.0)))
-    sp = from_mapping(TorqueServoParams, ts.get('servo', {}), 'servo.')
-    if muscles == 2:
-        angle = float(ls.get('hold_angle_rad', 0.0))
+    """The servo's settings in a scene: signal, angle, muscles, params, inverse model (the
+    scene's typed settings, ``config.settings``: the node reads the same)."""
+    st = scene.settings()
+    ts, ls = st['torque_servo'], st['loading_servo']
+    sig = Signal(SignalKind(ts.signal), ts.amplitude, ts.omega_rad_s, ts.offset, ts.period_s)
+    if ts.muscles == 2:
+        angle = ls.hold_angle_rad
     else:   # single muscle: the drive holds x = r theta
-        angle = float(ls.get('initial_setpoint', 0.0)) / (sp.pitch_diameter_m / 2.0)
-    model = ts.get('inverse_model_file', '')
-    return {'signal': sig, 'angle_rad': angle, 'muscles': muscles, 'params': sp,
+        angle = ls.initial_setpoint / (ts.servo.pitch_diameter_m / 2.0)
+    model = ts.inverse_model_file
+    return {'signal': sig, 'angle_rad': angle, 'muscles': ts.muscles, 'params': ts.servo,
             'inverse': InverseModel.load(model) if model else None}
 
 

@@ -86,7 +86,7 @@ def _scene_run(name: str, out: pathlib.Path, one_process: bool = False) -> dict[
 
 def _extraction(out: pathlib.Path, names: list[str], quick: bool) -> dict[str, Any]:
     """Extract each recorded scene bag, compare with its truth; time 680 step fits."""
-    from pam_bench.analysis.bagread import BagError
+    from pam_bench.analysis.errors import BagError
     from pam_bench.analysis.extract import extract
     from pam_bench.twin.quasistatic import QuasiStaticBench
     from pam_bench.verify.truth import compare, scene_schedule, truth_summary
@@ -135,7 +135,7 @@ def _extraction(out: pathlib.Path, names: list[str], quick: bool) -> dict[str, A
                        'contraction': s.contraction_m + rng.normal(0.0, 5e-6),
                        'pressure': s.pressure_pa})
     for r in readings:
-        force = q.step_response(r.load_value, r.pre_voltage_v, r.voltage_v, r.record_s,
+        force = q.step_response(r.load_value, r.pre_voltage_v or 0.0, r.voltage_v, r.record_s,
                                 r.sample_period_s) + rng.normal(0.0, 0.2, 1000)
         recs.append({'series': r.series, 'step': r.step, 'direction': int(r.direction),
                      'contraction': r.load_value, 'voltage_initial': r.pre_voltage_v,
@@ -143,13 +143,13 @@ def _extraction(out: pathlib.Path, names: list[str], quick: bool) -> dict[str, A
                      'force': force})
     write_bag(out / 'steps', [], recs)
     t0 = time.perf_counter()
-    s = extract([str(out / 'steps')], str(out / 'steps_x'), figures=False)
+    fitted = extract([str(out / 'steps')], str(out / 'steps_x'), figures=False)
     steps_s = time.perf_counter() - t0
     write_bag(out / 'campaign_like', points, recs)
     t0 = time.perf_counter()
     extract([str(out / 'campaign_like')], str(out / 'campaign_like_x'), figures=True)
     return {'scenes': rows, 'identification': {
-        'records': len(recs), 'fits_s': s['timing_s']['identification'],
+        'records': len(recs), 'fits_s': fitted['timing_s']['identification'],
         'extract_s': steps_s, 'workers': os.cpu_count(),
         'campaign_points': len(points), 'campaign_extract_s': time.perf_counter() - t0}}
 

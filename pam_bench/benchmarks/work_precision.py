@@ -160,8 +160,9 @@ def drive_rows(steps: list[float]) -> list[dict[str, Any]]:
         every = int(round(0.1 / h))
         t0 = time.perf_counter()
         srv, spring, f, xs = _drive_start(), _Spring(), 300.0, []
+        holder: Any = spring
         for k in range(n):
-            f, x, *_ = solve_substep(spring, srv, h, 0.0, f)
+            f, x, *_ = solve_substep(holder, srv, h, 0.0, f)
             if (k + 1) % every == 0:
                 xs.append(x)
         wall = time.perf_counter() - t0
@@ -185,8 +186,8 @@ def drive_rows(steps: list[float]) -> list[dict[str, Any]]:
                     if (k + 1) % every == 0:
                         xs.append(a_x * st[0] + c_x)
             wall = time.perf_counter() - t0
-            x = np.array(xs)
-            err = float(np.max(np.abs(x - ref))) if np.isfinite(x).all() else float('inf')
+            xa = np.array(xs)
+            err = float(np.max(np.abs(xa - ref))) if np.isfinite(xa).all() else float('inf')
             rows.append(_row('drive', scheme, h, err, scale, wall, 1.0, 'm'))
     return rows
 

@@ -2,4 +2,4 @@
 
 from __future__ import annotations
 
-__all__ = ['emulator', 'provenance', 'resume', 'runner']
+__all__ = ['emulator', 'errors', 'provenance', 'resume', 'runner']

@@ -17,19 +17,18 @@ import pathlib
 import sys
 from typing import Any
 
-__all__ = ['CHAIN', 'chain_order', 'run_emulator', 'main']
+from pam_bench.config.nodes import NODES, devices
 
-CHAIN = ('valve_1', 'valve_2', 'muscle_1', 'muscle_2', 'loading_servo', 'load_cell_1',
-         'load_cell_2', 'encoder')
-"""Device nodes in the order they step within one tick."""
-
+__all__ = ['chain_order', 'run_emulator', 'main']
 
 def chain_order(names: list[str]) -> list[str]:
-    """``names`` in the chain order (``CHAIN``); anything else is not a device."""
-    unknown = [n for n in names if n not in CHAIN]
+    """``names`` in the order the devices step within one tick (the node table's order,
+    ``config.nodes``); anything else is not a device."""
+    chain = devices(names)
+    unknown = [n for n in names if n not in chain]
     if unknown:
         raise ValueError(f'not a device node: {", ".join(unknown)}')
-    return [n for n in CHAIN if n in names]
+    return chain
 
 
 DEVICE_PRIORITY = 40
@@ -47,12 +46,11 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
 
     import rclpy
     from rclpy.exceptions import ParameterException
-    from rclpy.parameter import Parameter
 
-    from pam_bench.bringup.runner import flatten
-    from pam_bench.config.scene import NODE_TYPES
+    from pam_bench.config.scene import settings_of_params_file
     from pam_bench.models.errors import ModelError
     from pam_bench.nodes import intra
+    from pam_bench.nodes.params import overrides_of
     from pam_bench.nodes.process import (
         deadline_spin,
         fail_line,
@@ -68,11 +66,15 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
     nodes: list[Any] = []
     bus = intra.activate()
     try:
+        try:
+            settings = settings_of_params_file({n: params.get(n, {}) for n in names})
+        except ModelError as exc:
+            print(f'emulator: error: {exc}', file=sys.stderr, flush=True)
+            return 2
         for name in chain_order(names):
-            t = NODE_TYPES[name]
+            t = NODES[name]
             cls = getattr(importlib.import_module(t.module), t.cls)
-            overrides = [Parameter(k, value=v) for k, v in
-                         flatten(params.get(name, {}).get('ros__parameters', {})).items()]
+            overrides = overrides_of(settings[name])
             try:
                 node = cls(name, parameter_overrides=overrides)
                 reject_undeclared(node, overrides)

@@ -32,10 +32,12 @@ from typing import Any
 
 import yaml
 
-from pam_bench.config.scene import NODE_TYPES, Scene
+from pam_bench.bringup.errors import LayoutError
+from pam_bench.config.nodes import NODES, controllers, devices
+from pam_bench.config.scene import Scene, params_file
 from pam_bench.sim.lockstep import RunSummary
 
-__all__ = ['RunResult', 'ros_env', 'run_scene', 'node_error']
+__all__ = ['RunResult', 'ros_env', 'run_scene', 'node_error', 'write_params_file']
 
 
 @dataclasses.dataclass
@@ -127,55 +129,74 @@ def run_scene(scene: Scene, out_dir: str, seed: int = 0, realtime: bool = False,
               one_process: bool = False, domain_id: int | None = None,
               quiet: bool = False, wallclock: bool = False,
               device_processes: bool = False, devices_only: bool = False,
-              parameters: dict[str, Any] | None = None,
+              settings: dict[str, Any] | None = None,
               netns: tuple[str, str] | None = None) -> RunResult:
     """Run ``scene``, recording into ``out_dir``; return the clock's summary. With
     ``devices_only`` (wall clock) only the simulated devices run, until Ctrl-C: a bench to
-    point a lab's own controllers or ``check-drivers`` at. ``parameters`` (the resolved
-    parameters a bag recorded: ``--replay``) replace the scene's. ``netns`` (device namespace,
+    point a lab's own controllers or ``check-drivers`` at. ``settings`` (node -> settings: the
+    ones a bag recorded, ``--replay``) replace the scene's. ``netns`` (device namespace,
     other namespace) runs the simulated devices and the other nodes in two network
     namespaces, as on two hosts, with DDS discovery on their subnet (separate processes)."""
-    params = copy.deepcopy(parameters) if parameters else scene.node_parameters(
-        out_dir, seed, realtime)
-    if 'recorder' in params:
+    settings = copy.deepcopy(settings) if settings else scene.settings(out_dir, seed, realtime)
+    if 'recorder' in settings:
         from pam_bench.bringup.provenance import run_description
-        rp = params['recorder']['ros__parameters']
-        rp['out_dir'] = out_dir
-        rp.pop('run_yaml', None)
-        rp.pop('end_file', None)
+        rec = dataclasses.replace(settings['recorder'], out_dir=out_dir, run_yaml='',
+                                  end_file='')
+        settings['recorder'] = rec
         layout = ('wall clock' if wallclock else 'one process' if one_process
                   else 'separate processes')
-        described = {k: v for k, v in params.items()}
-        rp['run_yaml'] = yaml.safe_dump(run_description(scene, described, seed, layout),
-                                        sort_keys=False)
         fd, end_file = tempfile.mkstemp(prefix='pam_bench_end_', suffix='.json')
         os.close(fd)
         os.unlink(end_file)
-        rp['end_file'] = end_file
+        run_yaml = yaml.safe_dump(run_description(scene, params_file(settings), seed, layout),
+                                  sort_keys=False)
+        settings['recorder'] = dataclasses.replace(rec, run_yaml=run_yaml, end_file=end_file)
     if scene.faults and not wallclock:
-        raise ValueError(f'scene {scene.name} injects faults: they run on the wall clock '
+        raise LayoutError(f'scene {scene.name} injects faults: they run on the wall clock '
                          '(--wallclock)')
     if wallclock:
         if one_process:
-            raise ValueError('a wall-clock run composes the devices only (the emulator); '
+            raise LayoutError('a wall-clock run composes the devices only (the emulator); '
                              'drop --one-process')
-        return _run_wallclock(scene, params, domain_id, quiet, device_processes, devices_only)
+        return _run_wallclock(scene, settings, domain_id, quiet, device_processes, devices_only)
     if one_process:
         if netns:
-            raise ValueError('two namespaces need separate processes: drop --one-process')
-        return _run_in_process(scene, params, domain_id, quiet)
-    return _run_processes(scene, params, domain_id, quiet, netns)
+            raise LayoutError('two namespaces need separate processes: drop --one-process')
+        return _run_in_process(scene, settings, domain_id, quiet)
+    return _run_processes(scene, settings, domain_id, quiet, netns)
+
+
+def write_params_file(settings: dict[str, Any], path: str) -> None:
+    """The settings as a ROS 2 params file (values as ROS holds them: ``nodes.params``)."""
+    from pam_bench.models.params import flat_infos, get_path
+    from pam_bench.nodes.params import ros_value
+    out: dict[str, Any] = {}
+    for name, st in settings.items():
+        params: dict[str, Any] = {}
+        for info in flat_infos(type(st)):
+            here = params
+            parts = info.name.split('.')
+            for part in parts[:-1]:
+                here = here.setdefault(part, {})
+            here[parts[-1]] = ros_value(info, get_path(st, info.name))
+        out[name] = {'ros__parameters': params}
+    with open(path, 'w', encoding='utf-8') as fh:
+        yaml.safe_dump(out, fh)
 
 
 def _in_netns(name: str, netns: tuple[str, str] | None, cmd: list[str]) -> list[str]:
     """``cmd`` run in the device namespace (simulated devices) or the other one."""
     if netns is None:
         return cmd
-    from pam_bench.bringup.emulator import CHAIN
-    return ['ip', 'netns', 'exec', netns[0] if name in CHAIN else netns[1], *cmd]
+    return ['ip', 'netns', 'exec', netns[0] if devices([name]) else netns[1], *cmd]
 
 
-def _run_processes(scene: Scene, params: dict[str, Any], domain_id: int | None,
+def _node_cmd(name: str, pfile: str) -> list[str]:
+    return [sys.executable, '-m', NODES[name].module, '--ros-args', '-r', f'__node:={name}',
+            '--params-file', pfile]
+
+
+def _run_processes(scene: Scene, settings: dict[str, Any], domain_id: int | None,
                    quiet: bool, netns: tuple[str, str] | None = None) -> RunResult:
     env = ros_env(domain_id, 'SUBNET' if netns else 'LOCALHOST')
     procs: dict[str, subprocess.Popen] = {}
@@ -183,24 +204,22 @@ def _run_processes(scene: Scene, params: dict[str, Any], domain_id: int | None,
     with tempfile.TemporaryDirectory(prefix='pam_bench_') as tmp:
         pfile = os.path.join(tmp, 'params.yaml')
         summary_file = os.path.join(tmp, 'summary.json')
-        params['sim_clock']['ros__parameters']['summary_file'] = summary_file
-        with open(pfile, 'w', encoding='utf-8') as fh:
-            yaml.safe_dump(params, fh)
+        settings['sim_clock'] = dataclasses.replace(settings['sim_clock'],
+                                                    summary_file=summary_file)
+        write_params_file(settings, pfile)
         log = open(os.path.join(tmp, 'nodes.log'), 'w+', encoding='utf-8')
-        paced = bool(params['sim_clock']['ros__parameters'].get('realtime'))
+        paced = settings['sim_clock'].realtime
         child = _die_with_parent if paced else _batch_child     # paced: wake-ups matter
         try:
             order = [n for n in scene.nodes if n != 'recorder']
             if 'recorder' in scene.nodes:
                 order.insert(0, 'recorder')
             for name in order:
-                procs[name] = subprocess.Popen(_in_netns(name, netns, [
-                    sys.executable, '-m', NODE_TYPES[name].module, '--ros-args',
-                    '-r', f'__node:={name}', '--params-file', pfile]),
-                    env=env, stdout=log, stderr=subprocess.STDOUT, preexec_fn=child)
-            clock = subprocess.Popen(_in_netns('sim_clock', netns, [
-                sys.executable, '-m', NODE_TYPES['sim_clock'].module, '--ros-args',
-                '-r', '__node:=sim_clock', '--params-file', pfile]),
+                procs[name] = subprocess.Popen(_in_netns(name, netns, _node_cmd(name, pfile)),
+                                               env=env, stdout=log, stderr=subprocess.STDOUT,
+                                               preexec_fn=child)
+            clock = subprocess.Popen(_in_netns('sim_clock', netns,
+                                               _node_cmd('sim_clock', pfile)),
                 env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                 preexec_fn=child)
             watcher = threading.Thread(target=_watch, args=(dict(procs), clock, failed),
@@ -208,6 +227,7 @@ def _run_processes(scene: Scene, params: dict[str, Any], domain_id: int | None,
             watcher.start()
             procs = {'sim_clock': clock, **procs}
             lines = []
+            assert clock.stdout is not None
             for line in clock.stdout:
                 lines.append(line)
                 if not quiet and (line.startswith('[sim') or line.startswith('lock-step:')):
@@ -215,7 +235,7 @@ def _run_processes(scene: Scene, params: dict[str, Any], domain_id: int | None,
             code = clock.wait()
             dead = [n for n, p in procs.items() if n != 'sim_clock' and p.poll() is not None]
         finally:
-            _write_end(params, code if 'code' in locals() else None)
+            _write_end(settings, code if 'code' in locals() else None)
             _stop(procs)
             log.flush()
             log.seek(0)
@@ -236,43 +256,41 @@ def _run_processes(scene: Scene, params: dict[str, Any], domain_id: int | None,
     return result
 
 
-CONTROLLERS = ('sequencer', 'torque_servo')
-
-
-def _run_wallclock(scene: Scene, params: dict[str, Any], domain_id: int | None, quiet: bool,
+def _run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None, quiet: bool,
                    device_processes: bool, devices_only: bool = False) -> RunResult:
     import json
 
-    from pam_bench.bringup.emulator import CHAIN
     env = ros_env(domain_id)
-    devices = [n for n in scene.nodes if n in CHAIN]
-    controllers = [n for n in scene.nodes if n in CONTROLLERS]
+    device_names = devices(scene.nodes)
+    controller_names = controllers(scene.nodes)
     if devices_only:
-        scene = dataclasses.replace(scene, nodes=devices)
-        controllers = []
+        scene = dataclasses.replace(scene, nodes=device_names)
+        controller_names = []
         device_processes = False
-    elif not controllers:
-        raise ValueError(f'scene {scene.name}: a wall-clock run needs a sequencer or a servo')
+    elif not controller_names:
+        raise LayoutError(f'scene {scene.name}: a wall-clock run needs a sequencer or a servo')
     procs: dict[str, subprocess.Popen] = {}
     t0 = time.monotonic()
     code = 0
     with tempfile.TemporaryDirectory(prefix='pam_bench_') as tmp:
+        rep = dataclasses.replace
+        settings = {k: v for k, v in settings.items() if k in scene.nodes}   # no clock
         for name in scene.nodes:
-            p = params[name]['ros__parameters']
-            p.update(lockstep=False, stats_file=os.path.join(tmp, f'{name}.json'))
-        if 'torque_servo' in params:
-            params['torque_servo']['ros__parameters']['duration_s'] = scene.duration_s
+            settings[name] = rep(settings[name], lockstep=False,
+                                 stats_file=os.path.join(tmp, f'{name}.json'))
+        if 'torque_servo' in settings:
+            settings['torque_servo'] = rep(settings['torque_servo'], duration_s=scene.duration_s)
         for target in {f.target for f in scene.faults if f.kind != 'node_kill'}:
-            params[target]['ros__parameters']['faults_yaml'] = yaml.safe_dump(
-                [dataclasses.asdict(f) for f in scene.faults if f.target == target])
-        for name in controllers:      # nothing a controller publishes goes unrecorded
-            params[name]['ros__parameters']['await_recorder'] = 'recorder' in scene.nodes
-        if 'recorder' in params:       # what a real bench has: no sim/ ground truth
-            rp = params['recorder']['ros__parameters']
-            rp['step_topics'] = [t for t in rp['step_topics'] if not t.startswith('/sim/')]
+            settings[target] = rep(settings[target], faults_yaml=yaml.safe_dump(
+                [dataclasses.asdict(f) for f in scene.faults if f.target == target]))
+        for name in controller_names:      # nothing a controller publishes goes unrecorded
+            settings[name] = rep(settings[name], await_recorder='recorder' in scene.nodes)
+        if 'recorder' in settings:          # what a real bench has: no sim/ ground truth
+            rec = settings['recorder']
+            settings['recorder'] = rep(rec, step_topics=[
+                t for t in rec.step_topics if not t.startswith('/sim/')])
         pfile = os.path.join(tmp, 'params.yaml')
-        with open(pfile, 'w', encoding='utf-8') as fh:
-            yaml.safe_dump({k: v for k, v in params.items() if k != 'sim_clock'}, fh)
+        write_params_file(settings, pfile)
         log = open(os.path.join(tmp, 'nodes.log'), 'w+', encoding='utf-8')
 
         def start(name: str, cmd: list[str], pipe: bool = False) -> subprocess.Popen:
@@ -281,37 +299,35 @@ def _run_wallclock(scene: Scene, params: dict[str, Any], domain_id: int | None, 
                 stderr=subprocess.STDOUT, text=True, preexec_fn=_die_with_parent)
             return procs[name]
 
-        def node_cmd(name: str) -> list[str]:
-            return [sys.executable, '-m', NODE_TYPES[name].module, '--ros-args',
-                    '-r', f'__node:={name}', '--params-file', pfile]
-
         try:
             if 'recorder' in scene.nodes:
-                rec = start('recorder', node_cmd('recorder'), pipe=True)
+                rec = start('recorder', _node_cmd('recorder', pfile), pipe=True)
+                assert rec.stdout is not None
                 for line in rec.stdout:      # wait until it has subscribed to its topics
                     log.write(line)
                     if line.startswith('recorder: recording') or rec.poll() is not None:
                         break
                 threading.Thread(target=_copy, args=(rec.stdout, log), daemon=True).start()
             if device_processes:
-                for name in devices:
-                    start(name, node_cmd(name))
-            elif devices:
+                for name in device_names:
+                    start(name, _node_cmd(name, pfile))
+            elif device_names:
                 start('emulator', [sys.executable, '-m', 'pam_bench.bringup.emulator', pfile,
-                                   *devices])
-            for name in controllers:
-                start(name, node_cmd(name), pipe=name == controllers[0])
+                                   *device_names])
+            for name in controller_names:
+                start(name, _node_cmd(name, pfile), pipe=name == controller_names[0])
             kills = [f for f in scene.faults if f.kind == 'node_kill']
-            main = procs[controllers[0] if controllers else 'emulator']
+            main = procs[controller_names[0] if controller_names else 'emulator']
             if devices_only and not quiet:
-                print(f'devices {", ".join(devices)} running on the wall clock in one process '
-                      f'(ROS_DOMAIN_ID {env["ROS_DOMAIN_ID"]}); Ctrl-C stops them', flush=True)
+                print(f'devices {", ".join(device_names)} running on the wall clock in one '
+                      f'process (ROS_DOMAIN_ID {env["ROS_DOMAIN_ID"]}); Ctrl-C stops them',
+                      flush=True)
             if main.stdout is None:
                 main.wait()
             for line in main.stdout or ():
                 log.write(line)
                 if kills and line.startswith('[wall]'):     # the run has started
-                    threading.Thread(target=_kill_on_time, args=(kills, procs, devices),
+                    threading.Thread(target=_kill_on_time, args=(kills, procs, device_names),
                                      daemon=True).start()
                     kills = []
                 if not quiet and line.startswith('[wall'):
@@ -326,7 +342,7 @@ def _run_wallclock(scene: Scene, params: dict[str, Any], domain_id: int | None, 
             code = 130
             dead = []
         finally:
-            _write_end(params, code)
+            _write_end(settings, code)
             _stop(procs)
             log.flush()
             log.seek(0)
@@ -365,10 +381,11 @@ def _kill_on_time(kills: list[Any], procs: dict[str, subprocess.Popen],
             proc.send_signal(signal.SIGKILL)
 
 
-def _write_end(params: dict[str, Any], code: int | None) -> None:
+def _write_end(settings: dict[str, Any], code: int | None) -> None:
     """Tell the recorder how the run ended (``provenance.write_end``) before it is stopped."""
     from pam_bench.bringup.provenance import write_end
-    path = params.get('recorder', {}).get('ros__parameters', {}).get('end_file', '')
+    rec = settings.get('recorder')
+    path = rec.end_file if rec is not None else ''
     try:
         write_end(path, code)
     except OSError as exc:
@@ -405,7 +422,7 @@ def _stop(procs: dict[str, subprocess.Popen]) -> None:
                     continue
 
 
-def _run_in_process(scene: Scene, params: dict[str, Any], domain_id: int | None,
+def _run_in_process(scene: Scene, settings: dict[str, Any], domain_id: int | None,
                     quiet: bool) -> RunResult:
     import contextlib
     import importlib
@@ -414,10 +431,10 @@ def _run_in_process(scene: Scene, params: dict[str, Any], domain_id: int | None,
     import rclpy
     from rclpy.exceptions import ParameterException
     from rclpy.executors import SingleThreadedExecutor
-    from rclpy.parameter import Parameter
 
     from pam_bench.models.errors import ParameterError
     from pam_bench.nodes import intra
+    from pam_bench.nodes.params import overrides_of
     from pam_bench.nodes.process import fail_line, reject_undeclared
     from pam_bench.nodes.profiling import profiled
 
@@ -435,10 +452,9 @@ def _run_in_process(scene: Scene, params: dict[str, Any], domain_id: int | None,
     try:
         for name in ['recorder'] * ('recorder' in scene.nodes) + [
                 n for n in scene.nodes if n != 'recorder'] + ['sim_clock']:
-            t = NODE_TYPES[name]
+            t = NODES[name]
             cls = getattr(importlib.import_module(t.module), t.cls)
-            overrides = [Parameter(k, value=v) for k, v in
-                         flatten(params[name]['ros__parameters']).items()]
+            overrides = overrides_of(settings[name])
             extra = {'lean': True} if name == 'sim_clock' else {}    # polled by the loop
             try:
                 node = cls(name, context=context, parameter_overrides=overrides, **extra)
@@ -455,7 +471,7 @@ def _run_in_process(scene: Scene, params: dict[str, Any], domain_id: int | None,
                 code = int(exc.code or 0)
     finally:
         intra.deactivate()
-        _write_end(params, code if code or clock_done(nodes, scene) else None)
+        _write_end(settings, code if code or clock_done(nodes, scene) else None)
         clock = nodes[-1] if nodes and len(nodes) == len(scene.nodes) + 1 else None
         for node in nodes:
             executor.remove_node(node)

@@ -2,4 +2,5 @@
 
 from __future__ import annotations
 
-__all__ = ['drivers', 'paths', 'protocols', 'scene', 'topics', 'yaml_io']
+__all__ = ['drivers', 'errors', 'executables', 'nodes', 'paths', 'protocols', 'scene', 'settings',
+           'topics', 'yaml_io']

@@ -11,8 +11,9 @@ import pathlib
 from collections.abc import Mapping
 from typing import Any
 
+from pam_bench.config.errors import ConfigError
 from pam_bench.config.paths import config_dir
-from pam_bench.config.yaml_io import ConfigError, parse_yaml, read_yaml
+from pam_bench.config.yaml_io import parse_yaml, read_yaml
 from pam_bench.models.params import hint
 from pam_bench.protocol.schedules import Reading, check_protocol, schedule_from_config
 

@@ -1,80 +1,107 @@
-"""Scenes: which nodes a run brings up, their parameters, the exchange step and the protocol.
+"""Scenes: which nodes a run brings up, their settings, the exchange step and the protocol.
 
 A scene file (config/scenes/NAME.yaml) holds ``description``, ``exchange_step_s`` (the
 longest exchange step: the devices ask for shorter ones where they need them), ``protocol``,
-``nodes`` (names from ``NODE_TYPES``), optional ``duration_s``, optional ``sub_step_s`` (the
-sub-step of the valve's pressure samples, which the muscle and the drive are solved on inside
-every exchange; 5 ms by default), optional ``record_samples`` (record those sub-step samples,
-``sim/valve_N/samples`` and ``sim/muscle_N/samples``, too; false by default: they are most of
-a bag), optional ``faults`` (injected faults, wall clock only: ``sim.faults``), optional
-``parameters`` (per node, merged over
-config/bench.yaml) and optional ``protocol_overrides`` (merged over the protocol's entry in
-config/protocols.yaml). ``node_parameters`` returns the parameters of every node of the run in
-the ROS 2 params-file layout.
+``nodes`` (names from ``config.nodes.NODES``), optional ``duration_s``, optional ``sub_step_s``
+(the sub-step of the valve's pressure samples, which the muscle and the drive are solved on
+inside every exchange; 5 ms by default), optional ``record_samples`` (record those sub-step
+samples, ``sim/valve_N/samples`` and ``sim/muscle_N/samples``, too; false by default: they are
+most of a bag), optional ``faults`` (injected faults, wall clock only: ``sim.faults``), optional
+``parameters`` (per node, over config/bench.yaml) and optional ``protocol_overrides`` (merged
+over the protocol's entry in config/protocols.yaml).
+
+``Scene.settings`` returns every node's typed settings (``config.settings``): the dataclass
+defaults, then config/bench.yaml, then the scene's ``parameters`` (with any overlay under them),
+then what the scene and the run fix (sub-step, protocol, seed, bag folder, clock). Every value
+is checked when the scene loads, so a misspelt key anywhere is one line naming it and the
+nearest known one. ``Scene.set`` changes one setting by path (``muscle_1.muscle.gain_exponent``:
+sweeps, ``--set``).
 """
 
 from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import pathlib
 from typing import Any
 
 import yaml
 
+from pam_bench.config.errors import ConfigError
+from pam_bench.config.nodes import NODES, SCENE_NODES, Role, node
 from pam_bench.config.paths import config_dir, scenes_dir
 from pam_bench.config.protocols import protocol_config
 from pam_bench.config.topics import EVENT_TOPICS, step_topics
-from pam_bench.config.yaml_io import ConfigError, read_yaml
-from pam_bench.control.torque_servo import TorqueServoParams
+from pam_bench.config.yaml_io import read_yaml
 from pam_bench.models.constants import SUB_STEP_S
 from pam_bench.models.errors import ParameterError
-from pam_bench.models.loading_servo import LoadingServoParams
-from pam_bench.models.muscle import MuscleParams
-from pam_bench.models.params import check_known, from_mapping, hint, nearest
-from pam_bench.models.sensors import EncoderParams, LoadCellParams
-from pam_bench.models.straight_fibre_muscle import StraightFibreParams
-from pam_bench.models.valve import ValveParams
+from pam_bench.models.params import (
+    check_known,
+    deep_merge,
+    from_mapping,
+    hint,
+    nearest,
+    to_mapping,
+    with_path,
+)
 from pam_bench.sim.faults import Fault, parse_faults
 
-__all__ = ['NodeType', 'NODE_TYPES', 'Scene', 'load_scene', 'scene_names', 'SCENE_KEYS',
-           'apply_overlay']
+__all__ = ['Scene', 'load_scene', 'scene_names', 'SCENE_KEYS', 'apply_overlay', 'bench_overlay',
+           'params_file', 'settings_of_params_file']
 
-
-@dataclasses.dataclass(frozen=True)
-class NodeType:
-    """Where a node's class lives and what it contributes to the lock-step."""
-
-    module: str
-    cls: str
-    lockstep: bool = True
-    models: tuple[tuple[str, type], ...] = ()     # (parameter prefix, parameter dataclass)
-
-
-_VALVE = (('valve', ValveParams),)
-_MUSCLE = (('muscle', MuscleParams), ('straight_fibre', StraightFibreParams))
-_CELL = (('load_cell', LoadCellParams),)
-NODE_TYPES = {
-    'valve_1': NodeType('pam_bench.nodes.valve_sim', 'ValveSim', models=_VALVE),
-    'muscle_1': NodeType('pam_bench.nodes.muscle_sim', 'MuscleSim', models=_MUSCLE),
-    'load_cell_1': NodeType('pam_bench.nodes.load_cell_sim', 'LoadCellSim', models=_CELL),
-    'encoder': NodeType('pam_bench.nodes.encoder_sim', 'EncoderSim',
-                        models=(('encoder', EncoderParams),)),
-    'loading_servo': NodeType('pam_bench.nodes.loading_servo_sim', 'LoadingServoSim',
-                              models=(('servo', LoadingServoParams),)),
-    'valve_2': NodeType('pam_bench.nodes.valve_sim', 'ValveSim', models=_VALVE),
-    'muscle_2': NodeType('pam_bench.nodes.muscle_sim', 'MuscleSim', models=_MUSCLE),
-    'load_cell_2': NodeType('pam_bench.nodes.load_cell_sim', 'LoadCellSim', models=_CELL),
-    'sequencer': NodeType('pam_bench.nodes.sequencer', 'SequencerNode'),
-    'torque_servo': NodeType('pam_bench.nodes.torque_servo', 'TorqueServoNode',
-                             models=(('servo', TorqueServoParams),)),
-    'recorder': NodeType('pam_bench.nodes.recorder', 'Recorder'),
-    'sim_clock': NodeType('pam_bench.nodes.sim_clock', 'SimClock', lockstep=False),
-}
 
 def scene_names() -> list[str]:
     """Names of the scenes in config/scenes/."""
     return sorted(p.stem for p in scenes_dir().glob('*.yaml'))
+
+
+@functools.lru_cache(maxsize=4)
+def _bench_yaml(path: pathlib.Path) -> dict[str, dict[str, Any]]:
+    data = read_yaml(path)
+    where = f'{path.name}'
+    try:
+        check_known(data, NODES, where)
+    except ParameterError as exc:
+        raise ConfigError(str(exc)) from None
+    out = {}
+    for name, entry in data.items():
+        if not isinstance(entry, dict) or set(entry) != {'ros__parameters'}:
+            raise ConfigError(f'{where}: {name} must hold one key, ros__parameters (the ROS 2 '
+                              'params-file layout)')
+        out[name] = dict(entry['ros__parameters'] or {})
+    return out
+
+
+def bench_overlay() -> dict[str, dict[str, Any]]:
+    """config/bench.yaml: node -> the values the simulated bench sets over the defaults.
+
+    Raises:
+        ConfigError: an unreadable file, an unknown node or a malformed entry.
+    """
+    return copy.deepcopy(_bench_yaml(config_dir() / 'bench.yaml'))
+
+
+def params_file(settings: dict[str, Any]) -> dict[str, Any]:
+    """Settings of a run in the ROS 2 params-file layout (node -> ros__parameters)."""
+    return {name: {'ros__parameters': to_mapping(s)} for name, s in settings.items()}
+
+
+def settings_of_params_file(params: dict[str, Any], where: str = 'parameters'
+                            ) -> dict[str, Any]:
+    """The settings a params-file mapping holds (a bag's recorded parameters: ``--replay``).
+
+    Raises:
+        ConfigError: an unknown node or setting, a bad value (named).
+    """
+    out: dict[str, Any] = {}
+    try:
+        for name, entry in params.items():
+            values = (entry or {}).get('ros__parameters', {})
+            out[name] = from_mapping(node(name).settings, values, f'{name}.')
+    except ParameterError as exc:
+        raise ConfigError(f'{where}: {exc}') from None
+    return out
 
 
 @dataclasses.dataclass
@@ -94,49 +121,71 @@ class Scene:
     source: str = ''             # the scene file's text (a bag keeps it: ``--replay``)
     faults: list[Fault] = dataclasses.field(default_factory=list)   # wall clock only
 
-    def node_parameters(self, out_dir: str, seed: int, realtime: bool) -> dict[str, Any]:
-        """Parameters of every node: config/bench.yaml, then the scene, then this run."""
-        base = read_yaml(config_dir() / 'bench.yaml')
-        common = dict(base.get('/**', {}).get('ros__parameters', {}))
+    def settings(self, out_dir: str = '', seed: int = 0, realtime: bool = False
+                 ) -> dict[str, Any]:
+        """Every node's settings (the sim clock's last): the defaults, config/bench.yaml, the
+        scene's parameters, then what the scene and this run fix.
+
+        Raises:
+            ConfigError: an unknown setting or a bad value, named by its path.
+        """
+        base = bench_overlay()
         out: dict[str, Any] = {}
-        for name in self.nodes + ['sim_clock']:
-            params = dict(common) if name != 'sim_clock' else {}
-            # deep copies: bench.yaml shares one mapping between the channels (YAML anchors)
-            params.update(copy.deepcopy(base.get(name, {}).get('ros__parameters', {})))
-            _merge(params, copy.deepcopy(self.parameters.get(name, {})))
-            model = params.get('inverse_model_file')
-            if model and not pathlib.Path(model).is_absolute():
-                params['inverse_model_file'] = str(config_dir().parent / model)
-            out[name] = {'ros__parameters': params}
-        participants = [f'/{n}' for n in self.nodes if NODE_TYPES[n].lockstep]
-        out['sim_clock']['ros__parameters'].update(
-            exchange_step_s=self.exchange_step_s, participants=participants,
-            duration_s=self.duration_s, realtime=realtime, use_sim_time=False)
-        for name in self.nodes:
-            if name.startswith('valve_'):
-                out[name]['ros__parameters']['sub_step_s'] = self.sub_step_s
-        if 'sequencer' in out:
-            out['sequencer']['ros__parameters']['protocol'] = self.protocol
-            if self.protocol_overrides:
-                out['sequencer']['ros__parameters']['protocol_overrides_yaml'] = yaml.safe_dump(
-                    self.protocol_overrides)
-        if 'recorder' in out:
-            out['recorder']['ros__parameters'].update(out_dir=out_dir,
-                                                      step_topics=step_topics(
-                                                          self.nodes, self.record_samples),
-                                                      event_topics=EVENT_TOPICS)
-        for i in (1, 2):
-            if f'load_cell_{i}' in out:
-                out[f'load_cell_{i}']['ros__parameters']['seed'] = seed + i - 1
+        participants = [f'/{n}' for n in self.nodes if NODES[n].lockstep]
+        for name in [*self.nodes, 'sim_clock']:
+            t = NODES[name]
+            values: dict[str, Any] = {'channel': t.channel} if t.channel else {}
+            deep_merge(values, base.get(name, {}))
+            deep_merge(values, self.parameters.get(name, {}))
+            if t.executable == 'valve_sim':
+                values['sub_step_s'] = self.sub_step_s
+            if name == 'sequencer':
+                values['protocol'] = self.protocol
+                if self.protocol_overrides:
+                    values['protocol_overrides_yaml'] = yaml.safe_dump(self.protocol_overrides)
+            if name == 'recorder':
+                values.update(out_dir=out_dir, event_topics=list(EVENT_TOPICS),
+                              step_topics=step_topics(self.nodes, self.record_samples))
+            if name.startswith('load_cell_'):
+                values['seed'] = seed + t.channel - 1
+            if name == 'torque_servo' and values.get('inverse_model_file'):
+                model = pathlib.Path(values['inverse_model_file'])
+                if not model.is_absolute():
+                    values['inverse_model_file'] = str(config_dir().parent / model)
+            if t.role == Role.CLOCK:
+                values.update(exchange_step_s=self.exchange_step_s, participants=participants,
+                              duration_s=self.duration_s, realtime=realtime)
+            try:
+                out[name] = from_mapping(t.settings, values, f'{name}.')
+            except ParameterError as exc:
+                raise ConfigError(f'scene {self.name}: {exc}') from None
         return out
 
+    def set(self, path: str, value: Any) -> None:
+        """Set one node setting by its path (``muscle_1.muscle.gain_exponent``), over the
+        scene's own value.
 
-def _merge(dst: dict[str, Any], src: dict[str, Any]) -> None:
-    for k, v in src.items():
-        if isinstance(v, dict) and isinstance(dst.get(k), dict):
-            _merge(dst[k], v)
-        else:
-            dst[k] = v
+        Raises:
+            ConfigError: an unknown node or setting (the nearest named) or a bad value.
+        """
+        name, _, rest = path.partition('.')
+        if name not in self.nodes:
+            known = [*self.nodes, 'sim_clock']
+            raise ConfigError(f"scene {self.name}: unknown setting '{path}' (node {name!r} is "
+                              f'not in this scene; {hint(name, known)})')
+        try:
+            cls = NODES[name].settings
+            with_path(cls(), rest, value, f'{name}.')          # the path and value, checked
+        except ParameterError as exc:
+            raise ConfigError(f'scene {self.name}: {exc}') from None
+        nested: dict[str, Any] = {}
+        here = nested
+        parts = rest.split('.')
+        for part in parts[:-1]:
+            here = here.setdefault(part, {})
+        here[parts[-1]] = value
+        deep_merge(self.parameters.setdefault(name, {}), nested)
+        self.settings()                                          # the whole, checked
 
 
 SCENE_KEYS: dict[str, tuple[type | tuple[type, ...], str]] = {
@@ -171,25 +220,6 @@ def _typed(where: str, data: dict[str, Any], key: str, default: Any = None) -> A
     return value
 
 
-def _check_parameters(where: str, nodes: list[str], parameters: dict[str, Any]) -> None:
-    """Node names and model sections of a scene's ``parameters`` (plain node parameters are
-    checked by the node itself at start-up: ``nodes.process.reject_undeclared``)."""
-    check_known(parameters, [*nodes, 'sim_clock'], f'{where}, parameters')
-    for node, values in parameters.items():
-        if not isinstance(values, dict):
-            raise ConfigError(f'{where}: parameters.{node} must be a mapping, got {values!r}')
-        for prefix, cls in NODE_TYPES[node].models:
-            section = values.get(prefix)
-            if section is None:
-                continue
-            if not isinstance(section, dict):
-                raise ConfigError(f'{where}: parameters.{node}.{prefix} must be a mapping')
-            try:
-                from_mapping(cls, section, f'{node}.{prefix}.')
-            except ParameterError as exc:
-                raise ConfigError(f'{where}: {exc}') from None
-
-
 def load_scene(name: str) -> Scene:
     """Load config/scenes/NAME.yaml (or a path to a scene file), strictly.
 
@@ -218,8 +248,8 @@ def _parse_scene(path: pathlib.Path, data: dict[str, Any]) -> Scene:
     check_known(data, SCENE_KEYS, where)
     nodes = _typed(where, data, 'nodes')
     for n in nodes:
-        if n not in NODE_TYPES or n == 'sim_clock':
-            near = nearest(str(n), NODE_TYPES)
+        if n not in SCENE_NODES:
+            near = nearest(str(n), SCENE_NODES)
             raise ConfigError(f'{where}: unknown node {n!r}'
                               + (f' (did you mean {near!r}?)' if near else ''))
     step = _typed(where, data, 'exchange_step_s')
@@ -232,7 +262,13 @@ def _parse_scene(path: pathlib.Path, data: dict[str, Any]) -> Scene:
     if duration < 0:
         raise ConfigError(f'{where}: duration_s {duration} is negative')
     parameters = dict(_typed(where, data, 'parameters', {}))
-    _check_parameters(where, nodes, parameters)
+    try:
+        check_known(parameters, [*nodes, 'sim_clock'], f'{where}, parameters')
+    except ParameterError as exc:
+        raise ConfigError(str(exc)) from None
+    for name, values in parameters.items():
+        if not isinstance(values, dict):
+            raise ConfigError(f'{where}: parameters.{name} must be a mapping, got {values!r}')
     protocol = _typed(where, data, 'protocol', '')
     overrides = dict(_typed(where, data, 'protocol_overrides', {}))
     if 'sequencer' in nodes:
@@ -244,10 +280,20 @@ def _parse_scene(path: pathlib.Path, data: dict[str, Any]) -> Scene:
         faults = parse_faults(_typed(where, data, 'faults', []), list(nodes))
     except ParameterError as exc:
         raise ConfigError(f'{where}: {exc}') from None
-    return Scene(path.stem, _typed(where, data, 'description', ''), float(step), protocol,
-                 list(nodes), float(duration), parameters, overrides, float(sub),
-                 _typed(where, data, 'record_samples', False), path.read_text(encoding='utf-8'),
-                 faults)
+    scene = Scene(path.stem, _typed(where, data, 'description', ''), float(step), protocol,
+                  list(nodes), float(duration), parameters, overrides, float(sub),
+                  _typed(where, data, 'record_samples', False),
+                  path.read_text(encoding='utf-8'), faults)
+    _check_settings(scene, where)
+    return scene
+
+
+def _check_settings(scene: Scene, where: str) -> None:
+    """Build every node's settings once, so that a bad key fails at load."""
+    try:
+        scene.settings()
+    except ConfigError as exc:
+        raise ConfigError(str(exc).replace(f'scene {scene.name}:', f'{where}:', 1)) from None
 
 
 def apply_overlay(scene: Scene, path: str | pathlib.Path) -> None:
@@ -266,12 +312,15 @@ def apply_overlay(scene: Scene, path: str | pathlib.Path) -> None:
         check_known(data, ['parameters'], where)
         if not isinstance(params, dict):
             raise ConfigError(f'{where}: parameters must be a mapping node -> parameters')
-        check_known(params, [n for n in NODE_TYPES if n != 'sim_clock'], f'{where}, parameters')
+        check_known(params, SCENE_NODES, f'{where}, parameters')
+        for name, values in params.items():
+            from_mapping(NODES[name].settings, values, f'{name}.')
     except ParameterError as exc:
-        raise ConfigError(str(exc)) from None
-    _check_parameters(where, list(params), params)
-    for node in scene.nodes:
-        if node in params:
-            merged = copy.deepcopy(params[node])
-            _merge(merged, scene.parameters.get(node, {}))
-            scene.parameters[node] = merged
+        raise ConfigError(f'{where}: {exc}' if not str(exc).startswith(where) else str(exc)
+                          ) from None
+    for name in scene.nodes:
+        if name in params:
+            merged = copy.deepcopy(params[name])
+            deep_merge(merged, scene.parameters.get(name, {}))
+            scene.parameters[name] = merged
+    _check_settings(scene, where)

@@ -7,13 +7,9 @@ from typing import Any
 
 import yaml
 
-from pam_bench.models.errors import ParameterError
+from pam_bench.config.errors import ConfigError
 
-__all__ = ['ConfigError', 'read_yaml', 'parse_yaml']
-
-
-class ConfigError(ParameterError):
-    """A configuration file or value is missing, malformed, unknown or out of range."""
+__all__ = ['read_yaml', 'parse_yaml']
 
 
 def parse_yaml(text: str, where: str) -> dict[str, Any]:

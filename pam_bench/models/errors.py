@@ -1,13 +1,13 @@
-"""Exceptions of the physics and protocol layer."""
+"""Errors of the physics layer; every later layer's errors build on them or on a builtin."""
 
 from __future__ import annotations
 
 __all__ = ['ModelError', 'ParameterError']
 
 
-class ModelError(Exception):
+class ModelError(ValueError):
     """A model was asked for something it cannot do (bad state, bad input)."""
 
 
 class ParameterError(ModelError):
-    """A parameter is missing, malformed or out of its range; the message names the key."""
+    """A setting is unknown, malformed or out of its range; the message names its path."""

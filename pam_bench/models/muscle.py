@@ -79,7 +79,8 @@ class MuscleParams:
     which muscle the bench holds (``kind``: ``pam_bench.models.bench_muscle``)."""
 
     kind: str = field('mckibben', '-', 'muscle law on the bench: mckibben (these parameters) '
-                      'or straight_fibre (the straight_fibre.* parameters)')
+                      'or straight_fibre (the straight_fibre.* parameters)',
+                      choices=('mckibben', 'straight_fibre'))
     nominal_length_m: float = field(0.350, 'm', 'nominal length l_n (004)', 0.01, 10.0)
     nominal_diameter_m: float = field(0.020, 'm', 'nominal diameter d_n (004)', 0.001, 1.0)
     braid_angle_deg: float = field(20.0, 'deg', 'braid angle theta_0 at nominal length',

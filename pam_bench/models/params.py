@@ -1,11 +1,17 @@
-"""Typed parameter sets: one dataclass per model, every field with unit, range and meaning.
+"""Typed settings: one dataclass per model or node, every field with unit, range and meaning.
 
-The same metadata serves the YAML loader (clear message naming a bad key) and the ROS nodes
-(each field becomes a declared parameter with a ``ParameterDescriptor``).
+A field is declared once, with ``field(default, unit, text, low, high, choices)``; a group of
+settings that belongs to one model is a ``section`` (a nested dataclass). The same metadata
+serves every consumer: the YAML loaders (one clear message naming a bad key and the nearest
+known one), the ROS nodes (each leaf becomes a declared parameter with a
+``ParameterDescriptor``, sections joined by dots, as in a params file), the twin and truth
+(the objects themselves) and sweeps, which address a leaf by its dotted path
+(``muscle.gain_exponent`` inside a node, ``muscle_1.muscle.gain_exponent`` in a scene).
 """
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import difflib
 import math
@@ -14,15 +20,17 @@ from typing import Any, TypeVar
 
 from pam_bench.models.errors import ParameterError
 
-__all__ = ['field', 'from_mapping', 'describe', 'ParamInfo', 'param_infos', 'validate',
-           'check_known', 'nearest', 'hint']
+__all__ = ['field', 'section', 'from_mapping', 'to_mapping', 'merged', 'with_path', 'get_path',
+           'describe', 'ParamInfo', 'param_infos', 'flat_infos', 'sections', 'validate',
+           'check_known', 'nearest', 'hint', 'deep_merge', 'leaf_paths']
 
 T = TypeVar('T')
 
 
 @dataclasses.dataclass(frozen=True)
 class ParamInfo:
-    """What a parameter means: name, default, unit, allowed range and one line of text."""
+    """What a setting means: name (dotted inside sections), default, unit, allowed range or
+    choices, one line of text, and the element type of a list (``float`` or ``str``)."""
 
     name: str
     default: Any
@@ -30,34 +38,73 @@ class ParamInfo:
     low: float | None
     high: float | None
     text: str
+    choices: tuple[str, ...] = ()
+    item: type = float
 
 
 def field(default: Any, unit: str, text: str, low: float | None = None,
-          high: float | None = None) -> Any:
-    """A dataclass field with unit, range and description in its metadata."""
-    meta = {'unit': unit, 'low': low, 'high': high, 'text': text}
+          high: float | None = None, choices: Iterable[str] = (), item: type = float) -> Any:
+    """A dataclass field with unit, range (or the strings it may take) and description in its
+    metadata; ``item`` is the element type of a list setting (``float`` or ``str``)."""
+    meta = {'unit': unit, 'low': low, 'high': high, 'text': text,
+            'choices': tuple(choices), 'item': item}
     if isinstance(default, list):
         return dataclasses.field(default_factory=lambda: list(default), metadata=meta)
     return dataclasses.field(default=default, metadata=meta)
 
 
+def section(cls: type, text: str) -> Any:
+    """A nested settings dataclass (a model's parameters inside a node's settings)."""
+    return dataclasses.field(default_factory=cls, metadata={'section': cls, 'text': text})
+
+
+def _section_of(f: dataclasses.Field) -> type | None:
+    return f.metadata.get('section')
+
+
+def sections(cls: type) -> dict[str, type]:
+    """Name -> dataclass of every section of ``cls``."""
+    return {f.name: s for f in dataclasses.fields(cls) if (s := _section_of(f)) is not None}
+
+
+def _info(f: dataclasses.Field, name: str) -> ParamInfo:
+    factory: Any = f.default_factory
+    default = f.default if f.default is not dataclasses.MISSING else factory()
+    m = f.metadata
+    return ParamInfo(name, default, m.get('unit', ''), m.get('low'), m.get('high'),
+                     m.get('text', ''), tuple(m.get('choices', ())), m.get('item', float))
+
+
 def param_infos(cls: type) -> list[ParamInfo]:
-    """The ``ParamInfo`` of every field of a parameter dataclass, in declaration order."""
+    """The ``ParamInfo`` of every leaf field of ``cls`` (sections left out), in order."""
+    return [_info(f, f.name) for f in dataclasses.fields(cls) if _section_of(f) is None]
+
+
+def flat_infos(cls: type, prefix: str = '') -> list[ParamInfo]:
+    """Every leaf of ``cls`` and of its sections, named by dotted path, in order."""
     out = []
     for f in dataclasses.fields(cls):
-        default = (f.default if f.default is not dataclasses.MISSING
-                   else f.default_factory())  # type: ignore[operator]
-        out.append(ParamInfo(f.name, default, f.metadata.get('unit', ''), f.metadata.get('low'),
-                             f.metadata.get('high'), f.metadata.get('text', '')))
+        sec = _section_of(f)
+        if sec is None:
+            out.append(_info(f, prefix + f.name))
+        else:
+            out += flat_infos(sec, f'{prefix}{f.name}.')
     return out
 
 
+def leaf_paths(cls: type) -> list[str]:
+    """Dotted paths of every leaf of ``cls``."""
+    return [i.name for i in flat_infos(cls)]
+
+
 def describe(info: ParamInfo) -> str:
-    """One line for a ParameterDescriptor: meaning, unit and range."""
+    """One line for a ParameterDescriptor: meaning, unit and range (or choices)."""
     rng = ''
     if info.low is not None or info.high is not None:
         rng = f' range [{info.low if info.low is not None else "-inf"}, ' \
               f'{info.high if info.high is not None else "inf"}]'
+    if info.choices:
+        rng = f' one of {", ".join(info.choices)}'
     return f'{info.text} (unit: {info.unit or "-"}){rng}'
 
 
@@ -71,8 +118,17 @@ def _check_value(prefix: str, info: ParamInfo, value: Any) -> Any:
     if isinstance(default, str):
         if not isinstance(value, str):
             raise ParameterError(f'parameter {key!r}: expected a string, got {value!r}')
+        if info.choices and value not in info.choices:
+            raise ParameterError(f'parameter {key!r}: {value!r} is not one of '
+                                 f'{", ".join(info.choices)} ({hint(value, info.choices)})')
         return value
     if isinstance(default, list):
+        if info.item is str:
+            if not isinstance(value, (list, tuple)) or not all(isinstance(v, str)
+                                                               for v in value):
+                raise ParameterError(f'parameter {key!r}: expected a list of strings, got '
+                                     f'{value!r}')
+            return [str(v) for v in value]
         if not isinstance(value, (list, tuple)) or not all(
                 isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
             raise ParameterError(f'parameter {key!r}: expected a list of numbers, got {value!r}')
@@ -138,24 +194,127 @@ def check_known(keys: Iterable[str], known: Iterable[str], where: str, prefix: s
 
 
 def from_mapping(cls: type[T], values: Mapping[str, Any] | None, prefix: str = '') -> T:
-    """Build a parameter dataclass from a mapping, checking every value against its field.
+    """Build a settings dataclass from a (nested) mapping, checking every value.
 
     Args:
-        cls: the parameter dataclass.
-        values: key -> value; missing keys take the default.
-        prefix: shown in front of key names in error messages (e.g. ``'muscle.'``).
+        cls: the settings dataclass.
+        values: key -> value, a section's key -> mapping; missing keys take the default.
+        prefix: shown in front of key names in error messages (e.g. ``'muscle_1.'``).
 
     Raises:
-        ParameterError: an unknown key, a wrong type or a value out of range, naming the key.
+        ParameterError: an unknown key, a wrong type or a value out of range, naming the key
+            by its whole path and the nearest known key.
     """
     values = dict(values or {})
-    infos = {i.name: i for i in param_infos(cls)}
-    check_known(values, infos, f'parameters of {cls.__name__}', prefix)
-    kwargs = {k: _check_value(prefix, infos[k], v) for k, v in values.items()}
+    fields = {f.name: f for f in dataclasses.fields(cls)}   # type: ignore[arg-type]
+    unknown = sorted(set(values) - set(fields))
+    if unknown:
+        raise ParameterError(f"unknown setting '{prefix}{unknown[0]}' "
+                             f'({hint(unknown[0], fields, prefix)})')
+    kwargs = {}
+    for k, v in values.items():
+        sec = _section_of(fields[k])
+        if sec is None:
+            kwargs[k] = _check_value(prefix, _info(fields[k], k), v)
+        elif isinstance(v, sec):
+            validate(v, f'{prefix}{k}.')
+            kwargs[k] = copy.deepcopy(v)
+        elif isinstance(v, Mapping):
+            kwargs[k] = from_mapping(sec, v, f'{prefix}{k}.')
+        else:
+            raise ParameterError(f'parameter {prefix}{k!r}: expected a mapping of '
+                                 f'{sec.__name__} settings, got {v!r}')
     return cls(**kwargs)
 
 
+def to_mapping(obj: Any) -> dict[str, Any]:
+    """The nested mapping of a settings object (plain values: what a params file holds)."""
+    out: dict[str, Any] = {}
+    for f in dataclasses.fields(obj):
+        v = getattr(obj, f.name)
+        out[f.name] = to_mapping(v) if _section_of(f) is not None else (
+            list(v) if isinstance(v, (list, tuple)) else v)
+    return out
+
+
+def deep_merge(dst: dict[str, Any], src: Mapping[str, Any]) -> dict[str, Any]:
+    """Merge ``src`` into ``dst`` in place, mappings key by key; returns ``dst``."""
+    for k, v in src.items():
+        if isinstance(v, Mapping) and isinstance(dst.get(k), dict):
+            deep_merge(dst[k], v)
+        else:
+            dst[k] = copy.deepcopy(v)
+    return dst
+
+
+def merged(obj: T, values: Mapping[str, Any] | None, prefix: str = '') -> T:
+    """A copy of ``obj`` with the (nested) ``values`` over it, every value checked.
+
+    Raises:
+        ParameterError: as ``from_mapping``.
+    """
+    if not values:
+        return copy.deepcopy(obj)
+    return from_mapping(type(obj), deep_merge(to_mapping(obj), values), prefix)
+
+
+def _split(cls: type, path: str, prefix: str) -> tuple[list[str], type]:
+    """The parts of a dotted ``path`` inside ``cls``, checked; and the class holding the leaf."""
+    parts = path.split('.')
+    here = cls
+    for i, part in enumerate(parts):
+        fields = {f.name: f for f in dataclasses.fields(here)}
+        if part not in fields:
+            done = '.'.join(parts[:i])
+            known = [p for p in leaf_paths(here)]
+            full = f'{prefix}{done + "." if done else ""}'
+            raise ParameterError(f"unknown setting '{prefix}{path}' "
+                                 f'({hint(".".join(parts[i:]), known, full)})')
+        sec = _section_of(fields[part])
+        last = i == len(parts) - 1
+        if sec is None and not last:
+            raise ParameterError(f"unknown setting '{prefix}{path}': "
+                                 f"'{prefix}{'.'.join(parts[:i + 1])}' is a value, not a section")
+        if sec is not None and last:
+            raise ParameterError(f"setting '{prefix}{path}' is a section: name one of its "
+                                 f'values ({", ".join(leaf_paths(sec))})')
+        if sec is not None:
+            here = sec
+    return parts, here
+
+
+def get_path(obj: Any, path: str, prefix: str = '') -> Any:
+    """The value of the leaf at the dotted ``path``.
+
+    Raises:
+        ParameterError: no such leaf (named, with the nearest known path).
+    """
+    parts, _ = _split(type(obj), path, prefix)
+    for part in parts:
+        obj = getattr(obj, part)
+    return obj
+
+
+def with_path(obj: T, path: str, value: Any, prefix: str = '') -> T:
+    """A copy of ``obj`` with the leaf at the dotted ``path`` set to ``value`` (checked).
+
+    Raises:
+        ParameterError: no such leaf, or a value of the wrong type or out of range.
+    """
+    parts, _ = _split(type(obj), path, prefix)
+    nested: dict[str, Any] = {}
+    here = nested
+    for part in parts[:-1]:
+        here = here.setdefault(part, {})
+    here[parts[-1]] = value
+    return merged(obj, nested, prefix)
+
+
 def validate(obj: Any, prefix: str = '') -> None:
-    """Check every field of an existing parameter object (types and ranges)."""
-    for info in param_infos(type(obj)):
-        _check_value(prefix, info, getattr(obj, info.name))
+    """Check every field of an existing settings object (types and ranges), sections too."""
+    for f in dataclasses.fields(obj):
+        sec = _section_of(f)
+        if sec is None:
+            _check_value(prefix, _info(f, f.name), getattr(obj, f.name))
+        else:
+            validate(getattr(obj, f.name), f'{prefix}{f.name}.')

@@ -54,7 +54,8 @@ class ValveParams:
     line_volume_m3: float = field(2.0e-5, 'm^3', 'volume of the line and fittings', 0.0, 1.0)
     reference_volume_m3: float = field(1.3e-4, 'm^3', 'total volume V_ref at which w = w_ref',
                                        1.0e-9, 1.0)
-    scheme: str = field('zoh', '-', 'integration: zoh (exact), rk4 or euler (one step each)')
+    scheme: str = field('zoh', '-', 'integration: zoh (exact), rk4 or euler (one step each)',
+                        choices=('zoh', 'rk4', 'euler'))
     transient_step_s: float = field(0.1, 's', 'longest exchange step asked for while the '
                                     'pressure is in transient, until the chamber volume is '
                                     'seen still', 1.0e-5, 10.0)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
-__all__ = ['base', 'driver_probe', 'encoder_sim', 'intra', 'load_cell_sim', 'loading_servo_sim',
-           'muscle_sim', 'profiling', 'recorder', 'sequencer', 'sim_clock', 'torque_servo',
-           'valve_sim']
+__all__ = ['base', 'cdr', 'core', 'driver_probe', 'encoder_sim', 'faults', 'intra',
+           'load_cell_sim', 'loading_servo_sim', 'lockstep', 'messages', 'muscle_sim', 'params',
+           'process', 'profiling', 'qos', 'recorder', 'sequencer', 'sim_clock', 'stats',
+           'torque_servo', 'valve_sim', 'wallclock']

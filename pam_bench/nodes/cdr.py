@@ -28,7 +28,7 @@ import struct
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ['encoder', 'ends_padded']
+__all__ = ['fields_of', 'encoder', 'ends_padded']
 
 Encoder = Callable[[Any], bytes]
 
@@ -45,6 +45,11 @@ _U32 = struct.Struct('<I').pack
 class _Unsupported(Exception):
     """A field type the generator leaves to rclpy."""
 
+
+
+def fields_of(cls: Any) -> dict[str, str]:
+    """Field name -> rosidl type string of a message class, in order."""
+    return dict(cls.get_fields_and_field_types())
 
 def _class_of(kind: str) -> type:
     pkg, name = kind.split('/')
@@ -94,7 +99,7 @@ class _Gen:
 
     def message(self, cls: type, expr: str, ind: str) -> None:
         slots = set(getattr(cls, '__slots__', ()))
-        for field, kind in cls.get_fields_and_field_types().items():
+        for field, kind in fields_of(cls).items():
             # rosidl keeps a field's value in the slot _field behind a property: read the slot
             attr = f'_{field}' if f'_{field}' in slots else field
             self.field(kind, f'{expr}.{attr}', ind)
@@ -164,7 +169,7 @@ def ends_padded(cls: type) -> bool:
     """Whether a message of ``cls`` is cut at its true end and padded to 4 bytes (the pad count
     in the options byte), as ``Recorder._cdr`` does unless its last field is a number, a string
     or a sequence of numbers narrower than 8 bytes or of strings."""
-    kind = list(cls.get_fields_and_field_types().values())[-1]
+    kind = list(fields_of(cls).values())[-1]
     base, n, is_seq = _element(kind)
     narrow = base.startswith('string') or (base in _FORMATS and base not in _WIDE)
     if is_seq:
@@ -173,7 +178,7 @@ def ends_padded(cls: type) -> bool:
 
 
 @functools.cache
-def encoder(cls: type) -> Encoder | None:
+def encoder(cls: Any) -> Encoder | None:
     """The CDR encoder of message class ``cls`` (bytes with the encapsulation header), or None
     when a field type is not handled (module docstring)."""
     gen = _Gen()

@@ -10,6 +10,7 @@ any publisher.
 
 from __future__ import annotations
 
+import functools
 import time
 from typing import Any
 
@@ -66,7 +67,7 @@ def probe_drivers(controllers: list[str], duration_s: float, settle_s: float = 5
             seen[e.topic] = s
             if e.msgtype in s.types:
                 node.create_subscription(_CLASSES[e.msgtype], e.topic,
-                                         lambda m, s=s: _take(s, m), SENSOR)
+                                         functools.partial(_take, s), SENSOR)
         end = time.monotonic() + duration_s      # one wait set: keeps up with 1 kHz topics
         deadline_spin([node], lambda: None, 0.05, should_stop=lambda: time.monotonic() > end)
         verdicts = [judge(e, seen[e.topic]) for e in expects]

@@ -12,7 +12,8 @@ from typing import Any
 from sensor_msgs.msg import JointState
 
 from pam_bench.config import topics
-from pam_bench.models.sensors import EncoderModel, EncoderParams
+from pam_bench.config.settings import EncoderSettings
+from pam_bench.models.sensors import EncoderModel
 from pam_bench.nodes.base import BenchNode
 from pam_bench.nodes.messages import time_of
 from pam_bench.nodes.process import run_node
@@ -23,11 +24,12 @@ __all__ = ['EncoderSim', 'main']
 class EncoderSim(BenchNode):
     """Thin node over ``EncoderModel``."""
 
-    LEAN_SPIN = True    # subscriptions only: see nodes.process.lean_spin
+    SETTINGS = EncoderSettings
 
     def __init__(self, name: str = 'encoder', **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
-        self.model = EncoderModel(self.declare_model('encoder', EncoderParams))
+        s: EncoderSettings = self.settings
+        self.model = EncoderModel(s.encoder)
         self.topic = topics.PULLEY_STATE
         self.angle_rad = 0.0
         self.pub = self.create_step_publisher(JointState, topics.ENCODER)

@@ -17,7 +17,8 @@ from geometry_msgs.msg import WrenchStamped
 from pam_bench_interfaces.msg import MuscleSamples
 
 from pam_bench.config import topics
-from pam_bench.models.sensors import LoadCellModel, LoadCellParams
+from pam_bench.config.settings import LoadCellSettings
+from pam_bench.models.sensors import LoadCellModel
 from pam_bench.nodes.base import BenchNode
 from pam_bench.nodes.messages import force_reading
 from pam_bench.nodes.process import run_node
@@ -28,14 +29,13 @@ __all__ = ['LoadCellSim', 'main']
 class LoadCellSim(BenchNode):
     """Thin node over ``LoadCellModel``."""
 
-    LEAN_SPIN = True    # subscriptions only: see nodes.process.lean_spin
+    SETTINGS = LoadCellSettings
 
     def __init__(self, name: str = 'load_cell_1', **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
-        self.channel = self.declare_typed('channel', 1, 'muscle channel N', '-', 1, 2)
-        seed = self.declare_typed('seed', 0, 'seed of the noise generator', '-', 0, 2**31 - 1)
-        params = self.declare_model('load_cell', LoadCellParams)
-        self.model = LoadCellModel(params, seed=seed + zlib.crc32(name.encode()))
+        s: LoadCellSettings = self.settings
+        self.channel = s.channel
+        self.model = LoadCellModel(s.load_cell, seed=s.seed + zlib.crc32(name.encode()))
         self.topic = topics.muscle_samples(self.channel)
         self.force_n = 0.0
         self.frame_id = f'load_cell_{self.channel}'

@@ -35,9 +35,10 @@ from pam_bench_interfaces.msg import DriveLaw, LoadCommand, MuscleSamples
 from sensor_msgs.msg import JointState
 
 from pam_bench.config import topics
+from pam_bench.config.settings import LoadingServoSettings
 from pam_bench.models.constants import SUB_STEP_S
 from pam_bench.models.coupling import substep_grid
-from pam_bench.models.loading_servo import LoadingServoModel, LoadingServoParams, LoadMode, law_of
+from pam_bench.models.loading_servo import LoadingServoModel, LoadMode, law_of
 from pam_bench.nodes.base import RELIABLE, BenchNode
 from pam_bench.nodes.messages import time_of
 from pam_bench.nodes.process import run_node
@@ -48,26 +49,18 @@ __all__ = ['LoadingServoSim', 'main']
 class LoadingServoSim(BenchNode):
     """Thin node over ``LoadingServoModel``."""
 
-    LEAN_SPIN = True    # subscriptions only: see nodes.process.lean_spin
+    SETTINGS = LoadingServoSettings
 
     def __init__(self, name: str = 'loading_servo', **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
-        self.channel = self.declare_typed('channel', 1, 'muscle channel on the belt', '-', 1, 2)
-        self.sync_command = self.declare_typed(
-            'sync_command', True, 'require a command at every step (lock-step controllers)')
-        self.muscles = self.declare_typed('muscles', 1, 'muscles on the belt: 1 '
-                                          '(characterisation) or 2 (antagonistic pair, angle '
-                                          'held)', '-', 1, 2)
-        self.hold_angle_rad = self.declare_typed('hold_angle_rad', 0.0, 'pulley angle held '
-                                                 'with two muscles', 'rad', -1.0472, 1.0472)
-        self.rest_contraction_m = self.declare_typed(
-            'rest_contraction_m', 0.04, 'contraction x0 of both muscles at theta = 0 (two '
-            'muscles)', 'm', 0.0, 0.15)
-        init_mode = self.declare_typed('initial_mode', 0, 'LoadCommand mode held until the '
-                                       'first command: 0 off, 1 force, 2 position', '-', 0, 2)
-        init_sp = self.declare_typed('initial_setpoint', 0.0, 'set value of initial_mode (N or '
-                                     'm)', '', -10.0, 1e4)
-        self.model = LoadingServoModel(self.declare_model('servo', LoadingServoParams))
+        s: LoadingServoSettings = self.settings
+        self.channel = s.channel
+        self.sync_command = s.sync_command
+        self.muscles = s.muscles
+        self.hold_angle_rad = s.hold_angle_rad
+        self.rest_contraction_m = s.rest_contraction_m
+        init_mode, init_sp = s.initial_mode, s.initial_setpoint
+        self.model = LoadingServoModel(s.servo)
         if init_mode:
             self.model.command(LoadMode(init_mode), init_sp)
             if init_mode == LoadMode.POSITION:

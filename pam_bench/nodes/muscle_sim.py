@@ -18,13 +18,12 @@ from typing import Any
 from pam_bench_interfaces.msg import DriveLaw, MuscleSamples, MuscleState, PressureSamples
 
 from pam_bench.config import topics
+from pam_bench.config.settings import MuscleSettings
 from pam_bench.models.bench_muscle import make_muscle
 from pam_bench.models.constants import SUB_STEP_S
 from pam_bench.models.coupling import solve_substeps, substep_grid
 from pam_bench.models.errors import ModelError
 from pam_bench.models.loading_servo import IdealHold, drive_from_law
-from pam_bench.models.muscle import MuscleParams
-from pam_bench.models.straight_fibre_muscle import StraightFibreParams
 from pam_bench.nodes.base import BenchNode
 from pam_bench.nodes.messages import time_of
 from pam_bench.nodes.process import run_node
@@ -35,13 +34,13 @@ __all__ = ['MuscleSim', 'main']
 class MuscleSim(BenchNode):
     """Thin node over the bench muscle and the coupled sub-step solve."""
 
-    LEAN_SPIN = True    # subscriptions only: see nodes.process.lean_spin
+    SETTINGS = MuscleSettings
 
     def __init__(self, name: str = 'muscle_1', **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
-        self.channel = self.declare_typed('channel', 1, 'muscle channel N', '-', 1, 2)
-        self.model = make_muscle(self.declare_model('muscle', MuscleParams),
-                                 self.declare_model('straight_fibre', StraightFibreParams))
+        s: MuscleSettings = self.settings
+        self.channel = s.channel
+        self.model = make_muscle(s.muscle, s.straight_fibre)
         self.joint = f'muscle_{self.channel}'
         self.p_topic = topics.valve_samples(self.channel)
         self.law_topic = topics.PULLEY_LAW

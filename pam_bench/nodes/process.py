@@ -25,7 +25,7 @@ from pam_bench.models.errors import ModelError
 from pam_bench.models.params import check_known
 from pam_bench.nodes.profiling import profiled
 
-__all__ = ['lean_spin', 'deadline_spin', 'serve_services', 'set_realtime_priority',
+__all__ = ['lean_spin', 'deadline_spin', 'spin', 'serve_services', 'set_realtime_priority',
            'reject_undeclared',
            'install_interrupt_handlers', 'fail_line', 'start_node', 'run_node']
 
@@ -38,10 +38,11 @@ def serve_services(node: Node) -> Callable[[], None]:
     def serve() -> None:
         for srv in node.services:
             while True:
-                request, header = srv.handle.service_take_request(srv.srv_type.Request)
+                srv_type: Any = srv.srv_type
+                request, header = srv.handle.service_take_request(srv_type.Request)
                 if header is None:
                     break
-                srv.send_response(srv.callback(request, srv.srv_type.Response()), header)
+                srv.send_response(srv.callback(request, srv_type.Response()), header)
 
     return serve
 
@@ -168,7 +169,7 @@ def lean_spin(node: Node, graceful: bool = False,
     try:
         while ctx.ok() and not stop:
             if getattr(node, 'subscriptions_version', 0) != version:   # came or went
-                version = node.subscriptions_version
+                version = getattr(node, 'subscriptions_version', 0)
                 subs = list(node.subscriptions)
                 by_ptr = {s.handle.pointer: s for s in subs}
                 with_info = {s.handle.pointer for s in subs
@@ -280,19 +281,45 @@ def start_node(cls: Callable[[], Node], name: str) -> Any:
     return node
 
 
+def spin(node: Any) -> int:
+    """Spin ``node`` the way it declares (``spin_mode``) until it is done or interrupted;
+    returns its exit code. ``PAM_BENCH_EXECUTOR=single`` puts every node on rclpy's
+    SingleThreadedExecutor (to compare)."""
+    from pam_bench.nodes.core import Spin
+    mode = node.spin_mode()
+    if os.environ.get('PAM_BENCH_EXECUTOR') == 'single':
+        mode = Spin.EXECUTOR
+    services = serve_services(node) if list(node.services) else None
+    if mode == Spin.DEADLINE:
+        priority = getattr(node.settings, 'realtime_priority', 0)
+        if priority:
+            node.get_logger().info(f'control loop: {set_realtime_priority(priority)}')
+        deadline_spin([node], node.on_wall_tick, node.take_wall_ticks(),
+                      serve_services(node), should_stop=lambda: node.exit_code is not None)
+        return int(node.exit_code or 0)
+    if mode == Spin.LEAN:
+        lean_spin(node, graceful=node.GRACEFUL_STOP, poll=services)
+        return 0
+    from rclpy.executors import SingleThreadedExecutor
+    executor = SingleThreadedExecutor(context=node.context)
+    executor.add_node(node)
+    while node.context.ok() and node.exit_code is None:
+        executor.spin_once(timeout_sec=0.1)
+    return int(node.exit_code or 0)
+
+
 def run_node(cls: type[Node], args: list[str] | None = None) -> None:
     """The Jazzy ``main()``: init, spin, stop on Ctrl-C or external shutdown, clean up.
 
     A node that cannot start (a bad, misspelt or out-of-range parameter) prints one line naming
-    the key and exits with code 2, no traceback. Nodes with only subscriptions
-    (``LEAN_SPIN``) use ``lean_spin`` unless ``PAM_BENCH_EXECUTOR=single`` asks for rclpy's
-    SingleThreadedExecutor.
+    the key and exits with code 2, no traceback. The node says how it spins (``spin``). A
+    callback may end the process with ``SystemExit`` (the sim clock at the end of a run);
+    Ctrl-C or SIGTERM end it with the node's ``INTERRUPTED_CODE``.
     """
-    import os
     import sys
     install_interrupt_handlers()
     rclpy.init(args=args)
-    node = None
+    node: Any = None
     code = 0
     try:
         node = start_node(cls, _node_name(cls, args))
@@ -300,28 +327,12 @@ def run_node(cls: type[Node], args: list[str] | None = None) -> None:
             code = 2
             return
         with profiled(node.get_name()):
-            period = getattr(node, 'wall_period_s', None)
-            lean = os.environ.get('PAM_BENCH_EXECUTOR') != 'single'
-            if period is not None and getattr(node, 'action', None) is None and lean and \
-                    getattr(node, 'wall_loop', 'deadline') == 'deadline':
-                priority = getattr(node, 'realtime_priority', 0)
-                if priority:
-                    node.get_logger().info(f'control loop: {set_realtime_priority(priority)}')
-                deadline_spin([node], node.on_wall_tick, node.take_wall_ticks(),
-                              serve_services(node),
-                              should_stop=lambda: node.exit_code is not None)
-                code = node.exit_code or 0
-            elif getattr(node, 'LEAN_SPIN', False) and lean:
-                lean_spin(node, graceful=getattr(node, 'GRACEFUL_STOP', False),
-                          poll=serve_services(node) if list(node.services) else None)
-            else:                                # rclpy's executor (and its timers)
-                from rclpy.executors import SingleThreadedExecutor
-                executor = SingleThreadedExecutor(context=node.context)
-                executor.add_node(node)
-                while node.context.ok() and getattr(node, 'exit_code', None) is None:
-                    executor.spin_once(timeout_sec=0.1)
-                code = getattr(node, 'exit_code', None) or 0
-    except (KeyboardInterrupt, ExternalShutdownException):
+            code = spin(node)
+    except SystemExit as exc:
+        code = int(exc.code or 0)
+    except KeyboardInterrupt:
+        code = getattr(node, 'INTERRUPTED_CODE', 0)
+    except ExternalShutdownException:
         pass
     finally:
         if node is not None:

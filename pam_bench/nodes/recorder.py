@@ -38,6 +38,7 @@ from rosgraph_msgs.msg import Clock
 
 from pam_bench.analysis.baginfo import END_KEY, RUN_KEY
 from pam_bench.analysis.types import bench_typestore
+from pam_bench.config.settings import RecorderSettings
 from pam_bench.nodes import cdr
 from pam_bench.nodes.base import BenchNode
 from pam_bench.nodes.intra import bus_subscription
@@ -60,7 +61,7 @@ def _trim_rule(cls: type) -> str:
     """When a message of ``cls`` needs cutting (``Recorder._cdr``): never (its last field is
     a number, a string or a sequence of narrow numbers), when its last field, a sequence of
     8-byte numbers, is empty (that field's name), or always (measured)."""
-    name, kind = list(cls.get_fields_and_field_types().items())[-1]
+    name, kind = list(cdr.fields_of(cls).items())[-1]
     if kind in _WIDE:
         return name
     if kind in _NARROW or kind.startswith('string') or (
@@ -72,42 +73,30 @@ def _trim_rule(cls: type) -> str:
 class Recorder(BenchNode):
     """Raw-bytes rosbag2 MCAP recorder."""
 
-    LEAN_SPIN = True        # subscriptions only: see nodes.process.lean_spin
+    SETTINGS = RecorderSettings
     GRACEFUL_STOP = True    # SIGINT/SIGTERM end the loop between writes, never inside one
-
 
     def __init__(self, name: str = 'recorder', **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
-        out = self.declare_typed('out_dir', 'bags/run', 'bag directory to create')
-        step_topics = self.declare_typed('step_topics', ['/clock:rosgraph_msgs/msg/Clock'],
-                                         'topic:type recorded in lock-step (every step)')
-        event_topics = self.declare_typed('event_topics', ['/diagnostics:diagnostic_msgs/msg/'
-                                                           'DiagnosticArray'],
-                                          'topic:type recorded as they come')
-        self.record_all = self.declare_typed('record_all', False, 'record every topic that '
-                                             'appears (wall clock only; like ros2 bag -a)')
-        self.flush_period_s = self.declare_typed('flush_period_s', 1.0, 'wall clock: write the '
-                                                 'pending chunk to disk this often', 's', 0.01,
-                                                 3600.0)
-        self.run_yaml = self.declare_typed('run_yaml', '', 'how the run was made (YAML, from '
-                                           "the runner): stored in the bag's custom data")
-        self.end_file = self.declare_typed('end_file', '', 'JSON of how the run ended, written '
-                                           'by the runner before it stops the recorder')
-        self.topic_names = list(self.declare_typed(
-            'topic_names', [''], 'wall clock: record these topics (names; their types are '
-            'discovered) besides step_topics and event_topics'))
-        self.discovery_period_s = self.declare_typed('discovery_period_s', 0.5, 'wall clock: '
-                                                     'look for new topics and publishers QoS '
-                                                     'this often', 's', 0.05, 60.0)
+        s: RecorderSettings = self.settings
+        out = s.out_dir
+        step_topics, event_topics = s.step_topics, s.event_topics
+        self.record_all = s.record_all
+        self.flush_period_s = s.flush_period_s
+        self.run_yaml = s.run_yaml
+        self.end_file = s.end_file
+        self.topic_names = [t for t in s.topic_names if t]
+        self.discovery_period_s = s.discovery_period_s
         self.store = bench_typestore()
         path = pathlib.Path(out)
         if path.exists():
             raise FileExistsError(f'bag directory {path} exists; remove it or pick another')
         path.parent.mkdir(parents=True, exist_ok=True)
-        self.writer = Writer(path, version=9, storage_plugin=StoragePlugin.MCAP)
-        self.writer.open()
+        writer = Writer(path, version=9, storage_plugin=StoragePlugin.MCAP)
+        writer.open()
         if self.run_yaml:
-            self.writer.set_custom_data(RUN_KEY, self.run_yaml)
+            writer.set_custom_data(RUN_KEY, self.run_yaml)
+        self.writer: Writer | None = writer
         self.count = 0
         self.end_ns: int | None = None
         self.connections = {}
@@ -153,6 +142,7 @@ class Recorder(BenchNode):
         if old is not None:
             self.destroy_subscription(old[0])
         if topic not in self.connections:
+            assert self.writer is not None
             self.connections[topic] = self.writer.add_connection(topic, msgtype,
                                                                  typestore=self.store)
         qos = QoSProfile(depth=1000, history=HistoryPolicy.KEEP_LAST,
@@ -242,7 +232,8 @@ class Recorder(BenchNode):
     def _write_any(self, topic: str, data: Any) -> None:
         """Write CDR bytes (from DDS) or a message object (from the intra-process bus)."""
         if isinstance(data, (bytes, bytearray, memoryview)):
-            self._write(topic, stamp_of_cdr(data), data)
+            raw = bytes(data)
+            self._write(topic, stamp_of_cdr(raw), raw)
         else:
             self._write(topic, stamp_of_msg(data), self._cdr(topic, data))
 
@@ -253,7 +244,7 @@ class Recorder(BenchNode):
         follows, and leaves the end of its buffer as it was; a reader wants at most 3 bytes of
         end padding. Such a message is cut at its true end (measured by the bag's typestore)
         and padded to 4 (``cdr.ends_padded`` names the same messages)."""
-        enc = cdr.encoder(type(msg))
+        enc = cdr.encoder(msg.__class__)
         if enc is not None:
             return enc(msg)
         raw = serialize_message(msg)
@@ -326,9 +317,10 @@ def record(out_dir: str, topic_names: list[str], record_all: bool) -> int:
         node = Recorder('recorder', parameter_overrides=[
             Parameter('lockstep', value=False), Parameter('out_dir', value=out_dir),
             Parameter('record_all', value=record_all),
-            Parameter('topic_names', value=list(topic_names) or ['']),
-            Parameter('event_topics', value=['/diagnostics:diagnostic_msgs/msg/DiagnosticArray']
-                      if record_all else [''])])
+            Parameter('topic_names', Parameter.Type.STRING_ARRAY, list(topic_names)),
+            Parameter('event_topics', Parameter.Type.STRING_ARRAY,
+                      ['/diagnostics:diagnostic_msgs/msg/DiagnosticArray'] if record_all
+                      else [])])
         lean_spin(node, graceful=True, poll=serve_services(node))
     except KeyboardInterrupt:
         pass

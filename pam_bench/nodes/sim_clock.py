@@ -18,21 +18,18 @@ from __future__ import annotations
 
 import collections
 import os
-import sys
 import time
 from typing import Any
 
-import rclpy
 from pam_bench_interfaces.msg import ProtocolStatus, StepAck
-from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
 from pam_bench.config import topics
-from pam_bench.nodes.base import RELIABLE, BenchNode
+from pam_bench.config.settings import ClockSettings
+from pam_bench.nodes.base import RELIABLE, BenchNode, Spin
 from pam_bench.nodes.intra import bus_publisher, bus_subscription
 from pam_bench.nodes.messages import ack_of, time_of
-from pam_bench.nodes.process import install_interrupt_handlers, lean_spin, start_node
-from pam_bench.nodes.profiling import profiled
+from pam_bench.nodes.process import run_node
 from pam_bench.sim.lockstep import (
     FLUSH_NS,
     ClockState,
@@ -67,32 +64,26 @@ def windowed_rate(history: collections.deque[tuple[float, float]], wall_s: float
     return (sim_s - s0) / (wall_s - w0) if wall_s > w0 else 0.0
 
 
-class SimClock(Node):
-    """Lock-step master clock."""
+class SimClock(BenchNode):
+    """Lock-step master clock: an ordinary bench node that steps nobody but publishes /clock."""
+
+    SETTINGS = ClockSettings
+    INTERRUPTED_CODE = 130
 
     def __init__(self, name: str = 'sim_clock', lean: bool | None = None, **kwargs: Any) -> None:
         """``lean``: driven by ``lean_spin`` (polls instead of timers); default: unless
         ``PAM_BENCH_EXECUTOR=single``. Under an rclpy executor pass ``lean=False``."""
-        kwargs.setdefault('start_parameter_services', False)
         super().__init__(name, **kwargs)
-        decl = BenchNode.declare_typed.__get__(self)
-        self.step_s = decl('exchange_step_s', 0.01, 'exchange step h', 's', 1e-6, 10.0)
-        self.participants = set(decl('participants', ['/valve_1'],
-                                     'fully qualified names that step in lock-step'))
-        self.duration_s = decl('duration_s', 0.0, 'stop at this sim time (0: on protocol end)',
-                               's', 0.0, 1e9)
-        self.realtime = decl('realtime', False, 'pace the ticks to the wall clock')
-        self.grace_s = decl('grace_s', 0.3, 'wall time between ready and the first step',
-                            's', 0.0, 60.0)
-        self.progress_s = decl('progress_period_s', 2.0, 'wall time between progress lines',
-                               's', 0.0, 3600.0)
-        self.nudge_s = decl('nudge_s', 1.0, 'publish a tick again, and again, each time it has '
-                            'not been acknowledged for this wall time (a message lost at '
-                            'start-up)', 's', 0.01, 3600.0)
-        self.summary_file = decl('summary_file', '', 'write the run summary here as JSON '
-                                 '(empty: print it only)')
-        self.timeout_s = decl('stall_timeout_s', 10.0, 'abort when a step is not acknowledged '
-                              'within this wall time', 's', 0.1, 3600.0)
+        s: ClockSettings = self.settings
+        self.step_s = s.exchange_step_s
+        self.participants = set(s.participants)
+        self.duration_s = s.duration_s
+        self.realtime = s.realtime
+        self.grace_s = s.grace_s
+        self.progress_s = s.progress_period_s
+        self.nudge_s = s.nudge_s
+        self.summary_file = s.summary_file
+        self.timeout_s = s.stall_timeout_s
         self.h_ns = round(self.step_s * 1e9)
         self.k = 0
         self.tick_ns = 0
@@ -112,11 +103,14 @@ class SimClock(Node):
         self.last_progress = time.monotonic()
         self.rate_history: collections.deque[tuple[float, float]] = collections.deque()
         self.last_tick_wall = time.monotonic()
-        self.exit_code = 0
         self.ready_at: float | None = None    # wall time when all were ready (lean mode)
         self.lean = (os.environ.get('PAM_BENCH_EXECUTOR') != 'single') if lean is None else lean
         if not self.lean:
             self.timer = self.create_timer(0.05, self._on_timer)
+
+    def spin_mode(self) -> Spin:
+        """Lean: its subscriptions and ``lean_poll``; else rclpy's executor and timers."""
+        return Spin.LEAN if self.lean else Spin.EXECUTOR
 
     @property
     def flushing(self) -> bool:
@@ -285,32 +279,8 @@ class SimClock(Node):
 
 def main(args: list[str] | None = None) -> None:
     """Run the clock until the scene ends; exit code 0 when it ended normally."""
-    install_interrupt_handlers()
-    rclpy.init(args=args)
-    node = None
-    code = 0
-    try:
-        node = start_node(SimClock, 'sim_clock')
-        if node is None:
-            raise SystemExit(2)
-        with profiled('sim_clock'):
-            if node.lean:
-                lean_spin(node)
-            else:
-                rclpy.spin(node)
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    except KeyboardInterrupt:
-        code = 130
-    except rclpy.executors.ExternalShutdownException:
-        code = 0
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    sys.exit(code)
+    run_node(SimClock, args)
 
 
 if __name__ == '__main__':
     main()
-

@@ -22,8 +22,8 @@ statistics are in ``stats_file`` (``analysis.timing``).
 
 from __future__ import annotations
 
+import functools
 import math
-import time
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticStatus
@@ -33,16 +33,15 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
 from pam_bench.config import topics
+from pam_bench.config.settings import TorqueServoSettings
 from pam_bench.control.inverse import InverseModel
 from pam_bench.control.torque_servo import (
     ServoMode,
     Signal,
     SignalKind,
     TorqueServoController,
-    TorqueServoParams,
 )
-from pam_bench.models.errors import ParameterError
-from pam_bench.nodes.base import RELIABLE, SENSOR, BenchNode
+from pam_bench.nodes.base import RELIABLE, SENSOR, BenchNode, Spin
 from pam_bench.nodes.messages import ns_of, time_of
 from pam_bench.nodes.process import run_node
 
@@ -52,47 +51,25 @@ __all__ = ['TorqueServoNode', 'main']
 class TorqueServoNode(BenchNode):
     """Thin node over ``TorqueServoController``."""
 
+    SETTINGS = TorqueServoSettings
+
     def __init__(self, name: str = 'torque_servo', **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
-        d = self.declare_typed
-        self.muscles = d('muscles', 2, 'muscles driven: 2 (torque, N m) or 1 (force, N)', '-',
-                         1, 2)
-        mode = d('controller', ServoMode.DYNAMIC.value, 'dynamic_inverse_pid, '
-                 'static_inverse_pid, pid, or the inverse model alone: dynamic_inverse, '
-                 'static_inverse (004 Fig. 17)')
-        model_file = d('inverse_model_file', '', 'inverse_model.yaml from pam-bench extract '
-                       '(needed by the inverse-model controllers)')
-        kind = d('signal', SignalKind.SINE.value, 'set point waveform: sine, square, constant')
-        self.signal = Signal(
-            SignalKind(kind), d('amplitude', 5.0, 'set point amplitude (N m, or N with one '
-                                'muscle)', '', -1e4, 1e4),
-            d('omega_rad_s', 1.0, 'sine angular frequency', 'rad/s', 0.0, 1e3),
-            d('offset', 0.0, 'set point offset (N m, or N)', '', -1e4, 1e4),
-            d('period_s', 3.0, 'square-wave period', 's', 1e-3, 1e4))
-        self.control_period_s = d('control_period_s', 0.001, 'control period without '
-                                  'lock-step', 's', 1e-4, 1.0)
-        self.stale_timeout_s = d('stale_timeout_s', 0.05, 'vent when a measured topic is older '
-                                 'than this (without lock-step)', 's', 1e-3, 60.0)
-        self.realtime_priority = d('realtime_priority', 0, 'without lock-step: run the control '
-                                   'loop SCHED_FIFO at this priority where allowed (0: off)',
-                                   '-', 0, 99)
-        self.wall_loop = d('wall_loop', 'deadline', 'without lock-step: run the control loop '
-                           "on a monotonic deadline ('deadline') or on rclpy's timer and "
-                           "executor ('timer', to compare)")
-        if self.wall_loop not in ('deadline', 'timer'):
-            raise ParameterError(f"torque_servo.wall_loop {self.wall_loop!r}: 'deadline' or "
-                                 "'timer'")
-        self.startup_timeout_s = self.declare_startup_timeout()
-        self.await_recorder = d('await_recorder', False, 'without lock-step: start control '
-                                "only once torque_servo/state has a subscriber (the run's "
-                                'recorder)')
-        self.latch_faults = d('latch_faults', True, 'without lock-step: a stale or non-finite '
-                              'measurement keeps the valves vented until torque_servo/reset, '
-                              'even when the data come back')
+        s: TorqueServoSettings = self.settings
+        self.muscles = s.muscles
+        mode, model_file = s.controller, s.inverse_model_file
+        self.signal = Signal(SignalKind(s.signal), s.amplitude, s.omega_rad_s, s.offset,
+                             s.period_s)
+        self.control_period_s = s.control_period_s
+        self.stale_timeout_s = s.stale_timeout_s
+        self.realtime_priority = s.realtime_priority
+        self.wall_loop = s.wall_loop
+        self.startup_timeout_s = s.startup_timeout_s
+        self.await_recorder = s.await_recorder
+        self.latch_faults = s.latch_faults
         self.latched = ''
-        self.duration_s = d('duration_s', 0.0, 'without lock-step: exit this long after the '
-                            'first control step (0: run until stopped)', 's', 0.0, 1e6)
-        params = self.declare_model('servo', TorqueServoParams)
+        self.duration_s = s.duration_s
+        params = s.servo
         inverse = InverseModel.load(model_file) if model_file else None
         self.ctl = TorqueServoController(params, ServoMode(mode), inverse, self.muscles)
         chans = range(1, self.muscles + 1)
@@ -112,9 +89,6 @@ class TorqueServoNode(BenchNode):
                                  RELIABLE)
         if not self.lockstep:
             self.create_service(Trigger, topics.SERVO_RESET, self._on_reset)
-        # in lock-step the node has subscriptions only (no timer, no service): it spins on
-        # nodes.process.lean_spin, which costs a fraction of rclpy's executor per message
-        self.LEAN_SPIN = self.lockstep
         if self.lockstep:
             for tp in self.cell_topics:
                 self.sync_input(WrenchStamped, tp)
@@ -124,10 +98,18 @@ class TorqueServoNode(BenchNode):
             for tp in [*self.cell_topics, self.enc_topic]:
                 self.create_subscription(
                     JointState if tp == self.enc_topic else WrenchStamped, tp,
-                    lambda m, tp=tp: self._measured(tp, m), SENSOR)
+                    functools.partial(self._measured, tp), SENSOR)
             self._last_tick_ns: int | None = None
             self._next_progress_ns = 0
             self.start_wall_ticks(self.control_period_s)
+
+    def spin_mode(self) -> Spin:
+        """In lock-step the node has subscriptions only: it spins on them (a fraction of
+        rclpy's executor per message); on a wall clock its loop runs on a monotonic deadline,
+        or on rclpy's timer and executor with ``wall_loop: timer`` (to compare)."""
+        if not self.lockstep and self.wall_loop == 'timer':
+            return Spin.EXECUTOR
+        return super().spin_mode()
 
     # --- inputs ---------------------------------------------------------------------------
     def _on_setpoint(self, msg: TorqueSetpoint) -> None:
@@ -153,11 +135,11 @@ class TorqueServoNode(BenchNode):
             self._update(topic, msg)
         self._tick(t_ns, dt_s, '')
 
-    def on_wall_tick(self) -> None:
+    def on_wall_tick(self, t_ns: int | None = None) -> None:
         """Wall-clock control step: vent while a measured topic is stale (or has never come),
         else control over the time since the last step."""
-        t_ns = self.now_ns()
-        self._tick_ns.append(time.monotonic_ns())
+        t_ns = self.now_ns() if t_ns is None else t_ns
+        self.count_tick()
         waiting = len(self.stamps) < len(self.cell_topics) + 1    # not every device is up yet
         if self.t0_ns is None and self.await_recorder and \
                 self.state_pub.get_subscription_count() == 0:       # nor the recorder

@@ -21,9 +21,10 @@ from pam_bench_interfaces.msg import MuscleState, PressureSamples, ValveCommand
 from sensor_msgs.msg import FluidPressure
 
 from pam_bench.config import topics
-from pam_bench.models.constants import ATMOSPHERE_PA, SUB_STEP_S
+from pam_bench.config.settings import ValveSettings
+from pam_bench.models.constants import ATMOSPHERE_PA
 from pam_bench.models.coupling import substep_grid
-from pam_bench.models.valve import ValveModel, ValveParams, VolumeEvidence
+from pam_bench.models.valve import ValveModel, VolumeEvidence
 from pam_bench.nodes.base import RELIABLE, BenchNode
 from pam_bench.nodes.messages import time_of
 from pam_bench.nodes.process import run_node
@@ -35,17 +36,15 @@ __all__ = ['ValveSim', 'main']
 class ValveSim(BenchNode):
     """Thin node over ``ValveModel``."""
 
-    LEAN_SPIN = True    # subscriptions only: see nodes.process.lean_spin
+    SETTINGS = ValveSettings
 
     def __init__(self, name: str = 'valve_1', **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
-        self.channel = self.declare_typed('channel', 1, 'muscle channel N', '-', 1, 2)
-        self.sync_command = self.declare_typed(
-            'sync_command', True, 'require a command at every step (lock-step controllers)')
-        self.sub_step_s = self.declare_typed(
-            'sub_step_s', SUB_STEP_S, 'sub-step of the pressure samples the muscle follows (the '
-            'record sample period replaces it during a record)', 's', 1e-5, 1.0)
-        self.model = ValveModel(self.declare_model('valve', ValveParams))
+        s: ValveSettings = self.settings
+        self.channel = s.channel
+        self.sync_command = s.sync_command
+        self.sub_step_s = s.sub_step_s
+        self.model = ValveModel(s.valve)
         self.voltage_v = 0.0
         self.sample_period_s = 0.0
         self.volume_m3: float | None = None

@@ -7,24 +7,17 @@ point (and, after a step, the force record collected by stamp).
 
 from __future__ import annotations
 
-import dataclasses
 import enum
 
-from pam_bench.models.constants import LOAD_CELL_RANGE_N
 from pam_bench.models.errors import ParameterError
 from pam_bench.models.loading_servo import LoadMode
 from pam_bench.protocol.io import Commands, Measurement, Point, RecordWindow, StepRecord
 from pam_bench.protocol.schedules import Reading
+from pam_bench.protocol.settings import COMMAND_STEP_S, RECORD_EXCHANGE_S, Limits
 
 __all__ = ['Phase', 'Measurement', 'Limits', 'Point', 'StepRecord', 'Commands', 'Sequencer',
            'COMMAND_STEP_S', 'RECORD_EXCHANGE_S']
 
-# exchange steps a lock-step sequencer asks for (its node's defaults): at every new reading or
-# phase (the loading servo takes a new set value one exchange after it is sent), and at most
-# during a 1 kHz record (the valve holds the chamber volume of an exchange's start, which moves
-# the fitted b, c, d the more the longer the exchange: BENCHMARKS.md, 'Step records')
-COMMAND_STEP_S = 0.001
-RECORD_EXCHANGE_S = 0.05
 _EPS = 1e-9                 # s: a phase ends at its scheduled time within this
 
 
@@ -40,21 +33,6 @@ class Phase(enum.Enum):
     DONE = 'done'
     ABORTED = 'aborted'
     CANCELLED = 'cancelled'
-
-
-@dataclasses.dataclass(frozen=True)
-class Limits:
-    """Abort thresholds: load-cell range (N), set-value tolerances of the loading servo at a
-    reading (N, m; force tolerance also relative), and the valve check: the gauge pressure at
-    a reading within ``pressure_tolerance_pa`` of k_v u (a stuck valve; 0: no check; not on
-    ramp readings, taken while the voltage moves)."""
-
-    force_range_n: float = LOAD_CELL_RANGE_N
-    force_tolerance_n: float = 10.0
-    force_tolerance_rel: float = 0.05
-    position_tolerance_m: float = 1.0e-3
-    pressure_tolerance_pa: float = 0.0           # valve check at a reading; 0: off
-    valve_gain_pa_per_v: float = 1.0e5           # k_v of the valve check (004: 0.1 MPa/V)
 
 
 class Sequencer:

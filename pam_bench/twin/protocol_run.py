@@ -1,15 +1,17 @@
 """A protocol run on the numpy bench, tick for tick as the lock-step nodes run it.
 
-The sequencer's own state machine (``protocol.sequencer.Sequencer``) drives the numpy bench
-(``twin.bench.SingleMuscleBench``) with the exchange steps the ROS sim clock would take: the
-scene's longest step, cut by the sequencer's requests (the next reading, ``command_step_s`` at
-every new reading or phase, at most ``record_exchange_s`` in a record) and by the valve's
-(``ValveModel.max_step``). At every tick the devices advance over the exchange on the commands
-of the previous tick, then the sequencer reads the measurements of this tick and commands the
-next exchange, as the node chain does. The same scene therefore gives the same readings as its
-ROS run, up to the sensor noise, which does not feed back (the drive's loop reads the true
-force). With a short ``exchange_step_s`` it is the reference the scenes' long exchanges are
-measured against.
+The protocol runner the sequencer node ticks (``protocol.runner.Runner``: the state machine,
+suspenders, pause, the end) drives the numpy bench (``twin.bench.SingleMuscleBench``) with the
+exchange steps the ROS sim clock would take: the scene's longest step, cut by the runner's
+requests (the next reading, ``command_step_s`` at every new reading or phase, at most
+``record_exchange_s`` in a record) and by the valve's (``ValveModel.max_step``). At every tick
+the devices advance over the exchange on the commands of the previous tick, then the runner
+reads the measurements of this tick and commands the next exchange, as the node chain does.
+The same scene therefore gives the same readings as its ROS run, up to the sensor noise,
+which does not feed back (the drive's loop reads the true force). With a short
+``exchange_step_s`` it is the reference the scenes' long exchanges are measured against.
+``run_scene`` runs a scene from its settings (``config.scene.Scene.settings``), the objects
+the nodes are built from.
 """
 
 from __future__ import annotations
@@ -19,32 +21,29 @@ import time
 from collections.abc import Sequence
 from typing import Any
 
-from pam_bench.config.protocols import protocol_schedule
+from pam_bench.config.protocols import parse_overrides, protocol_schedule
+from pam_bench.config.scene import Scene
 from pam_bench.models.constants import SUB_STEP_S
 from pam_bench.models.loading_servo import LoadingServoParams
 from pam_bench.models.muscle import MuscleParams
 from pam_bench.models.sensors import LoadCellParams
 from pam_bench.models.straight_fibre_muscle import StraightFibreParams
 from pam_bench.models.valve import ValveParams
-from pam_bench.protocol.schedules import Reading
-from pam_bench.protocol.sequencer import (
-    COMMAND_STEP_S,
-    RECORD_EXCHANGE_S,
-    Measurement,
-    Phase,
-    Point,
-    Sequencer,
-    StepRecord,
-)
-from pam_bench.sim.lockstep import EventStepRequest, negotiate
+from pam_bench.protocol.io import Point, StepRecord
+from pam_bench.protocol.runner import END_CODES, Runner
+from pam_bench.protocol.schedules import Reading, with_approach
+from pam_bench.protocol.sequencer import Phase, Sequencer
+from pam_bench.protocol.settings import COMMAND_STEP_S, RECORD_EXCHANGE_S, RunnerSettings
+from pam_bench.sim.lockstep import negotiate
 from pam_bench.twin.bench import SingleMuscleBench
 
-__all__ = ['TwinRun', 'run_readings', 'run_protocol']
+__all__ = ['TwinRun', 'run_readings', 'run_protocol', 'run_scene']
 
 
 @dataclasses.dataclass
 class TwinRun:
-    """Points and step records of a run, its exchanges and sub-steps, wall time (s)."""
+    """Points and step records of a run, its exchanges and sub-steps, wall time (s), and how
+    it ended (exit code 0 done, 4 aborted; the runner's reason)."""
 
     points: list[Point]
     records: list[StepRecord]
@@ -52,6 +51,10 @@ class TwinRun:
     substeps: int
     sim_s: float
     wall_s: float
+    exit_code: int = 0
+    reason: str = ''
+    paused_s: float = 0.0          # sim time spent paused or suspended
+    suspensions: int = 0           # times a suspender paused the run
 
 
 def run_readings(name: str, readings: list[Reading], settle_s: float, exchange_step_s: float,
@@ -61,48 +64,61 @@ def run_readings(name: str, readings: list[Reading], settle_s: float, exchange_s
                  command_step_s: float = COMMAND_STEP_S,
                  record_exchange_s: float = RECORD_EXCHANGE_S,
                  events: Sequence[tuple[float, str]] = (),
-                 straight_fibre: StraightFibreParams | None = None) -> TwinRun:
+                 straight_fibre: StraightFibreParams | None = None,
+                 runner: RunnerSettings | None = None, start_index: int = 0) -> TwinRun:
     """Run a schedule to its end (module docstring); the bench starts at rest. ``events``:
-    (sim time s, 'pause' | 'pause_vent' | 'resume'), given to the sequencer at the first tick
-    at or after that time, as an operator's service call would be."""
+    (sim time s, 'pause' | 'pause_vent' | 'resume'), given to the runner at the first tick
+    at or after that time, as an operator's service call would be. ``runner``: the runner's
+    settings (limits, suspenders, pause action; default: the defaults with these steps)."""
     bench = SingleMuscleBench(valve=valve, muscle=muscle, load_cell=load_cell, servo=servo,
                               seed=seed, sub_step_s=sub_step_s, straight_fibre=straight_fibre)
-    seq = Sequencer(name, readings, settle_s, record_exchange_s=record_exchange_s)
-    seq.start(0.0)
+    settings = runner or RunnerSettings(command_step_s=command_step_s,
+                                        record_exchange_s=record_exchange_s)
+    run = Runner(settings, lockstep=True)
+    run.load(Sequencer(name, readings, settle_s, run.limits, settings.record_exchange_s,
+                       start_index))
+    run.start(0.0)
     points: list[Point] = []
     records: list[StepRecord] = []
-    h = command_step_s                      # the sequencer asks for it at t_0
+    h = settings.command_step_s               # the sequencer asks for it at t_0
     sample_period = 0.0
-    request = EventStepRequest(command_step_s)
     t0 = time.perf_counter()
     pending = sorted(events)
+    suspensions = 0
+    core = run.core
+    assert core is not None
     while True:
-        if pending and seq.phase == Phase.PAUSED:   # land on the next event, not beyond it
-            h = min(h, max(pending[0][0] - bench.t, command_step_s))
+        if pending and core.phase == Phase.PAUSED:
+            h = min(h, max(pending[0][0] - bench.t, settings.command_step_s))
         bench.step(h, sample_period)
-        meas = Measurement(bench.f_meas, bench.th_meas * bench.servo.r, bench.p)
-        while pending and bench.t >= pending[0][0] - 1e-12:
+        t = bench.t
+        run.samples_in(list(bench.samples[:-1]))
+        run.measured('force', bench.f_meas, t)
+        run.measured('contraction', bench.th_meas * bench.servo.r, t)
+        run.measured('pressure', bench.p, t)
+        while pending and t >= pending[0][0] - 1e-12:
             what = pending.pop(0)[1]
             if what == 'resume':
-                seq.resume()
+                run.resume()
             else:
-                seq.pause('operator', vent=what == 'pause_vent')
-        cmd = seq.tick(bench.t, meas, list(bench.samples))
-        if cmd.point is not None:
-            points.append(cmd.point)
-        if cmd.record is not None:
-            records.append(cmd.record)
-        if not seq.running:
+                run.pause('operator', vent=what == 'pause_vent')
+        tick = run.tick(t)
+        suspensions += sum(n.text.startswith('protocol suspended') for n in tick.notes)
+        if tick.point is not None:
+            points.append(tick.point)
+        if tick.record is not None:
+            records.append(tick.record)
+        if run.ended:
             break
+        cmd = tick.commands
         bench.command_valve(cmd.voltage_v)
         bench.command_load(cmd.load_mode, cmd.load_value)
         sample_period = cmd.sample_period_s
         # the requests the sequencer and the valve put in their acknowledgements
-        h = negotiate(exchange_step_s, (request.request(bench.t, seq.next_event_s(bench.t),
-                                                        (seq.index, seq.phase)),
-                                        bench.max_step()))
+        h = negotiate(exchange_step_s, (tick.next_step_s, bench.max_step()))
     return TwinRun(points, records, bench.steps, bench.substeps, bench.t,
-                   time.perf_counter() - t0)
+                   time.perf_counter() - t0, END_CODES.get(core.phase, 4), core.reason,
+                   core.paused_s, suspensions)
 
 
 def run_protocol(protocol: str, exchange_step_s: float, table: dict[str, Any] | None = None,
@@ -110,3 +126,19 @@ def run_protocol(protocol: str, exchange_step_s: float, table: dict[str, Any] | 
     """Run a protocol of config/protocols.yaml (or of ``table``) with ``run_readings``."""
     readings, settle = protocol_schedule(protocol, overrides, table)
     return run_readings(protocol, readings, settle, exchange_step_s, **kw)
+
+
+def run_scene(scene: Scene, seed: int = 0, events: Sequence[tuple[float, str]] = ()
+              ) -> TwinRun:
+    """Run a single-muscle protocol scene on the twin, with every model and runner setting
+    from the scene's settings (the objects its nodes are built from)."""
+    st = scene.settings(seed=seed)
+    seq, muscle = st['sequencer'], st['muscle_1']
+    readings, settle = protocol_schedule(seq.protocol,
+                                         parse_overrides(seq.protocol_overrides_yaml))
+    readings, start = with_approach(readings, seq.resume_from_reading)
+    return run_readings(seq.protocol, readings, settle, scene.exchange_step_s,
+                        scene.sub_step_s, valve=st['valve_1'].valve, muscle=muscle.muscle,
+                        servo=st['loading_servo'].servo, load_cell=st['load_cell_1'].load_cell,
+                        seed=st['load_cell_1'].seed, events=events,
+                        straight_fibre=muscle.straight_fibre, runner=seq, start_index=start)

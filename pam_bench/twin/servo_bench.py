@@ -19,9 +19,11 @@ work-precision benchmark.
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import numpy as np
 
+from pam_bench.control.inverse import InverseModel
 from pam_bench.control.torque_servo import (
     ServoMode,
     Signal,
@@ -58,7 +60,7 @@ class ServoRun:
 
 
 def run_servo(mode: ServoMode, signal: Signal, duration_s: float, angle_rad: float = 0.0,
-              h_s: float = 0.001, inverse: object = None, muscles: int = 2,
+              h_s: float = 0.001, inverse: InverseModel | None = None, muscles: int = 2,
               params: TorqueServoParams | None = None, valve: ValveParams | None = None,
               muscle: MuscleParams | None = None, noise: bool = True, seed: int = 0
               ) -> ServoRun:
@@ -73,6 +75,7 @@ def run_servo(mode: ServoMode, signal: Signal, duration_s: float, angle_rad: flo
     r = ctl.r
     sign = (1.0, -1.0)
     x0 = [sp.rest_contraction_m + sign[i] * r * angle_rad for i in range(muscles)]
+    holders: list[Any]
     if muscles == 2:
         holders = [IdealHold(x, k_b) for x in x0]
     else:
@@ -88,7 +91,8 @@ def run_servo(mode: ServoMode, signal: Signal, duration_s: float, angle_rad: flo
     th_meas = 0.0
     u = [0.0] * muscles                     # commands of the previous tick
     n = int(round(duration_s / h_s))
-    rec = {k: [] for k in ('t', 'sp', 'meas', 'rate', 'fsp', 'f', 'u', 'ff')}
+    rec: dict[str, list[Any]] = {k: [] for k in ('t', 'sp', 'meas', 'rate', 'fsp', 'f', 'u',
+                                                 'ff')}
     for k in range(n):
         t = k * h_s
         # devices over the exchange on the previous tick's commands
@@ -121,7 +125,7 @@ def run_servo(mode: ServoMode, signal: Signal, duration_s: float, angle_rad: flo
 
 
 def tracking_metrics(run: ServoRun, settle_s: float = 1.0, window_s: float | None = None
-                     ) -> dict[str, float]:
+                     ) -> dict[str, Any]:
     """RMS and max |set point - measured| after ``settle_s``; the largest error in the window
     that follows a reversal of the set point's derivative (or a jump of a square wave) and the
     largest elsewhere, in the run's unit. The window runs from 0.05 s before each reversal to

@@ -2,4 +2,5 @@
 
 from __future__ import annotations
 
-__all__ = ['calibration', 'prototype', 'reference_check', 'truth', 'wallclock']
+__all__ = ['calibrate', 'calibrate_bags', 'calibration', 'figures_004', 'prototype',
+           'reference_check', 'truth', 'wallclock']

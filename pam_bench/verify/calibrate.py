@@ -53,7 +53,8 @@ GAIN_MIN_AT_M = 0.095
 
 
 def _params(theta: np.ndarray, base: MuscleParams) -> MuscleParams:
-    values = {name: float(v) for (name, _, _), v in zip(FREE, theta, strict=True)}
+    values: dict[str, Any] = {name: float(v) for (name, _, _), v in zip(FREE, theta,
+                                                                       strict=True)}
     scale = values.pop('friction_stiffness_scale')
     return dataclasses.replace(base, gain_min_contraction_m=GAIN_MIN_AT_M,
                                friction_stiffness_n_per_m=[

@@ -264,7 +264,7 @@ def _residuals(obs: Observations, pred: tuple[np.ndarray, list[np.ndarray]],
 def _models(theta: np.ndarray, valve: ValveParams, muscle: MuscleParams,
             free: Sequence[tuple[str, str, float, float]] = FREE_BAGS
             ) -> tuple[ValveParams, MuscleParams]:
-    v: dict[str, float] = {}
+    v: dict[str, Any] = {}
     m: dict[str, Any] = {}
     for (model, name, _, _), value in zip(free, theta, strict=True):
         (v if model == 'valve' else m)[name] = float(value)

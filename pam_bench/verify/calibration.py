@@ -7,6 +7,8 @@ readings on the hysteresis midline, as the extraction takes them (pam_bench.anal
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from pam_bench.analysis.static import midline_fit
@@ -18,7 +20,7 @@ __all__ = ['isometric_sweep', 'isotonic_sweep', 'isobaric_sweep', 'isometric_gai
 
 
 def _voltage_sweep(mode: LoadMode, load: float, voltages_v: np.ndarray, dwell_s: float,
-                   h_s: float, read_force: bool, **bench_kw) -> tuple[np.ndarray, np.ndarray]:
+                   h_s: float, read_force: bool, **bench_kw: Any) -> tuple[np.ndarray, np.ndarray]:
     """Hold the load (mode, set value), step u up then down; return (u, reading) where the
     reading is the load-cell force (N) or the encoder contraction (m), shapes (2 n,)."""
     b = SingleMuscleBench(**bench_kw)
@@ -34,19 +36,19 @@ def _voltage_sweep(mode: LoadMode, load: float, voltages_v: np.ndarray, dwell_s:
 
 
 def isometric_sweep(x_m: float, voltages_v: np.ndarray, dwell_s: float = 3.0,
-                    h_s: float = 0.01, **bench_kw) -> tuple[np.ndarray, np.ndarray]:
+                    h_s: float = 0.01, **bench_kw: Any) -> tuple[np.ndarray, np.ndarray]:
     """Hold x, step u up then down; return (u, F) readings, shapes (2 n,)."""
     return _voltage_sweep(LoadMode.POSITION, x_m, voltages_v, dwell_s, h_s, True, **bench_kw)
 
 
 def isotonic_sweep(force_n: float, voltages_v: np.ndarray, dwell_s: float = 3.0,
-                   h_s: float = 0.01, **bench_kw) -> tuple[np.ndarray, np.ndarray]:
+                   h_s: float = 0.01, **bench_kw: Any) -> tuple[np.ndarray, np.ndarray]:
     """Hold F, step u up then down; return (u, x) readings with x in m, shapes (2 n,)."""
     return _voltage_sweep(LoadMode.FORCE, force_n, voltages_v, dwell_s, h_s, False, **bench_kw)
 
 
 def isobaric_sweep(voltage_v: float, forces_n: np.ndarray, dwell_s: float = 3.0,
-                   h_s: float = 0.01, **bench_kw) -> tuple[np.ndarray, np.ndarray]:
+                   h_s: float = 0.01, **bench_kw: Any) -> tuple[np.ndarray, np.ndarray]:
     """Hold u, step F up then down; return (F set, x) readings with x in m, shapes (2 n,)."""
     b = SingleMuscleBench(**bench_kw)
     b.command_valve(voltage_v)

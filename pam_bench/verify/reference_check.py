@@ -56,7 +56,8 @@ def series_readings(kind: str, value: float, swept: list[float], h_s: float,
     """
     if kind not in KINDS:
         raise ValueError(f'series kind {kind!r}: use one of {", ".join(KINDS)}')
-    valve, muscle, servo = models or (ValveParams(), MuscleParams(), LoadingServoParams())
+    valve, muscle, servo = models[:3] if models else (ValveParams(), MuscleParams(),
+                                                      LoadingServoParams())
     half = len(swept) // 2
     readings = []
     for k, v in enumerate(swept):
@@ -96,10 +97,10 @@ def run_against_twin(bag: str | pathlib.Path, scene_name: str, exchange_step_s: 
     from pam_bench.verify.truth import scene_models
     scene = load_scene(scene_name)
     data = read_bags([bag])
-    valve, muscle, servo = scene_models(scene_name)
+    m = scene_models(scene_name)
     twin = run_protocol(scene.protocol, exchange_step_s, overrides=scene.protocol_overrides,
-                        sub_step_s=sub_step_s, valve=valve, muscle=muscle, servo=servo,
-                        load_cell=QUIET)
+                        sub_step_s=sub_step_s, valve=m.valve, muscle=m.muscle, servo=m.servo,
+                        straight_fibre=m.straight_fibre, load_cell=QUIET)
     return {'scene': scene_name, 'exchange_step_s': exchange_step_s, 'sub_step_s': sub_step_s,
             **compare_run(data, twin), 'twin_exchanges': twin.exchanges,
             'twin_wall_s': twin.wall_s}

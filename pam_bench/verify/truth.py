@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections import defaultdict
-from typing import Any
+from typing import Any, NamedTuple, TypeVar
 
 import numpy as np
 
@@ -43,7 +43,7 @@ from pam_bench.config.protocols import protocol_schedule
 from pam_bench.config.scene import load_scene
 from pam_bench.models.loading_servo import LoadingServoParams
 from pam_bench.models.muscle import MuscleParams
-from pam_bench.models.params import from_mapping
+from pam_bench.models.straight_fibre_muscle import StraightFibreParams
 from pam_bench.models.valve import ValveParams
 from pam_bench.protocol.schedules import Reading
 from pam_bench.twin.quasistatic import QuasiStaticBench, SettledReading
@@ -51,17 +51,21 @@ from pam_bench.twin.quasistatic import QuasiStaticBench, SettledReading
 __all__ = ['truth_summary', 'scene_schedule', 'scene_models', 'compare']
 
 
-def scene_models(scene_name: str) -> tuple[ValveParams, MuscleParams, LoadingServoParams]:
-    """Model parameters of the scene's valve_1, muscle_1 and loading servo (bench.yaml merged
-    with the scene's own)."""
-    params = load_scene(scene_name).node_parameters('', 0, False)
+def scene_models(scene_name: str) -> SceneModels:
+    """Model parameters of the scene's valve_1, muscle_1 (both laws) and loading servo, from
+    the scene's settings (``config.scene.Scene.settings``)."""
+    st = load_scene(scene_name).settings()
+    return SceneModels(st['valve_1'].valve, st['muscle_1'].muscle, st['loading_servo'].servo,
+                       st['muscle_1'].straight_fibre)
 
-    def of(node: str, key: str) -> dict[str, Any]:
-        return params.get(node, {}).get('ros__parameters', {}).get(key, {})
 
-    return (from_mapping(ValveParams, of('valve_1', 'valve'), 'valve.'),
-            from_mapping(MuscleParams, of('muscle_1', 'muscle'), 'muscle.'),
-            from_mapping(LoadingServoParams, of('loading_servo', 'servo'), 'servo.'))
+class SceneModels(NamedTuple):
+    """The model parameters a scene's single-muscle bench runs with."""
+
+    valve: ValveParams
+    muscle: MuscleParams
+    servo: LoadingServoParams
+    straight_fibre: StraightFibreParams
 
 
 def scene_schedule(scene_name: str) -> list[Reading]:
@@ -110,18 +114,19 @@ def _reference(scene_name: str) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     from pam_bench.models.sensors import LoadCellParams
     from pam_bench.twin.protocol_run import run_protocol
     scene = load_scene(scene_name)
-    valve, muscle, servo = scene_models(scene_name)
+    m = scene_models(scene_name)
     run = run_protocol(scene.protocol, scene.exchange_step_s,
                        overrides=scene.protocol_overrides, sub_step_s=scene.sub_step_s,
-                       valve=valve, muscle=muscle, servo=servo,
-                       load_cell=LoadCellParams(noise=False))
+                       valve=m.valve, muscle=m.muscle, servo=m.servo,
+                       straight_fibre=m.straight_fibre, load_cell=LoadCellParams(noise=False))
     rows = [(p.reading, SettledReading(p.voltage_v, p.measurement.pressure_pa,
                                        p.measurement.force_n, p.measurement.contraction_m,
                                        p.measurement.contraction_m)) for p in run.points]
     fits = []
     for rec in run.records:
         r = rec.reading
-        fit = fit_step(np.asarray(rec.samples), r.sample_period_s, r.voltage_v - r.pre_voltage_v)
+        fit = fit_step(np.asarray(rec.samples), r.sample_period_s,
+                       r.voltage_v - (r.pre_voltage_v or 0.0))
         fits.append({**_step_head(r), 'b': fit.b, 'c': fit.c, 'd': fit.d, 'F_a0_N': fit.f_a0_n,
                      'rms_error_N': fit.rms_error_n, 'delay_samples': fit.delay_samples})
     return gain_summary(_points(rows)), fits
@@ -129,16 +134,19 @@ def _reference(scene_name: str) -> tuple[dict[str, Any], list[dict[str, Any]]]:
 
 def truth_summary(scene_name: str, reference: bool = True) -> dict[str, Any]:
     """summary.json-shaped figures the scene's parameters imply (see the module docstring)."""
-    valve, muscle, servo = scene_models(scene_name)
+    m = scene_models(scene_name)
     readings = scene_schedule(scene_name)
-    backbone = QuasiStaticBench(valve, _without_friction(muscle), servo)
+    backbone = QuasiStaticBench(m.valve, _without_friction(m.muscle), m.servo,
+                                straight_fibre=_without_friction(m.straight_fibre))
     summary = gain_summary(_points([(r, backbone.settle(r)) for r in readings]))
     summary.pop('isobaric', None)
-    with_friction = QuasiStaticBench(valve, muscle, servo)
+    with_friction = QuasiStaticBench(m.valve, m.muscle, m.servo,
+                                     straight_fibre=m.straight_fibre)
     rows = [(r, with_friction.settle(r)) for r in readings if r.record_s == 0.0]
     hyst = gain_summary({k: v for k, v in _points(rows).items() if k.startswith('isobaric')})
     summary.update(hyst)
-    fits = _step_truth(QuasiStaticBench(valve, muscle, servo), readings)
+    fits = _step_truth(QuasiStaticBench(m.valve, m.muscle, m.servo,
+                                        straight_fibre=m.straight_fibre), readings)
     if fits:
         summary['step_response'] = {'fits': fits, 'polynomials': coefficient_polynomials(fits)}
     if reference:
@@ -152,6 +160,8 @@ def truth_summary(scene_name: str, reference: bool = True) -> dict[str, Any]:
             summary['step_response']['reference_fits'] = ref
             summary['step_response']['reference_polynomials'] = coefficient_polynomials(ref)
     summary['scene'] = scene_name
+    summary['muscle'] = {'kind': m.muscle.kind, **(
+        {'segments': m.straight_fibre.segments} if m.muscle.kind == 'straight_fibre' else {})}
     summary['basis'] = ('parameters of the scene: gains on the friction-free backbone, '
                         'hysteresis and step gains with the braid friction, b and c from the '
                         'valve pressure loop at the chamber volume of x; reference_*: the '
@@ -159,8 +169,11 @@ def truth_summary(scene_name: str, reference: bool = True) -> dict[str, Any]:
     return summary
 
 
-def _without_friction(muscle: MuscleParams) -> MuscleParams:
-    return dataclasses.replace(muscle, hysteresis=False)
+P = TypeVar('P', MuscleParams, StraightFibreParams)
+
+
+def _without_friction(params: P) -> P:
+    return dataclasses.replace(params, hysteresis=False)
 
 
 def _rel(measured: float, true: float) -> float:

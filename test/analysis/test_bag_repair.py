@@ -13,7 +13,8 @@ import time
 import pytest
 
 from pam_bench.analysis.bag_repair import repair_bag
-from pam_bench.analysis.bagread import BagError, open_bag
+from pam_bench.analysis.bagread import open_bag
+from pam_bench.analysis.errors import BagError
 from test.helpers import bag_messages
 
 

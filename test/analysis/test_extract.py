@@ -8,7 +8,8 @@ import pathlib
 import numpy as np
 import pytest
 
-from pam_bench.analysis.bagread import BagError, read_bags
+from pam_bench.analysis.bagread import read_bags
+from pam_bench.analysis.errors import BagError
 from pam_bench.analysis.extract import extract
 from pam_bench.cli import main as cli
 from pam_bench.control.inverse import InverseModel

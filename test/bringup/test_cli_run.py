@@ -32,7 +32,7 @@ def test_one_process_run_exits_0_with_a_valid_bag(tmp_path: pathlib.Path,
 @pytest.mark.parametrize('one_process', [False, True])
 @pytest.mark.parametrize('params, words', [
     ('sequencer: {stale_timout_s: 1.0}',
-     ["'stale_timout_s'", "did you mean 'stale_timeout_s'"]),
+     ["'sequencer.stale_timout_s'", "did you mean 'sequencer.stale_timeout_s'"]),
     ('sequencer: {tick_period_s: 5.0}', ['tick_period_s']),
     ('sequencer: {protocol_overrides_yaml: "dwel_s: 1"}', ["'dwel_s'"]),
 ])

@@ -89,7 +89,7 @@ def test_faults_need_the_wall_clock(tmp_path: pathlib.Path) -> None:
 ])
 def test_a_bad_fault_entry_is_one_clear_error(tmp_path: pathlib.Path, fault: str,
                                               words: str) -> None:
-    from pam_bench.config.yaml_io import ConfigError
+    from pam_bench.config.errors import ConfigError
     path = tmp_path / 'f.yaml'
     path.write_text(SCENE.format(fault=fault))
     with pytest.raises(ConfigError, match=words):

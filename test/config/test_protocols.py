@@ -6,13 +6,13 @@ import pathlib
 
 import pytest
 
+from pam_bench.config.errors import ConfigError
 from pam_bench.config.protocols import (
     load_protocols,
     parse_overrides,
     protocol_config,
     protocol_schedule,
 )
-from pam_bench.config.yaml_io import ConfigError
 from pam_bench.models.errors import ParameterError
 
 

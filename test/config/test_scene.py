@@ -1,4 +1,4 @@
-"""Scenes: bench.yaml states every model parameter; every scene loads; strict keys and types."""
+"""Scenes: every scene loads; strict keys and types; settings by path; bench.yaml only overlays."""
 
 from __future__ import annotations
 
@@ -6,23 +6,29 @@ import pathlib
 
 import pytest
 
+from pam_bench.config.errors import ConfigError
+from pam_bench.config.nodes import NODES
 from pam_bench.config.paths import config_dir
 from pam_bench.config.protocols import load_protocols
-from pam_bench.config.scene import NODE_TYPES, SCENE_KEYS, load_scene, scene_names
-from pam_bench.config.yaml_io import ConfigError, read_yaml
-from pam_bench.models.params import param_infos
-
-MODEL_SECTIONS = [(node, prefix, cls) for node, t in NODE_TYPES.items()
-                  for prefix, cls in t.models]
+from pam_bench.config.scene import SCENE_KEYS, bench_overlay, load_scene, scene_names
+from pam_bench.config.yaml_io import read_yaml
+from pam_bench.models.params import flat_infos, get_path
 
 
-@pytest.mark.parametrize('node, prefix, cls', MODEL_SECTIONS,
-                         ids=[f'{n}.{p}' for n, p, _ in MODEL_SECTIONS])
-def test_bench_yaml_matches_model_defaults(node: str, prefix: str, cls: type) -> None:
-    values = read_yaml(config_dir() / 'bench.yaml')[node]['ros__parameters'][prefix]
-    for info in param_infos(cls):
-        assert info.name in values, f'{node}.{prefix}.{info.name} missing from bench.yaml'
-        assert values[info.name] == pytest.approx(info.default), info.name
+def _flat(d: dict, prefix: str = '') -> dict:
+    out = {}
+    for k, v in d.items():
+        out.update(_flat(v, f'{prefix}{k}.') if isinstance(v, dict) else {prefix + k: v})
+    return out
+
+
+@pytest.mark.parametrize('node', sorted(bench_overlay()))
+def test_bench_yaml_sets_only_what_differs_from_the_defaults(node: str) -> None:
+    """One owner per default: bench.yaml may only change a value, never restate it."""
+    defaults = {i.name: i.default for i in flat_infos(NODES[node].settings)}
+    for key, value in _flat(bench_overlay()[node]).items():
+        assert key in defaults, f'{node}.{key} is not a setting'
+        assert value != defaults[key], f'{node}.{key} restates its default {value!r}'
 
 
 @pytest.mark.parametrize('name', scene_names())
@@ -82,9 +88,47 @@ def test_scene_keys_cover_every_scene_file() -> None:
         assert set(read_yaml(config_dir() / 'scenes' / f'{name}.yaml')) <= set(SCENE_KEYS)
 
 
-def test_node_parameters_keep_the_clock_apart() -> None:
-    params = load_scene('demo').node_parameters('/tmp/x', 3, False)
-    clock = params['sim_clock']['ros__parameters']
-    assert 'lockstep' not in clock and clock['participants'][0] == '/valve_1'
-    assert params['load_cell_1']['ros__parameters']['seed'] == 3
-    assert params['recorder']['ros__parameters']['out_dir'] == '/tmp/x'
+def test_settings_keep_the_clock_apart_and_take_the_run() -> None:
+    st = load_scene('demo').settings('/tmp/x', 3, False)
+    clock = st['sim_clock']
+    assert not hasattr(clock, 'lockstep') and clock.participants[0] == '/valve_1'
+    assert '/sim_clock' not in clock.participants and len(clock.participants) == 7
+    assert st['load_cell_1'].seed == 3 and st['recorder'].out_dir == '/tmp/x'
+    assert st['sequencer'].pressure_tolerance_pa == 20000.0       # bench.yaml over the default
+
+
+def test_two_channel_nodes_take_their_channel_from_the_node_table() -> None:
+    st = load_scene('servo_sin_t').settings(seed=5)
+    assert [st[n].channel for n in ('valve_1', 'valve_2', 'muscle_2', 'load_cell_2')] == \
+        [1, 2, 2, 2]
+    assert (st['load_cell_1'].seed, st['load_cell_2'].seed) == (5, 6)
+
+
+@pytest.mark.parametrize('path, value', [
+    ('muscle_1.muscle.gain_exponent', 1.3), ('muscle_1.straight_fibre.segments', 5),
+    ('valve_1.valve.damping_ratio', 0.4), ('sequencer.stale_timeout_s', 0.25),
+    ('loading_servo.servo.force_kp', 4.0), ('recorder.flush_period_s', 2.0),
+])
+def test_a_setting_set_by_path_reaches_the_settings(path: str, value: object) -> None:
+    scene = load_scene('demo')
+    scene.set(path, value)
+    node, rest = path.split('.', 1)
+    assert get_path(scene.settings()[node], rest) == value
+
+
+@pytest.mark.parametrize('path, value, words', [
+    ('muscle_1.muscle.gain_exponant', 1.3, ["'muscle_1.muscle.gain_exponent'"]),
+    ('muscle_1.musle.gain_exponent', 1.3, ["'muscle_1.muscle.gain_exponent'"]),
+    ('muscel_1.muscle.gain_exponent', 1.3, ["'muscle_1'"]),
+    ('muscle_1.muscle', 1.3, ['is a section']),
+    ('muscle_1.muscle.gain_exponent', 99.0, ['above its maximum']),
+    ('valve_1.valve.scheme', 'zho', ["did you mean 'zoh'"]),
+])
+def test_a_bad_path_is_one_line_naming_the_nearest(path: str, value: object,
+                                                   words: list[str]) -> None:
+    scene = load_scene('demo')
+    with pytest.raises(ConfigError) as info:
+        scene.set(path, value)
+    assert '\n' not in str(info.value)
+    for w in words:
+        assert w in str(info.value), str(info.value)

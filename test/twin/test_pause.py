@@ -70,3 +70,40 @@ def test_pause_and_resume_state_machine(phase_before: Phase) -> None:
     seq.resume()
     seq.tick(t + 50.0, meas)
     assert seq.phase == Phase.SETTLE and seq.paused_s == pytest.approx(49.9)
+
+
+def _suspended(high_n: float, action: str = 'hold'):
+    from pam_bench.protocol.settings import RunnerSettings
+    rule = f'[{{input: force, high: {high_n}, resume_after_s: 0.5}}]'
+    return run_protocol('isometric_quick', 0.01, overrides=OVERRIDES, load_cell=QUIET,
+                        runner=RunnerSettings(suspenders_yaml=rule, pause_action=action))
+
+
+def test_a_suspender_holds_through_the_overshoot_and_the_readings_stay() -> None:
+    """The valve's step at 3 V overshoots (2nd order, zeta 0.3): a force bound 10 % over the
+    settled 3 V force trips in the transient, the run holds, resumes once the force has been
+    back in band for 0.5 s, dwells the reading again and takes the same readings (the
+    suspenders run in the twin as in the node: ``protocol.runner``)."""
+    plain = _run()
+    f_top = max(p.measurement.force_n for p in plain.points)
+    run = _suspended(1.1 * f_top)
+    assert run.suspensions >= 1 and run.paused_s > 0.5
+    assert run.exit_code == 0 and len(run.points) == len(plain.points)
+    f0 = np.array([p.measurement.force_n for p in plain.points])
+    f1 = np.array([p.measurement.force_n for p in run.points])
+    np.testing.assert_allclose(f1, f0, rtol=0, atol=0.1)         # N: one encoder count
+
+
+def test_no_suspension_when_the_band_holds() -> None:
+    plain = _run()
+    run = _suspended(10.0 * max(p.measurement.force_n for p in plain.points))
+    assert run.suspensions == 0 and run.paused_s == 0.0
+    np.testing.assert_array_equal([p.measurement.force_n for p in run.points],
+                                  [p.measurement.force_n for p in plain.points])
+
+
+def test_a_vented_suspension_settles_again_and_completes() -> None:
+    plain = _run()
+    run = _suspended(1.1 * max(p.measurement.force_n for p in plain.points), 'vent')
+    assert run.suspensions >= 1 and run.exit_code == 0
+    assert len(run.points) == len(plain.points)

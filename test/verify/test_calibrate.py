@@ -9,8 +9,8 @@ import pathlib
 import numpy as np
 import pytest
 
+from pam_bench.config.errors import ConfigError
 from pam_bench.config.scene import apply_overlay, load_scene
-from pam_bench.config.yaml_io import ConfigError
 from pam_bench.models.muscle import MuscleParams
 from pam_bench.verify.calibrate import FREE, calibrate_004, residuals_004
 from pam_bench.verify.figures_004 import measure_004

@@ -72,3 +72,32 @@ def test_truth_cli_against_an_extraction(tmp_path, capsys) -> None:
     assert data['isometric']['gain_N_per_V']['x_mm_at_max'] == 0.0
     assert all(r['rel_error'] == 0.0 for r in data['comparison']['isometric_gain'])
     assert cli(['truth', 'isometric_quick', '--against', str(tmp_path / 'none')]) == 2
+
+
+@pytest.mark.parametrize('scene, segments', [('straight_fibre_quick', 3),
+                                             ('straight_fibre_4_quick', 4)])
+def test_truth_and_twin_build_the_muscle_the_scene_names(scene: str, segments: int) -> None:
+    """The scene's straight_fibre.segments reaches truth and the twin (it was dropped once:
+    both built 3 segments for straight_fibre_4_quick)."""
+    import subprocess
+    import sys
+
+    from pam_bench.models.straight_fibre_muscle import StraightFibreParams
+    from pam_bench.verify.truth import scene_schedule
+    out = subprocess.run([sys.executable, '-m', 'pam_bench.cli', 'truth', scene, '--json',
+                          '--no-reference'], capture_output=True, text=True, check=True)
+    import json
+    t = json.loads(out.stdout)
+    assert t['muscle'] == {'kind': 'straight_fibre', 'segments': segments}
+    # the isotonic gains equal a bench built here with that many segments, not the other
+    from pam_bench.analysis.static import gain_summary
+    from pam_bench.verify.truth import _points
+    mp = MuscleParams(kind='straight_fibre', hysteresis=False)
+    readings = scene_schedule(scene)
+    for n, same in ((segments, True), (7 - segments, False)):
+        q = QuasiStaticBench(muscle=mp, straight_fibre=StraightFibreParams(segments=n,
+                                                                           hysteresis=False))
+        g = gain_summary(_points([(r, q.settle(r)) for r in readings]))
+        want = g['isotonic']['gain_mm_per_V']['max']
+        got = t['isotonic']['gain_mm_per_V']['max']
+        assert (abs(got - want) < 1e-9 * want) == same, (n, got, want)

@@ -1,0 +1,9 @@
+"""Errors of bringing a scene up: a run that cannot be laid out as asked."""
+
+from __future__ import annotations
+
+__all__ = ['LayoutError']
+
+
+class LayoutError(ValueError):
+    """The scene and the flags ask for a layout that cannot run (the message says why)."""

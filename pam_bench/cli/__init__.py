@@ -1,0 +1,7 @@
+"""The ``pam-bench`` command line: one module per group of verbs, one place for exit codes."""
+
+from __future__ import annotations
+
+from pam_bench.cli.main import main
+
+__all__ = ['main', 'bags', 'bench', 'design', 'errors', 'fit', 'run']

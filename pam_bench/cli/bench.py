@@ -1,0 +1,85 @@
+"""Verbs that measure: bench (BENCHMARKS.md), servo-compare, pingpong."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import pathlib
+from typing import Any
+
+__all__ = ['register']
+
+
+def register(sub: Any) -> None:
+    """Add this group's verbs to the ``pam-bench`` sub-parsers."""
+    p = sub.add_parser('pingpong', help='rclpy round-trip rate between two processes')
+    p.add_argument('--count', type=int, default=2000)
+    p.add_argument('--json', action='store_true')
+    p.set_defaults(func=_cmd_pingpong)
+    p = sub.add_parser('servo-compare', help='every servo scene x controller -> metrics.json')
+    p.add_argument('--engine', choices=['numpy', 'ros'], default='ros',
+                   help='ros: separate-process nodes (minutes); numpy: same models in one '
+                   'process (seconds)')
+    p.add_argument('--out', default='reports/servo', help='output folder')
+    p.add_argument('--scene', action='append', help='servo scene (repeatable; default all)')
+    p.add_argument('--duration', type=float, help='sim time per run, s (default: the scene)')
+    p.add_argument('--one-process', action='store_true',
+                   help='with --engine ros: compose the nodes in one process (same bags, faster)')
+    p.add_argument('--jobs', type=int, default=0,
+                   help='runs at once, each in a worker process on its own ROS domain (default: '
+                   'one per CPU for numpy and --one-process, else 1)')
+    p.set_defaults(func=_cmd_servo_compare)
+    p = sub.add_parser('bench', help='benchmarks -> BENCHMARKS.md and bench.json')
+    p.add_argument('--quick', action='store_true', help='a few minutes: quick grids and scenes')
+    p.add_argument('--root', default='.', help='where to write the report (default: here)')
+    p.add_argument('--scene', action='append', help='scene to time (repeatable)')
+    p.add_argument('--only', action='append', metavar='STUDY[,STUDY]',
+                   help='run only these studies (calibration, lockstep, layouts, profile, '
+                   'exchange_step, record_exchange, scenes, models, wallclock, faults, '
+                   'straight_fibre, calibrate, calibrate_nodes) and keep the other figures of '
+                   'bench.json, each with the commit it was measured at')
+    p.add_argument('--render', action='store_true', help='only render BENCHMARKS.md again from '
+                   'bench.json and docs/long_runs.md (no measurement)')
+    p.set_defaults(func=_cmd_bench)
+
+
+def _cmd_pingpong(args: argparse.Namespace) -> int:
+    from pam_bench.benchmarks.pingpong import pingpong_rate
+    rate = pingpong_rate(args.count)
+    print(json.dumps({'pingpong_round_trips_per_s': rate}) if args.json
+          else f'rclpy ping-pong between two processes: {rate:.0f} round trips/s')
+    return 0
+
+
+def _cmd_servo_compare(args: argparse.Namespace) -> int:
+    from pam_bench.benchmarks.servo_compare import compare_servo
+    out = pathlib.Path(args.out)
+    jobs = args.jobs or (os.cpu_count() or 1 if args.engine == 'numpy' or args.one_process
+                         else 1)
+    rows = compare_servo(out, args.engine, args.scene or None, args.duration, args.one_process,
+                         jobs)
+    print(f"{'scene':26s} {'controller':20s} {'RMS':>8s} {'max':>8s} {'at reversal':>12s}")
+    for r in rows:
+        print(f"{r['scene']:26s} {r['controller']:20s} {r['rms_error']:8.3f} "
+              f"{r['max_error']:8.3f} {r['error_at_reversal']:12.3f} {r['unit']}")
+    forward = [r for r in rows if 'forward_model_rms_N' in r]
+    if forward:
+        print("004's forward model (Eq. 4) driven by each run's voltage, RMS against the "
+              'measured force:')
+        for r in forward:
+            print(f"  {r['scene']:24s} {r['controller']:20s} {r['forward_model_rms_N']:8.2f} N")
+    print(f'wrote {out / "metrics.json"} and one plot per scene')
+    return 0
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    from pam_bench.benchmarks.suite import render_report, run_benchmarks
+    root = pathlib.Path(args.root)
+    if args.render:
+        print(f'wrote {render_report(root)} from {root / "bench.json"}')
+        return 0
+    only = [s for part in args.only or [] for s in part.split(',') if s]
+    run_benchmarks(args.quick, root, args.scene or None, only or None)
+    print(f'wrote {root / "BENCHMARKS.md"} and {root / "bench.json"}')
+    return 0

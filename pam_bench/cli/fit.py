@@ -1,0 +1,190 @@
+"""Verbs that fit: extract, truth, calibration, calibrate."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import pathlib
+from typing import Any
+
+from pam_bench.cli.errors import UsageError
+
+__all__ = ['register']
+
+
+def register(sub: Any) -> None:
+    """Add this group's verbs to the ``pam-bench`` sub-parsers."""
+    p = sub.add_parser('extract', help='bags -> characteristics, gains, identified model')
+    p.add_argument('bags', nargs='+', help='rosbag2 directories')
+    p.add_argument('--out', required=True, help='output folder (replaced when complete)')
+    p.set_defaults(func=_cmd_extract)
+    p = sub.add_parser('truth', help="what the scene's parameters imply (summary.json keys)")
+    p.add_argument('scene', help='scene name or scene file')
+    p.add_argument('--json', action='store_true', help='print the whole JSON')
+    p.add_argument('--against', help='an extraction folder or summary.json to compare with')
+    p.add_argument('--no-reference', action='store_true',
+                   help='skip the noise-free simulated step responses (faster)')
+    p.set_defaults(func=_cmd_truth)
+    p = sub.add_parser('calibration', help='figures the simulated bench implies')
+    p.add_argument('--json', action='store_true')
+    p.add_argument('--step', type=float, default=0.01, help='exchange step, s')
+    p.set_defaults(func=_cmd_calibration)
+    p = sub.add_parser('calibrate', help="fit the bench's muscle (and valve) to recorded bags, "
+                       "or to 004's figures (--target 004)")
+    p.add_argument('bags', nargs='*', help='rosbag2 folders of a campaign (static readings '
+                   'and step records)')
+    p.add_argument('--target', default='004', help="without bags: what to fit to (004: the "
+                   "paper's figures)")
+    p.add_argument('--out', help='write the fitted parameters as an overlay (run --params)')
+    p.add_argument('--max-evaluations', type=int, default=60,
+                   help='largest number of residual evaluations')
+    p.add_argument('--replay', choices=('stepped', 'static'), default='stepped',
+                   help="bags: replay the readings on the time-stepped bench with 004's drive "
+                   '(stepped) or on the quasi-static bench with an ideal drive (static, about '
+                   "four times faster; for a drive that is not 004's)")
+    p.add_argument('--json', action='store_true')
+    p.set_defaults(func=_cmd_calibrate)
+
+
+def _figure_table(rows: list[dict[str, Any]]) -> None:
+    print(f"{'figure':48s} {'004':>9s} {'bench':>9s} {'difference':>11s} {'tolerance':>10s}")
+    for r in rows:
+        diff = (f"{r['difference'] * 100:+.1f} %" if r['relative']
+                else f"{r['difference']:+.3g} {r['unit']}")
+        tol = ('>= 004' if r['at_least'] else f"{r['tolerance'] * 100:g} %" if r['relative']
+               else f"{r['tolerance']:g} {r['unit']}")
+        print(f"{r['text'] + ', ' + r['unit']:48s} {r['paper']:9.4g} {r['bench']:9.4g} "
+              f'{diff:>11s} {tol:>10s}  {"ok" if r["ok"] else "MISS"}')
+
+
+def _cmd_calibration(args: argparse.Namespace) -> int:
+    from pam_bench.verify.calibration import calibration_figures
+    from pam_bench.verify.figures_004 import figure_rows, measure_004
+    fig = calibration_figures(h_s=args.step)
+    measured = measure_004()
+    rows = figure_rows(measured)
+    if args.json:
+        print(json.dumps({**fig, 'figures_004': rows,
+                          'readings_004': {k: v for k, v in measured.items()
+                                           if k != 'isotonic_by_point'}}, indent=2))
+        return 0 if all(r['ok'] for r in rows) else 1
+    print("004's figures on its full grids (quasi-static bench, the extraction's estimators; "
+          'verify/figures_004.py says how each is read):')
+    _figure_table(rows)
+    print(f"  isometric gain as the secant F(6 V) / 6 V: "
+          f"{measured['isometric_gain_secant_by_x']['0']:.1f} N/V at 0 mm, "
+          f"{measured['isometric_gain_secant_by_x']['95']:.1f} N/V at 95 mm; isotonic minimum "
+          f"at ({measured['isotonic_gain_min_u']:.2f} V, {measured['isotonic_gain_min_f']:.0f}"
+          ' N)')
+    print('\nThe dynamic bench on a coarse grid (0.5 V steps, 3 s dwell):')
+    for k, v in fig.items():
+        print(f'  {k:36s} {v:10.3f}')
+    return 0 if all(r['ok'] for r in rows) else 1
+
+
+def _calibrate_bags(args: argparse.Namespace) -> int:
+    import yaml
+
+    from pam_bench.analysis.bagread import read_bags
+    from pam_bench.verify.calibrate_bags import (
+        PATH_WIDTH_M,
+        calibrate_bags,
+        observations_from_bags,
+        overlay_of,
+    )
+    data = read_bags(args.bags)
+    obs = observations_from_bags(data)
+    print(f'fitting the muscle and valve to {len(obs.readings)} readings and '
+          f'{len(obs.records)} step records ...', flush=True)
+    res = calibrate_bags(obs, max_nfev=args.max_evaluations, replay=args.replay)
+    if args.json:
+        print(json.dumps({k: v for k, v in res.items() if k not in ('valve', 'muscle')},
+                         indent=2))
+    else:
+        print('RMS error per protocol (N for forces, mm for contractions), before -> after:')
+        for k, after in res['rms_after'].items():
+            print(f"  {k:14s} {res['rms_before'][k]:9.3f} -> {after:9.3f}")
+        print(f"fit: {res['evaluations']} evaluations in {res['fit_s']:.1f} s")
+        if res['left_out']:
+            print(f"left out (friction loop wider than {PATH_WIDTH_M * 1e3:.0f} mm, the drive's "
+                  'transient places them): ' + ', '.join(
+                      f'{k} {u:g} V {h:g} N' for k, u, h in dict.fromkeys(res['left_out'])))
+        for n in res['names']:
+            flag = '  (not fixed by these recordings)' if n in res['flags'] else ''
+            print(f"  {n:28s} {res['values'][n]:12.5g} +- {res['stderr'][n]:.2g}{flag}")
+        corr, names = res['correlation'], res['names']
+        pairs = [(names[i], names[j], corr[i][j]) for i in range(len(names))
+                 for j in range(i + 1, len(names)) if abs(corr[i][j]) > 0.9]
+        for a, b, c in pairs:
+            print(f'  correlated: {a} and {b} ({c:+.2f})')
+    if args.out:
+        overlay = overlay_of(res['valve'], res['muscle'])
+        pathlib.Path(args.out).write_text(
+            f"# pam-bench calibrate {' '.join(args.bags)}: muscle and valve fitted to these "
+            'recordings\n' + yaml.safe_dump(overlay, sort_keys=False), encoding='utf-8')
+        print(f'overlay written to {args.out} (pam-bench run SCENE --params {args.out})')
+    return 0
+
+
+def _cmd_calibrate(args: argparse.Namespace) -> int:
+    import yaml
+
+    from pam_bench.verify.calibrate import calibrate_004
+    if args.bags:
+        return _calibrate_bags(args)
+    if args.target != '004':
+        raise UsageError(f'unknown target {args.target!r} (known: 004)')
+    print("fitting the muscle to 004's figures (about a minute) ...", flush=True)
+    res = calibrate_004(max_nfev=args.max_evaluations)
+    overlay = {'parameters': {m: {'muscle': res['params']} for m in ('muscle_1', 'muscle_2')}}
+    if args.out:
+        pathlib.Path(args.out).write_text(
+            "# pam-bench calibrate --target 004: muscle parameters fitted to 004's figures\n"
+            + yaml.safe_dump(overlay, sort_keys=False), encoding='utf-8')
+    if args.json:
+        print(json.dumps(res, indent=2))
+    else:
+        _figure_table(res['figures'])
+        print(f"fit: {res['evaluations']} evaluations in {res['fit_s']:.1f} s, cost "
+              f"{res['cost']:.3g}")
+        for n in res['names']:
+            flag = '  (not fixed by the figures)' if n in res['flags'] else ''
+            print(f"  {n:28s} {res['values'][n]:12.5g} +- {res['stderr'][n]:.2g}{flag}")
+        if args.out:
+            print(f'overlay written to {args.out} (pam-bench run SCENE --params {args.out})')
+    return 0 if all(r['ok'] for r in res['figures']) else 1
+
+
+def _cmd_extract(args: argparse.Namespace) -> int:
+    from pam_bench.analysis.extract import extract
+    summary = extract(args.bags, args.out)
+    t = summary['timing_s']
+    print(f'wrote {args.out}/summary.json, report.md and CSV files '
+          f'(read {t["read_and_static"]:.2f} s, {t["records"]} step fits '
+          f'{t["identification"]:.2f} s)')
+    return 0
+
+
+def _cmd_truth(args: argparse.Namespace) -> int:
+    from pam_bench.verify.truth import compare, truth_summary
+    truth = truth_summary(args.scene, reference=not args.no_reference)
+    if args.against:
+        path = pathlib.Path(args.against)
+        if path.is_dir():
+            path = path / 'summary.json'
+        try:
+            summary = json.loads(path.read_text(encoding='utf-8'))
+        except (OSError, ValueError) as exc:
+            raise UsageError(f'cannot read {path}: {exc}') from None
+        truth['comparison'] = compare(truth, summary)
+    if args.json:
+        print(json.dumps(truth, indent=2))
+        return 0
+    for k in ('isometric', 'isotonic', 'isobaric'):
+        if k in truth:
+            print(k, json.dumps({a: b for a, b in truth[k].items() if a != 'series'}))
+    if 'step_response' in truth:
+        print(f"step_response: {len(truth['step_response']['fits'])} steps (use --json)")
+    for name, rows in truth.get('comparison', {}).items():
+        print(f'{name}: {json.dumps(rows)[:2000]}')
+    return 0

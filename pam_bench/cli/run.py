@@ -1,0 +1,266 @@
+"""Verbs that run the bench: run, record, emulate, check-drivers, params."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import pathlib
+import shutil
+from typing import Any
+
+from pam_bench.cli.errors import UsageError
+
+__all__ = ['register']
+
+
+def register(sub: Any) -> None:
+    """Add this group's verbs to the ``pam-bench`` sub-parsers."""
+    p = sub.add_parser('run', help='run a scene and record a bag')
+    p.add_argument('scene', nargs='?', help='scene name in config/scenes or a path to a scene '
+                   'file')
+    p.add_argument('--replay', metavar='BAG', help="run a bag's own scene again with its "
+                   'recorded parameters, seed and layout (into --out)')
+    p.add_argument('--out', help='bag directory (default bags/SCENE, replaced)')
+    p.add_argument('--overwrite', action='store_true', help='replace --out if it exists')
+    p.add_argument('--params', metavar='FILE', help='parameter overlay (pam-bench calibrate '
+                   "--out): over config/bench.yaml, under the scene's own parameters")
+    p.add_argument('--set', action='append', default=[], metavar='PATH=VALUE',
+                   help='set one setting by its path over the scene, e.g. '
+                   'muscle_1.muscle.gain_exponent=1.4 (repeatable; pam-bench params lists them)')
+    p.add_argument('--seed', type=int, default=0, help='seed of the sensor noise')
+    p.add_argument('--realtime', action='store_true', help='pace sim time to the wall clock')
+    p.add_argument('--one-process', action='store_true', help='compose all nodes in one process')
+    p.add_argument('--resume', metavar='BAG', help='bag of an interrupted run of this scene: '
+                   'start at the first reading it lacks (into a new --out)')
+    p.add_argument('--wallclock', action='store_true', help='run on the wall clock as on a '
+                   'real bench: devices free-running in one emulator process, controllers and '
+                   'recorder in their own')
+    p.add_argument('--netns', metavar='DEVICES_NS:OTHER_NS', help='run the simulated devices '
+                   'in one network namespace and the other nodes in another, as on two hosts '
+                   '(lock-step, separate processes; README, "Two hosts")')
+    p.add_argument('--device-processes', action='store_true', help='with --wallclock: each '
+                   'device in its own process instead of the emulator')
+    p.set_defaults(func=_cmd_run)
+    p = sub.add_parser('record', help='record topics of a running graph on the wall clock '
+                       '(like ros2 bag record), until Ctrl-C')
+    p.add_argument('topics', nargs='*', help='topic names (types are discovered)')
+    p.add_argument('--all', action='store_true', help='every topic that appears')
+    p.add_argument('--out', required=True, help='bag directory to create')
+    p.set_defaults(func=_cmd_record)
+    p = sub.add_parser('emulate', help="run only a scene's simulated devices on the wall "
+                       'clock, until Ctrl-C (a bench for your own controllers)')
+    p.add_argument('scene', nargs='?', default='demo')
+    p.add_argument('--seed', type=int, default=0, help='seed of the sensor noise')
+    p.set_defaults(func=_cmd_emulate)
+    p = sub.add_parser('check-drivers', help='join a running bench and check that its drivers '
+                       'meet the contract (docs/drivers.md)')
+    p.add_argument('scene', nargs='?', default='demo', help='scene whose controllers will read '
+                   'the drivers (default demo: the sequencer)')
+    p.add_argument('--duration', type=float, default=3.0, help='listening time, s')
+    p.set_defaults(func=_cmd_check_drivers)
+    p = sub.add_parser('params', help="every setting of a scene's nodes: path, value, unit, "
+                       'range and meaning (what --set, overlays and sweeps address)')
+    p.add_argument('scene', nargs='?', default='demo')
+    p.add_argument('--node', action='append', help='only this node (repeatable)')
+    p.add_argument('--json', action='store_true')
+    p.set_defaults(func=_cmd_params)
+
+
+def parse_value(text: str) -> Any:
+    """A ``--set`` value as YAML reads it (numbers, true/false, lists, strings)."""
+    import yaml
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError:
+        return text
+
+
+def load_with_sets(name: str, sets: list[str]) -> Any:
+    """The scene ``name`` with every ``PATH=VALUE`` of ``sets`` applied.
+
+    Raises:
+        UsageError: a ``--set`` without '='.
+        ConfigError: an unknown scene or setting, a bad value (named).
+    """
+    from pam_bench.config.scene import load_scene
+    scene = load_scene(name)
+    for item in sets:
+        path, eq, value = item.partition('=')
+        if not eq:
+            raise UsageError(f'--set {item!r}: write PATH=VALUE, e.g. '
+                             'muscle_1.muscle.gain_exponent=1.4')
+        scene.set(path.strip(), parse_value(value))
+    return scene
+
+
+def _replayed(args: argparse.Namespace) -> tuple[Any, dict[str, Any] | None]:
+    """The scene and settings a bag recorded (``run --replay BAG``)."""
+    import tempfile
+
+    from pam_bench.analysis.baginfo import run_of_bag
+    from pam_bench.analysis.errors import BagError
+    from pam_bench.config.scene import load_scene, settings_of_params_file
+    try:
+        run = run_of_bag(args.replay)
+    except BagError as exc:
+        raise BagError(f'cannot replay: {exc}') from None
+    with tempfile.TemporaryDirectory(prefix='pam_bench_replay_') as tmp:
+        path = pathlib.Path(tmp) / f'{run["scene"]}.yaml'
+        path.write_text(run['scene_text'], encoding='utf-8')
+        scene = load_scene(str(path))
+    args.seed = int(run['seed'])
+    layout = run.get('layout', '')
+    if layout == 'one process':
+        args.one_process = True
+    elif layout == 'wall clock':
+        args.wallclock = True
+    print(f'replaying {args.replay}: scene {run["scene"]}, seed {args.seed}, {layout}, '
+          f'recorded at commit {run["commit"][:12]}' + (' (dirty)' if run.get('dirty') else ''))
+    params = run.get('parameters')
+    return scene, (settings_of_params_file(params, f'{args.replay}: recorded parameters')
+                   if params else None)
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from pam_bench.bringup.runner import run_scene
+    settings = None
+    if args.replay:
+        if args.scene or not args.out:
+            raise UsageError('--replay BAG takes no scene and needs --out')
+        scene, settings = _replayed(args)
+    elif not args.scene:
+        raise UsageError('name a scene (or --replay BAG)')
+    else:
+        scene = load_with_sets(args.scene, [])
+    if args.params:
+        from pam_bench.config.scene import apply_overlay
+        apply_overlay(scene, args.params)
+    for item in args.set:
+        path, eq, value = item.partition('=')
+        if not eq:
+            raise UsageError(f'--set {item!r}: write PATH=VALUE')
+        scene.set(path.strip(), parse_value(value))
+    out = pathlib.Path(args.out or f'bags/{scene.name}')
+    if args.resume and pathlib.Path(args.resume).resolve() == out.resolve():
+        raise UsageError('--resume needs a new --out (the old bag is kept)')
+    if args.wallclock and (args.one_process or args.realtime or args.resume):
+        raise UsageError('--wallclock runs the devices in the emulator on the wall clock: drop '
+                         '--one-process, --realtime and --resume')
+    if out.exists():
+        if not args.overwrite and args.out:
+            raise UsageError(f'{out} exists (use --overwrite)')
+        shutil.rmtree(out)
+    if args.resume:
+        from pam_bench.analysis.errors import BagError
+        from pam_bench.bringup.resume import resume_reading
+        try:
+            start, total = resume_reading(scene, args.resume)
+        except BagError as exc:
+            raise BagError(f'cannot resume from {args.resume}: {exc}') from None
+        if start >= total:
+            print(f'{args.resume} holds every reading of {scene.protocol}: nothing to resume')
+            return 0
+        scene.set('sequencer.resume_from_reading', start)
+        print(f'resuming {scene.protocol} at reading {start} of {total} (the first one '
+              f'{args.resume} lacks)')
+    print(f'scene {scene.name}: {scene.description}\n  exchange step {scene.exchange_step_s} s, '
+          f'nodes {", ".join(scene.nodes)}, bag {out}', flush=True)
+    res = run_scene(scene, str(out), seed=args.seed, realtime=args.realtime,
+                    one_process=args.one_process, wallclock=args.wallclock,
+                    device_processes=args.device_processes, settings=settings,
+                    netns=tuple(args.netns.split(':', 1)) if args.netns else None)
+    if res.code == 130:
+        raise KeyboardInterrupt
+    if res.code != 0:
+        import sys
+        print(f'error: scene {scene.name} failed (exit code {res.code})', file=sys.stderr)
+        return res.code
+    if args.wallclock:
+        print_wall_stats(res.stats)
+        print(f'done: {res.wall_s:.1f} s on the wall clock; bag in {out}')
+        return 0
+    print(f'done: {res.steps} exchange steps, {res.sim_s:.2f} s sim in {res.wall_s:.2f} s wall '
+          f'({res.rate:.0f} steps/s, x{res.sim_s / res.wall_s if res.wall_s else 0:.1f} real '
+          f'time); bag in {out}')
+    return 0
+
+
+def print_wall_stats(stats: dict[str, Any]) -> None:
+    """Period statistics per ticking node and the recorder's delivery table."""
+    from pam_bench.analysis.delivery import delivery_table, format_delivery
+    for name, st in stats.items():
+        per = st.get('periods')
+        if per:
+            print(f'{name:14s} period mean {per["mean_s"] * 1e3:.3f} ms, p50 '
+                  f'{per["p50_s"] * 1e3:.3f}, p99 {per["p99_s"] * 1e3:.3f}, max '
+                  f'{per["max_s"] * 1e3:.3f} ms (at {per["max_at_s"]:.1f} s), late '
+                  f'{per["late_share"] * 100:.2f} %')
+    if 'recorder' in stats:
+        print(format_delivery(delivery_table(
+            [v for k, v in stats.items() if k != 'recorder'], stats['recorder'])))
+
+
+def _cmd_record(args: argparse.Namespace) -> int:
+    from pam_bench.nodes.recorder import record
+    if not args.topics and not args.all:
+        raise UsageError('name the topics to record or give --all')
+    out = pathlib.Path(args.out)
+    if out.exists():
+        raise UsageError(f'{out} exists')
+    return record(str(out), args.topics, args.all)
+
+
+def _cmd_emulate(args: argparse.Namespace) -> int:
+    from pam_bench.bringup.runner import run_scene
+    from pam_bench.config.scene import load_scene
+    res = run_scene(load_scene(args.scene), '', seed=args.seed, wallclock=True,
+                    devices_only=True)
+    return 0 if res.code in (0, 130) else res.code
+
+
+def _cmd_check_drivers(args: argparse.Namespace) -> int:
+    from pam_bench.config.nodes import controllers
+    from pam_bench.config.scene import load_scene
+    from pam_bench.nodes.driver_probe import probe_drivers
+    names = controllers(load_scene(args.scene).nodes)
+    if not names:
+        raise UsageError(f'scene {args.scene} has no sequencer or torque servo: nothing reads '
+                         'drivers')
+    verdicts = probe_drivers(names, args.duration)
+    print(f'{"topic":26s} {"expected":44s} {"seen":36s} result')
+    for v in verdicts:
+        print(f'{v.topic:26s} {v.expected:44s} {v.seen:36s} '
+              + ('pass' if v.ok else 'FAIL') + (f': {v.reason}' if v.reason else ''))
+    failed = [v for v in verdicts if not v.ok]
+    print(f'{len(verdicts) - len(failed)} of {len(verdicts)} pass')
+    return 1 if failed else 0
+
+
+def _cmd_params(args: argparse.Namespace) -> int:
+    from pam_bench.config.scene import load_scene
+    from pam_bench.models.params import flat_infos, get_path
+    scene = load_scene(args.scene)
+    settings = scene.settings()
+    unknown = [n for n in args.node or [] if n not in settings]
+    if unknown:
+        raise UsageError(f'scene {scene.name} has no node {unknown[0]!r} (nodes: '
+                         f'{", ".join(settings)})')
+    rows = []
+    for name, st in settings.items():
+        if args.node and name not in args.node:
+            continue
+        for info in flat_infos(type(st)):
+            value = get_path(st, info.name)
+            rows.append({'path': f'{name}.{info.name}', 'value': value,
+                         'default': info.default, 'unit': info.unit, 'low': info.low,
+                         'high': info.high, 'choices': list(info.choices), 'text': info.text})
+    if args.json:
+        print(json.dumps(rows, indent=2))
+        return 0
+    for r in rows:
+        rng = (f" [{r['low']}, {r['high']}]" if r['low'] is not None or r['high'] is not None
+               else f" {{{', '.join(r['choices'])}}}" if r['choices'] else '')
+        mark = '' if r['value'] == r['default'] else f"  (default {r['default']})"
+        print(f"{r['path']:50s} {r['value']!s:>14s} {r['unit'] or '-':>8s}{rng}{mark}\n"
+              f"{'':50s} {r['text']}")
+    return 0

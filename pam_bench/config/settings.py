@@ -1,0 +1,217 @@
+"""Every node's settings as one typed dataclass: the one owner of each default, unit and range.
+
+A node's settings are its own fields plus the parameter sets of the models it runs, as
+sections (``valve``, ``muscle``, ``straight_fibre``, ``load_cell``, ``encoder``, ``servo``).
+The scene loader builds them (defaults, then config/bench.yaml, an overlay, the scene), the
+bring-up serialises them into a params file, each node declares its ROS parameters from the
+same class (``nodes.params.declare_settings``), and the twin, truth, servo-compare and sweeps
+read the objects. A leaf is addressed by its path, ``muscle_1.muscle.gain_exponent``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+from pam_bench.control.torque_servo import ServoMode, SignalKind, TorqueServoParams
+from pam_bench.models.constants import PULLEY_PITCH_DIAMETER_M, SUB_STEP_S
+from pam_bench.models.loading_servo import LoadingServoParams
+from pam_bench.models.muscle import MuscleParams
+from pam_bench.models.params import field, section
+from pam_bench.models.sensors import EncoderParams, LoadCellParams
+from pam_bench.models.straight_fibre_muscle import StraightFibreParams
+from pam_bench.models.valve import ValveParams
+from pam_bench.protocol.settings import RunnerSettings
+
+__all__ = ['NodeSettings', 'DeviceSettings', 'ControllerSettings', 'ClockSettings',
+           'ValveSettings', 'MuscleSettings', 'LoadCellSettings', 'EncoderSettings',
+           'LoadingServoSettings', 'SequencerSettings', 'TorqueServoSettings',
+           'RecorderSettings']
+
+
+@dataclasses.dataclass
+class NodeSettings:
+    """What every bench node takes: how it steps and where its statistics go."""
+
+    lockstep: bool = field(True, '-', 'step on /clock ticks in lock-step with sim_clock')
+    stats_file: str = field('', '-', 'write the DDS publish counts and the wall-clock tick '
+                            'statistics here at the end (JSON)')
+
+
+@dataclasses.dataclass
+class DeviceSettings(NodeSettings):
+    """A simulated device: its rate on a wall clock and the faults injected into it."""
+
+    rate_hz: float = field(1000.0, 'Hz', 'update rate on a wall clock (lockstep false)',
+                           1.0, 10000.0)
+    faults_yaml: str = field('', '-', "wall clock: faults injected into this device (YAML "
+                             "list, sim.faults; from a scene's faults)")
+
+
+@dataclasses.dataclass
+class ControllerSettings(NodeSettings):
+    """A node that reads the measured topics and commands the valves (sequencer, servo)."""
+
+    startup_timeout_s: float = field(30.0, 's', 'without lock-step: exit (code 3) when a '
+                                     'measured topic has not come this long after start',
+                                     0.1, 3600.0)
+    await_recorder: bool = field(False, '-', "without lock-step: start only once the run's "
+                                 'recorder has subscribed, so that nothing goes unrecorded')
+
+
+@dataclasses.dataclass
+class ValveSettings(DeviceSettings):
+    """valve_sim."""
+
+    channel: int = field(1, '-', 'muscle channel N', 1, 2)
+    sync_command: bool = field(True, '-', 'require a command at every step (lock-step '
+                               'controllers)')
+    sub_step_s: float = field(SUB_STEP_S, 's', 'sub-step of the pressure samples the muscle '
+                              'follows (the record sample period replaces it during a record)',
+                              1e-5, 1.0)
+    valve: ValveParams = section(ValveParams, 'the valve model (models.valve)')
+
+
+@dataclasses.dataclass
+class MuscleSettings(DeviceSettings):
+    """muscle_sim."""
+
+    channel: int = field(1, '-', 'muscle channel N', 1, 2)
+    muscle: MuscleParams = section(MuscleParams, 'the McKibben muscle (models.muscle) and '
+                                   'which law the bench holds (kind)')
+    straight_fibre: StraightFibreParams = section(
+        StraightFibreParams, "000's straight-fibre muscle, used when muscle.kind is "
+        'straight_fibre (models.straight_fibre_muscle)')
+
+
+@dataclasses.dataclass
+class LoadCellSettings(DeviceSettings):
+    """load_cell_sim."""
+
+    channel: int = field(1, '-', 'muscle channel N', 1, 2)
+    seed: int = field(0, '-', "seed of the noise generator (the run's --seed, + channel - 1)",
+                      0, 2**31 - 1)
+    load_cell: LoadCellParams = section(LoadCellParams, 'the load cell (models.sensors)')
+
+
+@dataclasses.dataclass
+class EncoderSettings(DeviceSettings):
+    """encoder_sim."""
+
+    encoder: EncoderParams = section(EncoderParams, 'the pulley encoder (models.sensors)')
+
+
+@dataclasses.dataclass
+class LoadingServoSettings(DeviceSettings):
+    """loading_servo_sim."""
+
+    channel: int = field(1, '-', 'muscle channel on the belt', 1, 2)
+    sync_command: bool = field(True, '-', 'require a command at every step (lock-step '
+                               'controllers)')
+    muscles: int = field(1, '-', 'muscles on the belt: 1 (characterisation) or 2 (antagonistic '
+                         'pair, angle held)', 1, 2)
+    hold_angle_rad: float = field(0.0, 'rad', 'pulley angle held with two muscles',
+                                  -1.0472, 1.0472)
+    rest_contraction_m: float = field(0.04, 'm', 'contraction x0 of both muscles at theta = 0 '
+                                      '(two muscles)', 0.0, 0.15)
+    initial_mode: int = field(0, '-', 'LoadCommand mode held until the first command: 0 off, '
+                              '1 force, 2 position', 0, 2)
+    initial_setpoint: float = field(0.0, '', 'set value of initial_mode (N or m)', -10.0, 1e4)
+    servo: LoadingServoParams = section(LoadingServoParams, 'the loading drive '
+                                        '(models.loading_servo)')
+
+
+@dataclasses.dataclass
+class SequencerSettings(ControllerSettings, RunnerSettings):
+    """sequencer: the protocol it runs and the runner's policies (``protocol.settings``)."""
+
+    channel: int = field(1, '-', 'muscle channel under test', 1, 2)
+    protocol: str = field('demo', '-', 'protocol started at t_0 with autostart')
+    autostart: bool = field(True, '-', 'start the protocol at t_0 (else: on a goal)')
+    protocols_file: str = field('', '-', 'YAML file of the protocols (empty: '
+                                'config/protocols.yaml)')
+    protocol_overrides_yaml: str = field('', '-', 'YAML mapping merged over the autostart '
+                                         'protocol (e.g. a coarser grid)')
+    tick_period_s: float = field(0.001, 's', 'tick period without lock-step', 1e-4, 1.0)
+    resume_from_reading: int = field(0, '-', 'start the autostart protocol at this reading '
+                                     '(pam-bench run --resume: the first one a previous bag '
+                                     'lacks), approached along its series path', 0, 10**7)
+    pitch_diameter_m: float = field(PULLEY_PITCH_DIAMETER_M, 'm', 'pulley pitch diameter for '
+                                    'x = r theta', 1e-3, 10.0)
+
+
+@dataclasses.dataclass
+class TorqueServoSettings(ControllerSettings):
+    """torque_servo: the set point, the controller and the control loop."""
+
+    muscles: int = field(2, '-', 'muscles driven: 2 (torque, N m) or 1 (force, N)', 1, 2)
+    controller: str = field(ServoMode.DYNAMIC.value, '-', 'dynamic_inverse_pid, '
+                            'static_inverse_pid, pid, or the inverse model alone: '
+                            'dynamic_inverse, static_inverse (004 Fig. 17)',
+                            choices=tuple(m.value for m in ServoMode))
+    inverse_model_file: str = field('', '-', 'inverse_model.yaml from pam-bench extract '
+                                    '(needed by the inverse-model controllers; relative to the '
+                                    'repository or install share)')
+    signal: str = field(SignalKind.SINE.value, '-', 'set point waveform',
+                        choices=tuple(k.value for k in SignalKind))
+    amplitude: float = field(5.0, '', 'set point amplitude (N m, or N with one muscle)',
+                             -1e4, 1e4)
+    omega_rad_s: float = field(1.0, 'rad/s', 'sine angular frequency', 0.0, 1e3)
+    offset: float = field(0.0, '', 'set point offset (N m, or N)', -1e4, 1e4)
+    period_s: float = field(3.0, 's', 'square-wave period', 1e-3, 1e4)
+    control_period_s: float = field(0.001, 's', 'control period without lock-step', 1e-4, 1.0)
+    stale_timeout_s: float = field(0.05, 's', 'vent when a measured topic is older than this '
+                                   '(without lock-step)', 1e-3, 60.0)
+    realtime_priority: int = field(0, '-', 'without lock-step: run the control loop SCHED_FIFO '
+                                   'at this priority where allowed (0: off)', 0, 99)
+    wall_loop: str = field('deadline', '-', 'without lock-step: run the control loop on a '
+                           "monotonic deadline ('deadline') or on rclpy's timer and executor "
+                           "('timer', to compare)", choices=('deadline', 'timer'))
+    latch_faults: bool = field(True, '-', 'without lock-step: a stale or non-finite measurement '
+                               'keeps the valves vented until torque_servo/reset, even when the '
+                               'data come back')
+    duration_s: float = field(0.0, 's', 'without lock-step: exit this long after the first '
+                              'control step (0: run until stopped)', 0.0, 1e6)
+    servo: TorqueServoParams = section(TorqueServoParams, 'the controller (control.torque_servo)')
+
+
+@dataclasses.dataclass
+class RecorderSettings(NodeSettings):
+    """recorder: where and what it records."""
+
+    out_dir: str = field('bags/run', '-', 'bag directory to create')
+    step_topics: list = field(['/clock:rosgraph_msgs/msg/Clock'], '-', 'topic:type recorded in '
+                              'lock-step (every step)', item=str)
+    event_topics: list = field(['/diagnostics:diagnostic_msgs/msg/DiagnosticArray'], '-',
+                               'topic:type recorded as they come', item=str)
+    record_all: bool = field(False, '-', 'record every topic that appears (wall clock only; '
+                             'like ros2 bag -a)')
+    flush_period_s: float = field(1.0, 's', 'wall clock: write the pending chunk to disk this '
+                                  'often', 0.01, 3600.0)
+    run_yaml: str = field('', '-', "how the run was made (YAML, from the runner): stored in the "
+                          "bag's custom data")
+    end_file: str = field('', '-', 'JSON of how the run ended, written by the runner before it '
+                          'stops the recorder')
+    topic_names: list = field([], '-', 'wall clock: record these topics (names; their types are '
+                              'discovered) besides step_topics and event_topics', item=str)
+    discovery_period_s: float = field(0.5, 's', 'wall clock: look for new topics and '
+                                      "publishers' QoS this often", 0.05, 60.0)
+
+
+@dataclasses.dataclass
+class ClockSettings:
+    """sim_clock: the lock-step master."""
+
+    exchange_step_s: float = field(0.01, 's', 'exchange step h', 1e-6, 10.0)
+    participants: list = field([], '-', 'fully qualified names that step in lock-step',
+                               item=str)
+    duration_s: float = field(0.0, 's', 'stop at this sim time (0: on protocol end)', 0.0, 1e9)
+    realtime: bool = field(False, '-', 'pace the ticks to the wall clock')
+    grace_s: float = field(0.3, 's', 'wall time between ready and the first step', 0.0, 60.0)
+    progress_period_s: float = field(2.0, 's', 'wall time between progress lines', 0.0, 3600.0)
+    nudge_s: float = field(1.0, 's', 'publish a tick again, and again, each time it has not '
+                           'been acknowledged for this wall time (a message lost at start-up)',
+                           0.01, 3600.0)
+    summary_file: str = field('', '-', 'write the run summary here as JSON (empty: print it '
+                              'only)')
+    stall_timeout_s: float = field(10.0, 's', 'abort when a step is not acknowledged within '
+                                   'this wall time', 0.1, 3600.0)

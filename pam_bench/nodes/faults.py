@@ -1,0 +1,67 @@
+"""Faults injected into a simulated device on a wall clock (``sim.faults``): when they act and
+what they do to a measured value. Their time base is the run's start: the first protocol
+status or servo state the device receives."""
+
+from __future__ import annotations
+
+import zlib
+from typing import Any
+
+import numpy as np
+import yaml
+
+from pam_bench.config import topics
+from pam_bench.models.errors import ParameterError
+from pam_bench.nodes.core import NodeCore
+from pam_bench.nodes.qos import RELIABLE
+from pam_bench.sim.faults import Fault, parse_faults, sensor_value
+
+__all__ = ['FaultInjection']
+
+
+class FaultInjection(NodeCore):
+    """A device's injected faults (module docstring)."""
+
+    def _init_faults(self) -> None:
+        self.faults: list[Fault] = []
+        self._fault_epoch_ns: int | None = None
+        self._fault_rng = np.random.default_rng(zlib.crc32(self.get_name().encode()))
+
+    def start_faults(self, text: str) -> None:
+        """Take the faults of ``faults_yaml`` (YAML list) and subscribe to the run's start.
+
+        Raises:
+            ParameterError: a bad fault, or faults on a lock-step node.
+        """
+        self.faults = parse_faults(yaml.safe_load(text) if text else [], [self.get_name()])
+        if self.faults and self.lockstep:
+            raise ParameterError(f'{self.get_name()}: faults run on a wall clock (lockstep '
+                                 'false)')
+        if self.faults:
+            from pam_bench_interfaces.msg import ProtocolStatus, TorqueServoState
+            for cls, topic in ((ProtocolStatus, topics.STATUS),
+                               (TorqueServoState, topics.SERVO_STATE)):
+                self.create_subscription(cls, topic, self._run_started, RELIABLE)
+
+    def _run_started(self, msg: Any) -> None:
+        if self._fault_epoch_ns is None:
+            self._fault_epoch_ns = int(self.get_clock().now().nanoseconds)
+
+    def fault_time_s(self) -> float:
+        """Seconds since the run started; -1 before."""
+        if self._fault_epoch_ns is None or self._last_ns is None:
+            return -1.0
+        return (self._last_ns - self._fault_epoch_ns) * 1e-9
+
+    def faulty(self, value: float) -> float | None:
+        """The measured ``value`` as the injected faults make it (None: not published)."""
+        if not self.faults:
+            return value
+        return sensor_value(self.faults, self.fault_time_s(), value,
+                            float(self._fault_rng.standard_normal()),
+                            float(self._fault_rng.random()))
+
+    def fault_active(self, kind: str) -> bool:
+        """Whether an injected fault of ``kind`` acts now."""
+        t = self.fault_time_s()
+        return any(f.kind == kind and f.active(t) for f in self.faults)

@@ -1,0 +1,186 @@
+"""A node's side of the lock-step: inputs buffered by stamp, one step per /clock tick, the ack.
+
+Lock-step (docs/design.md, "Time"; the rules are ``sim.lockstep``): ``sim_clock`` publishes
+/clock at t_k. A participant steps to t_k once it holds, for each of its synchronous inputs,
+the message stamped exactly t_(k-1) (every participant publishes every output at every step).
+It then publishes its outputs stamped t_k and a StepAck. Inputs are buffered by stamp, so a
+fast producer's t_k output never replaces the t_(k-1) one a slower consumer still needs: the
+run is deterministic whatever order DDS delivers messages in. At t_0 a participant only says it
+is ready (its inputs have publishers); step 1 uses the initial values. With its acknowledgement
+a participant may ask for a shorter next step (``max_next_step_s``), so that events such as a
+reading or a 1 kHz record land exactly on the exchange grid.
+
+Three options per input. ``same_step``: the participant steps to t_k with the message stamped
+t_k itself (Gauss-Seidel along an open chain such as valve -> muscle -> load cell; the producer
+must not depend on this participant within the same step). ``samples``: the input is the list
+of every message stamped in the interval (previous, required], in stamp order: a producer may
+publish sub-step samples between grid points, and the last one always sits on the grid.
+``from_start``: a lagged input whose producer publishes it at t_0 too (in ``on_start``), so
+step 1 needs it like every later step.
+
+A message lost at start-up (a reader matched after the writer's first publish) would stall the
+lock-step: while a tick is not acknowledged the clock publishes it again every ``nudge_s``; a
+participant that already stepped to it publishes that step's outputs (those of
+``create_step_publisher``) and its step before's again with its acknowledgement (a lagged
+consumer, the recorder above all, needs the step before's), and one still waiting for its inputs
+publishes its previous step's outputs again (the t_0 outputs of ``on_start`` among them), which
+is what a consumer waiting on it may lack. Inputs are keyed by stamp, so a repeated message
+changes nothing.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pam_bench_interfaces.msg import StepAck
+from rclpy.serialization import deserialize_message
+from rosgraph_msgs.msg import Clock
+
+from pam_bench.config import topics
+from pam_bench.nodes.core import NodeCore, Output
+from pam_bench.nodes.intra import bus_publisher, bus_subscription
+from pam_bench.nodes.messages import ack_message, ns_of, stamp_of_cdr, stamp_of_msg
+from pam_bench.nodes.qos import DRIVER, LOCKSTEP, RELIABLE, SENSOR
+from pam_bench.sim.lockstep import Ack, InputSpec, StopRequest, prune, take_inputs
+
+__all__ = ['Lockstep']
+
+
+class Lockstep(NodeCore):
+    """Synchronous inputs, step outputs and the /clock handshake (module docstring)."""
+
+    def _init_lockstep(self) -> None:
+        self._sync = {}
+        self._specs: dict[str, InputSpec] = {}
+        self._decode: dict[str, type] = {}
+        self._prev_prev_ns: int | None = None
+        self._last_ns = None
+        self._pending_ns: int | None = None
+        self._step_index = 0
+        self.stop_request: StopRequest | None = None      # sent with every acknowledgement
+        self.max_next_step_s = 0.0        # longest next exchange step wanted (0: any)
+        self._sent = []                   # this step's outputs
+        self._sent_before: list[Output] = []             # the step before's
+        self._ack_pub: Any = None
+
+    def create_step_publisher(self, msg_type: type, topic: str) -> Any:
+        """A publisher of a step output: what it publishes in a step is sent again when the
+        clock repeats that tick (module docstring). On a wall clock: a counted driver
+        publisher (``nodes.stats``)."""
+        pub = bus_publisher(self, msg_type, topic, LOCKSTEP if self.lockstep else DRIVER)
+        if not self.lockstep:
+            return self.counted(pub, topic)
+        send = pub.publish
+
+        def publish(msg: Any) -> None:
+            self._sent.append((send, msg))
+            send(msg)
+
+        pub.publish = publish
+        return pub
+
+    def sync_input(self, msg_type: type, topic: str, raw: bool = False,
+                   same_step: bool = False, samples: bool = False,
+                   from_start: bool = False) -> None:
+        """Subscribe to a synchronous input: buffered by stamp, required at every step.
+
+        With ``raw`` the message stays CDR bytes and its stamp is read from the header, which
+        every stamped message (and Clock) starts with. ``same_step``, ``samples`` and
+        ``from_start``: see the module docstring. On a wall clock the input is the latest
+        message (``nodes.wallclock``).
+        """
+        buf: dict[int, Any] = {}
+        self._sync[topic] = buf
+        self._specs[topic] = InputSpec(same_step, samples, from_start)
+        if not self.lockstep:                # wall clock: the latest message
+            latest = self._latest
+
+            def on_latest(msg: Any) -> None:
+                latest[topic] = msg
+
+            bus_subscription(self, msg_type, topic, on_latest, SENSOR)
+            return
+        if self._bus is not None:            # message objects, in process
+
+            def on_object(msg: Any) -> None:
+                buf[stamp_of_msg(msg)] = msg
+                self._try_step()
+
+            bus_subscription(self, msg_type, topic, on_object, LOCKSTEP)
+            return
+        if not raw:
+            self._decode[topic] = msg_type
+
+        def on_msg(data: bytes) -> None:
+            # kept as CDR bytes and decoded only when a step uses it: sub-step samples that a
+            # participant does not need cost a take, not a deserialisation
+            buf[stamp_of_cdr(data)] = data
+            self._try_step()
+
+        self.create_subscription(msg_type, topic, on_msg, LOCKSTEP, raw=True)
+
+    def start_lockstep(self) -> None:
+        """Subscribe to /clock and create the ack publisher (call after all sync_input)."""
+        self._ack_pub = bus_publisher(self, StepAck, topics.ACK, RELIABLE)
+        bus_subscription(self, Clock, topics.CLOCK, self._on_clock, RELIABLE)
+
+    def _on_clock(self, msg: Clock) -> None:
+        t = ns_of(msg.clock)
+        if self._last_ns is not None and t <= self._last_ns:
+            if t == self._last_ns:        # the clock repeats t_0 until all are ready, and any
+                for send, out in self._sent_before + self._sent:   # tick not acknowledged
+                    send(out)
+                self._ack(t)
+            return
+        if self._last_ns is None:
+            if all(self._has_publisher(tp) for tp in self._sync):
+                self._last_ns = t
+                self.on_start(t)
+                self._ack(t)
+            return
+        if self._pending_ns == t:
+            # the clock publishes a tick again when it is not acknowledged in time: a consumer
+            # may still miss what this participant sent at its last step (a reader matched
+            # late drops a writer's first messages), so that goes out again
+            for send, out in self._sent:
+                send(out)
+        self._pending_ns = t
+        self._try_step()
+
+    def _has_publisher(self, topic: str) -> bool:
+        if self._bus is not None:
+            return self._bus.has_publisher(self, topic)
+        return self.count_publishers(topic) > 0
+
+    def _try_step(self) -> None:
+        t = self._pending_ns
+        if t is None or self._last_ns is None:
+            return
+        prev = self._last_ns
+        inputs = take_inputs(self._sync, self._specs, self._prev_prev_ns, prev, t,
+                             self._step_index)
+        if inputs is None:
+            return
+        for topic, cls in self._decode.items():
+            if topic in inputs:
+                val = inputs[topic]
+                inputs[topic] = ([deserialize_message(v, cls) for v in val]
+                                 if isinstance(val, list) else deserialize_message(val, cls))
+        prune(self._sync, self._specs, prev, t)
+        self._pending_ns = None
+        self._sent_before, self._sent = self._sent, []
+        self._prev_prev_ns = prev
+        self._last_ns = t
+        self._step_index += 1
+        try:
+            self.on_step(t, (t - prev) * 1e-9, inputs)
+        except Exception as exc:  # noqa: BLE001 - a callback must never let an exception out
+            self.step_failed(exc)
+        self._ack(t)
+
+    def _ack(self, t: int) -> None:
+        ack = Ack(t, self._fqn, float(self.max_next_step_s), self.stop_request)
+        if self._bus is not None:                 # in process: the plain object
+            self._ack_pub.publish(ack, ack_message)
+        else:
+            self._ack_pub.publish(ack_message(ack))

@@ -1,0 +1,84 @@
+"""What a node tells about its run: messages it published on DDS, and its tick periods.
+
+On a wall clock every node counts what it puts on DDS per topic (with the sequence numbers the
+recorder sees, the counts say whether a message was lost) and, when it ticks, the periods of
+its loop, streamed into fixed memory (``analysis.timing.PeriodStats``: a six-hour run keeps as
+little as a short one). Both go to ``stats_file`` (JSON) when the node stops.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from typing import Any
+
+from pam_bench.analysis.timing import PeriodStats
+from pam_bench.nodes.core import NodeCore, Output
+
+__all__ = ['Stats']
+
+
+class Stats(NodeCore):
+    """Publish counts and loop periods (module docstring)."""
+
+    def _init_stats(self) -> None:
+        self.published: dict[str, int] = {}         # topic -> messages published on DDS
+        self._counted_pubs: list[Any] = []
+        self._start_outputs: list[Output] | None = None
+        self.periods: PeriodStats | None = None     # set by the loop that ticks the node
+
+    def count_periods(self, period_s: float) -> None:
+        """Keep the statistics of a loop ticking every ``period_s``."""
+        self.periods = PeriodStats(period_s)
+
+    def count_tick(self) -> None:
+        """One tick of the node's loop, now (monotonic)."""
+        if self.periods is not None:
+            self.periods.tick(time.monotonic_ns())
+
+    def counted(self, pub: Any, topic: str) -> Any:
+        """Count what ``pub`` puts on DDS (``published``). Returns ``pub``."""
+        name = self.resolve_topic_name(topic)
+        self.published.setdefault(name, 0)
+        send = pub.publish
+        dds = getattr(pub, 'dds', None)               # a bus publisher: DDS only when external
+
+        def publish(msg: Any, *args: Any) -> None:
+            if dds is None or pub.external:
+                self.published[name] += 1
+            if self._start_outputs is not None:
+                self._start_outputs.append((publish, msg))
+            send(msg, *args)
+
+        pub.publish = publish
+        self._counted_pubs.append(pub)
+        return pub
+
+    def wall_stats(self) -> dict[str, Any]:
+        """What this node published on DDS (topic -> count) and its tick periods."""
+        out: dict[str, Any] = {'node': self._fqn, 'published': dict(self.published)}
+        per = self.periods.stats() if self.periods is not None else None
+        if per is not None:
+            out['periods'] = per
+        return out
+
+    def write_stats(self) -> None:
+        """Write ``wall_stats`` to the settings' ``stats_file`` (when set)."""
+        path = getattr(self.settings, 'stats_file', '')
+        if path:
+            tmp = f'{path}.part'
+            with open(tmp, 'w', encoding='utf-8') as fh:
+                json.dump(self.wall_stats(), fh)
+            os.replace(tmp, path)
+
+    def wait_acknowledged(self, timeout_s: float = 0.5) -> None:
+        """Let reliable subscribers acknowledge what was published (a recorder gets the last
+        messages)."""
+        from rclpy.duration import Duration
+        for pub in self._counted_pubs:
+            dds = getattr(pub, 'dds', pub)
+            try:
+                dds.wait_for_all_acked(Duration(seconds=timeout_s))
+            except Exception:  # noqa: BLE001 - best effort at shutdown
+                pass

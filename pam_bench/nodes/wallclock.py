@@ -1,0 +1,119 @@
+"""A node on a wall clock (``lockstep: false``): a real bench, or its emulation.
+
+A device node steps itself every ``1 / rate_hz`` seconds of its own clock (``on_wall_tick``,
+driven by ``nodes.process.deadline_spin`` or by the emulator process that composes the
+devices). Each synchronous input is then simply the latest message received (``wall_inputs``
+adapts sub-step sample lists to the device's own step); outputs are stamped with the node's
+clock and published with ``DRIVER`` QoS. A controller ticks on its own period and waits, at
+most ``startup_timeout_s``, for the measured topics (``waited_too_long``).
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import Any
+
+from diagnostic_msgs.msg import DiagnosticStatus
+
+from pam_bench.nodes.core import NodeCore
+
+__all__ = ['WallClock', 'RESEND_NS', 'MAX_CATCH_UP']
+
+RESEND_NS = 100_000_000
+"""On a wall clock a device still waiting for an input publishes its t_0 outputs again this
+often (ns): a consumer that matched after they went out would otherwise wait for ever."""
+MAX_CATCH_UP = 1000
+"""Most periods one late tick steps the model over (1 s at 1 kHz)."""
+
+
+class WallClock(NodeCore):
+    """Ticking on a wall clock (module docstring)."""
+
+    def _init_wallclock(self) -> None:
+        self.wall_period_s: float | None = None     # set: ticked by on_wall_tick
+        self._latest = {}
+        self._model_ns = 0                          # the model's time
+        self._resend_ns = 0
+        self._first_tick_ns: int | None = None
+        self.exit_code: int | None = None    # set: the node's work is done, its process exits
+        self.wall_timer: Any = None
+
+    def start_wall_ticks(self, period_s: float) -> None:
+        """Tick ``on_wall_tick`` every ``period_s``: on an rclpy timer under any executor,
+        until a lean loop takes the ticking over (``take_wall_ticks``)."""
+        self.wall_period_s = period_s
+        self.count_periods(period_s)
+        self.wall_timer = self.create_timer(period_s, self.on_wall_tick)
+
+    def take_wall_ticks(self) -> float:
+        """Stop the node's own timer: the caller ticks ``on_wall_tick`` from now on (on a
+        monotonic deadline, ``nodes.process.deadline_spin``). Returns the period (s)."""
+        if self.wall_timer is not None:
+            self.destroy_timer(self.wall_timer)
+            self.wall_timer = None
+        assert self.wall_period_s is not None
+        return self.wall_period_s
+
+    def now_ns(self) -> int:
+        """The node's clock (ROS time: the system clock unless use_sim_time), ns."""
+        return int(self.get_clock().now().nanoseconds)
+
+    def on_wall_tick(self, t_ns: int | None = None) -> None:
+        """One wall-clock step of a device at ``t_ns`` (default: now on the node's clock).
+
+        At the first tick ``on_start``; then, once every synchronous input has arrived,
+        ``on_step`` with the latest inputs (``wall_inputs``) over the whole periods that have
+        passed: the model runs on a fixed grid of ``wall_period_s`` that follows the clock to
+        within half a period (a late tick steps two periods at once), so its exact
+        discretisations (ZOH) are computed once, not at every jittered step. Outputs are
+        stamped ``t_ns``. A step that raises puts the device in its safe state
+        (``on_fault``) and the node goes on."""
+        t = self.now_ns() if t_ns is None else t_ns
+        self.count_tick()
+        assert self.wall_period_s is not None
+        period = round(self.wall_period_s * 1e9)
+        if self._last_ns is None:
+            self._last_ns = self._model_ns = self._resend_ns = t
+            self._start_outputs = []      # what on_start publishes: sent again while waiting
+            self.on_start(t)
+            self._sent, self._start_outputs = self._start_outputs, None
+            return
+        self._last_ns = t
+        n = (t - self._model_ns + period // 2) // period
+        if n <= 0:
+            return
+        if len(self._latest) < len(self._sync):   # a producer has not started yet
+            self._model_ns = t
+            if t - self._resend_ns >= RESEND_NS:  # what it waits for may need our t_0 outputs
+                self._resend_ns = t                 # (a subscriber that matched late missed
+                for send, msg in self._sent:        # them)
+                    send(msg)
+            return
+        n = min(n, MAX_CATCH_UP)
+        self._model_ns = max(self._model_ns + n * period, t - period)
+        try:
+            self.on_step(t, n * period * 1e-9, self.wall_inputs(dict(self._latest),
+                                                                 n * period * 1e-9))
+        except Exception as exc:  # noqa: BLE001 - a callback must never let an exception out
+            self.step_failed(exc)
+
+    def waited_too_long(self, t_ns: int, waiting_for: list[str], timeout_s: float) -> bool:
+        """On a wall clock: whether a controller has waited more than ``timeout_s`` since its
+        first tick for the topics ``waiting_for``; if so it says which (one line on stderr
+        and /diagnostics) and sets ``exit_code`` 3."""
+        if self._first_tick_ns is None:
+            self._first_tick_ns = t_ns
+        if not waiting_for or t_ns - self._first_tick_ns < timeout_s * 1e9:
+            return False
+        if self.exit_code is None:
+            text = (f'no data on {", ".join(waiting_for)} after {timeout_s:g} s: are the '
+                    'devices (or drivers) running?')
+            self.diagnose(DiagnosticStatus.ERROR, text)
+            print(f'{self.get_name()}: error: {text}', file=sys.stderr, flush=True)
+            self.exit_code = 3
+        return True
+
+    def wall_inputs(self, inputs: dict[str, Any], dt_s: float) -> dict[str, Any]:
+        """On a wall clock: adapt the latest inputs to a step of ``dt_s`` (default: as they
+        are)."""
+        return inputs
