@@ -66,3 +66,49 @@ def test_every_package_has_a_one_line_docstring_and_all(init: pathlib.Path) -> N
 def test_every_folder_is_a_package() -> None:
     for folder in {p.parent for p in MODULES}:
         assert (folder / '__init__.py').is_file(), folder
+
+
+def _module_name(path: pathlib.Path) -> str:
+    rel = path.relative_to(ROOT.parent).with_suffix('')
+    parts = list(rel.parts)
+    if parts[-1] == '__init__':
+        parts = parts[:-1]
+    return '.'.join(parts)
+
+
+def test_no_import_circle_between_modules() -> None:
+    """No module imports, directly or through others, one that imports it back (function-level
+    imports included: a lazy import still ties the two)."""
+    names = {_module_name(p): p for p in MODULES}
+    graph: dict[str, set[str]] = {}
+    for name, path in names.items():
+        deps = set()
+        for imp in _imports(path):
+            while imp and imp not in names:
+                imp = imp.rpartition('.')[0]
+            if imp and imp != name and not name.startswith(imp + '.') and \
+                    not imp.endswith('__main__'):
+                deps.add(imp)
+        graph[name] = deps
+    # a package's __init__ re-exporting its own modules is not a circle
+    for name in graph:
+        graph[name] = {d for d in graph[name] if not (names[d].name == '__init__.py'
+                                                      and name.startswith(d + '.'))}
+    state: dict[str, int] = {}
+    stack: list[str] = []
+
+    def visit(n: str) -> None:
+        state[n] = 1
+        stack.append(n)
+        for d in sorted(graph.get(n, ())):
+            if state.get(d) == 1:
+                cycle = stack[stack.index(d):] + [d]
+                raise AssertionError('import circle: ' + ' -> '.join(cycle))
+            if d not in state:
+                visit(d)
+        stack.pop()
+        state[n] = 2
+
+    for n in sorted(graph):
+        if n not in state:
+            visit(n)

@@ -29,7 +29,7 @@ from pam_bench.analysis.inverse_export import inverse_model_dict
 from pam_bench.analysis.law_scores import score
 from pam_bench.analysis.report import report_markdown
 from pam_bench.analysis.smoothing import centred_polyfit
-from pam_bench.analysis.static import gain_summary
+from pam_bench.analysis.static import gain_summary, kind_of
 
 __all__ = ['extract', 'step_summary', 'coefficient_polynomials']
 
@@ -101,10 +101,13 @@ def _write_csv(path: pathlib.Path, data: BagData) -> None:
 
 def _largest(points: dict[str, Points], kind: str) -> Points | None:
     """The largest protocol of a kind (full and quick grids may both be present)."""
-    found = [p for name, p in points.items() if name.startswith(kind)]
+    found = [p for p in points.values() if kind_of(p) == kind]
     return max(found, key=len) if found else None
 
 
+MIN_SERIES_FOR_LAWS = 2
+"""The force laws are fitted to at least this many series (one held x or F, as the README
+demo's ramp, cannot identify how a law depends on the length)."""
 ISOTONIC_MIN_X_M = 1e-4
 """An isotonic reading joins the force-law fit once the muscle has contracted this far (m),
 and no reading stretched by more than this does: there the load hangs on the braid's
@@ -135,12 +138,12 @@ def model_comparison(points: dict[str, Points], direction: int | None = None,
     (``analysis.law_scores``; ``scored=False`` leaves that out)."""
     kinds = ('isometric', 'isobaric', 'isotonic')
     use = [p for p in (_largest(points, k) for k in kinds) if p]
-    if not use:
-        return []
+    if sum(len(np.unique(q.series_value)) for q in use) < MIN_SERIES_FOR_LAWS:
+        return []               # one series cannot tell the laws' length dependence apart
     keep = [np.ones(len(q.t_s), bool) if direction is None else q.direction == direction
             for q in use]
     for q, k in zip(use, keep, strict=True):     # a load hanging on the locked braid: no law
-        k &= q.contraction_m > (ISOTONIC_MIN_X_M if q.protocol.startswith('isotonic')
+        k &= q.contraction_m > (ISOTONIC_MIN_X_M if kind_of(q) == 'isotonic'
                                 else -ISOTONIC_MIN_X_M)
     p, x, f = (np.concatenate([getattr(q, c)[k] for q, k in zip(use, keep, strict=True)])
                for c in ('pressure_pa', 'contraction_m', 'force_n'))

@@ -12,8 +12,12 @@ def report_markdown(s: dict[str, Any]) -> str:
     lines = ['# Extracted characteristics', '']
     if 'isometric' in s:
         g = s['isometric']['gain_N_per_V']
-        lines += [f"Isometric gain: max {g['max']:.1f} N/V at x = {g['x_mm_at_max']:.0f} mm, "
-                  f"min {g['min']:.1f} N/V at x = {g['x_mm_at_min']:.0f} mm.", '']
+        if len(s['isometric'].get('series', [])) == 1:
+            lines += [f"Isometric gain at x = {g['x_mm_at_max']:.0f} mm: {g['max']:.1f} N/V "
+                      f"(protocol {s['isometric']['protocol']}, one series).", '']
+        else:
+            lines += [f"Isometric gain: max {g['max']:.1f} N/V at x = {g['x_mm_at_max']:.0f} "
+                      f"mm, min {g['min']:.1f} N/V at x = {g['x_mm_at_min']:.0f} mm.", '']
     if 'isotonic' in s:
         g = s['isotonic']['gain_mm_per_V']
         lines += [f"Isotonic gain: max {g['max']:.2f} mm/V at u = {g['u_V_at_max']:.2f} V, "

@@ -18,8 +18,8 @@ import numpy as np
 
 from pam_bench.analysis.bagread import Points
 
-__all__ = ['isometric_gains', 'isometric_lines', 'midline_fit', 'isotonic_gains',
-           'isobaric_hysteresis', 'isobaric_stiffness', 'gain_summary']
+__all__ = ['kind_of', 'KINDS', 'isometric_gains', 'isometric_lines', 'midline_fit',
+           'isotonic_gains', 'isobaric_hysteresis', 'isobaric_stiffness', 'gain_summary']
 
 MIN_DX_M = 1e-6
 """A neighbouring pair of readings closer than this in contraction gives no stiffness (m)."""
@@ -130,12 +130,42 @@ def isobaric_stiffness(p: Points) -> list[dict[str, Any]]:
     return out
 
 
+KINDS = ('isometric', 'isotonic', 'isobaric')
+"""The three static families of 004 (section 2.2)."""
+HELD_X_M = 1.0e-3
+"""An unnamed protocol is isometric when every reading sits this close to its series' x (m)."""
+HELD_F_REL = 0.05
+"""... isotonic when every force sits this close (relative, at least 10 N) to its series'."""
+
+
+def kind_of(p: Points) -> str | None:
+    """Which family a protocol's readings are: by its name (``isometric_quick``), else by what
+    they hold (a protocol of another name, the README demo's ramp at 20 mm among them): u
+    swept with x held at the series value is isometric, with F held isotonic; F swept at a
+    held u is isobaric. None: none of them."""
+    for kind in KINDS:
+        if p.protocol.startswith(kind):
+            return kind
+    if len(p) < 2:
+        return None
+    if np.allclose(p.set_value, p.voltage_v, rtol=0.0, atol=1e-6):          # u swept
+        if np.max(np.abs(p.contraction_m - p.series_value)) <= HELD_X_M:
+            return 'isometric'
+        tol = np.maximum(HELD_F_REL * np.abs(p.series_value), 10.0)
+        if np.all(np.abs(p.force_n - p.series_value) <= tol):
+            return 'isotonic'
+    elif np.allclose(p.series_value, p.voltage_v, rtol=0.0, atol=1e-6):     # F swept
+        return 'isobaric'
+    return None
+
+
 def gain_summary(points: dict[str, Points]) -> dict[str, Any]:
-    """The static part of summary.json for whichever protocols are present."""
+    """The static part of summary.json for whichever protocols are present (``kind_of``)."""
     out: dict[str, Any] = {}
     # when a kind appears more than once (full and quick grids), the largest protocol wins
     for name, p in sorted(points.items(), key=lambda kv: len(kv[1])):
-        if name.startswith('isometric'):
+        kind = kind_of(p)
+        if kind == 'isometric':
             x, k = isometric_gains(p)
             if len(k):
                 i, j = int(np.argmax(k)), int(np.argmin(k))
@@ -144,14 +174,14 @@ def gain_summary(points: dict[str, Points]) -> dict[str, Any]:
                     'min': float(k[j]), 'x_mm_at_min': float(x[j] * 1e3)},
                     'series': [{'x_mm': float(a * 1e3), 'gain_N_per_V': float(b)}
                                for a, b in zip(x, k, strict=True)]}
-        elif name.startswith('isotonic'):
+        elif kind == 'isotonic':
             u, f, k = isotonic_gains(p)
             if len(k):
                 i, j = int(np.argmax(k)), int(np.argmin(k))
                 out['isotonic'] = {'protocol': name, 'gain_mm_per_V': {
                     'max': float(k[i]), 'u_V_at_max': float(u[i]), 'F_N_at_max': float(f[i]),
                     'min': float(k[j]), 'u_V_at_min': float(u[j]), 'F_N_at_min': float(f[j])}}
-        elif name.startswith('isobaric'):
+        elif kind == 'isobaric':
             _, _, h = isobaric_hysteresis(p)
             if len(h):
                 out['isobaric'] = {'protocol': name,

@@ -16,13 +16,15 @@ from typing import Any
 
 import numpy as np
 
+from pam_bench.benchmarks.study import Study
+from pam_bench.benchmarks.tables import Row, commit_of, table
 from pam_bench.models.muscle import MuscleParams
 from pam_bench.models.sensors import LoadCellParams
 from pam_bench.models.valve import ValveParams
 from pam_bench.twin.protocol_run import run_protocol
 from pam_bench.verify.calibrate_bags import FREE_BAGS, calibrate_bags, observations_from_twin
 
-__all__ = ['DRAWN', 'draw_parameters', 'recovery_errors', 'measure_round_trips',
+__all__ = ['STUDY', 'DRAWN', 'draw_parameters', 'recovery_errors', 'measure_round_trips',
            'calibrate_section', 'calibrate_results']
 
 DRAWN = ('gain_n_per_pa', 'gain_min_n_per_pa', 'gain_exponent', 'threshold_pressure_pa',
@@ -77,7 +79,6 @@ def measure_round_trips(quick: bool, sets: int | None = None) -> dict[str, Any]:
 
 def calibrate_section(r: dict[str, Any]) -> list[str]:
     """Recovery per parameter over the sets, and the readings after the fit."""
-    from pam_bench.benchmarks.report import table
     c = r['calibrate']
     sets = c['sets']
     names = list(sets[0]['errors'])
@@ -119,7 +120,7 @@ def table_note(sets: list[dict[str, Any]]) -> str:
             f'1 % FS and 0.5 mm). Fit times: {fit}.')
 
 
-def calibrate_results(r: dict[str, Any], commit: str) -> list[tuple[str, str, str, str]]:
+def calibrate_results(r: dict[str, Any], commit: str) -> list[Row]:
     """Key-result row: identifiable parameters recovered within 5 %."""
     c = r.get('calibrate')
     if not c:
@@ -130,3 +131,11 @@ def calibrate_results(r: dict[str, Any], commit: str) -> list[tuple[str, str, st
     return [('bag calibration round trip (numpy twin, campaign_quick): sets with every '
              'identified parameter within 5 %', f'{len(sets)} of {len(sets)}',
              f'{ok} of {len(sets)}', commit)]
+
+
+STUDY = Study(
+    'calibrate', 'pam-bench calibrate on drawn muscles (the numpy twin), recovery per parameter',
+    lambda quick, out, scenes: {'calibrate': measure_round_trips(quick)},
+    (('calibrate', lambda r, root: calibrate_section(r)),),
+    lambda r: calibrate_results(r, commit_of(r, 'calibrate')))
+"""The calibration round trip (bench.json ``calibrate``)."""

@@ -22,9 +22,12 @@ import numpy as np
 import yaml
 
 from pam_bench.benchmarks.calibrate import draw_parameters, recovery_errors
+from pam_bench.benchmarks.study import Study
+from pam_bench.benchmarks.tables import Row, commit_of, table
 from pam_bench.verify.calibrate_bags import overlay_of
 
-__all__ = ['measure_nodes_round_trip', 'calibrate_nodes_section', 'calibrate_nodes_results']
+__all__ = ['STUDY', 'measure_nodes_round_trip', 'calibrate_nodes_section',
+           'calibrate_nodes_results']
 
 GOAL_FORCE_N = 20.0          # 1 % of the load cell's 2000 N range (issue 18)
 GOAL_CONTRACTION_M = 0.5e-3
@@ -73,7 +76,6 @@ def measure_nodes_round_trip(out: pathlib.Path) -> dict[str, Any]:
 
 def calibrate_nodes_section(r: dict[str, Any]) -> list[str]:
     """Recovery per parameter and the rerun's readings against the original bag."""
-    from pam_bench.benchmarks.report import table
     c = r['calibrate_nodes']
     d = c['readings']
     rows = [(n, '-' if e is None else f'{e * 100:+.2f} %',
@@ -101,13 +103,13 @@ def calibrate_nodes_section(r: dict[str, Any]) -> list[str]:
     return lines
 
 
-def calibrate_nodes_results(r: dict[str, Any], commit: str) -> list[tuple[str, str, str, str]]:
+def calibrate_nodes_results(r: dict[str, Any], commit: str) -> list[Row]:
     """Key-result row: the recalibrated bench against the original bag."""
     c = r.get('calibrate_nodes')
     if not c:
         return []
     d = c['readings']
-    rows = [('bag calibration through the nodes (campaign_quick): the calibrated bench '
+    rows: list[Row] = [('bag calibration through the nodes (campaign_quick): the calibrated bench '
              'against the original readings, RMS', '<= 20 N and 0.5 mm',
              f"{d['rms_force_n']:.2f} N, {d['rms_contraction_m'] * 1e3:.3f} mm "
              f"(fit {c['fit_s']:.0f} s)", commit)]
@@ -118,3 +120,13 @@ def calibrate_nodes_results(r: dict[str, Any], commit: str) -> list[tuple[str, s
                      f"{f['rms_force_n']:.2f} N, {f['rms_contraction_m'] * 1e3:.3f} mm "
                      f"({f['matched']} readings)", commit))
     return rows
+
+
+STUDY = Study(
+    'calibrate_nodes', 'the calibration round trip through the nodes (a bag, its overlay, a '
+    'rerun)',
+    lambda quick, out, scenes: {'calibrate_nodes': measure_nodes_round_trip(
+        out / 'calibrate_nodes')},
+    (('calibrate_nodes', lambda r, root: calibrate_nodes_section(r)),),
+    lambda r: calibrate_nodes_results(r, commit_of(r, 'calibrate_nodes')))
+"""The calibration round trip through the nodes (bench.json ``calibrate_nodes``)."""

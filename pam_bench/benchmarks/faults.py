@@ -17,10 +17,13 @@ from __future__ import annotations
 import pathlib
 from typing import Any
 
+from pam_bench.benchmarks.study import Study
+from pam_bench.benchmarks.tables import Row, commit_of, table
 from pam_bench.bringup.runner import run_scene
 from pam_bench.config.scene import load_scene
 
-__all__ = ['SCENE', 'READINGS', 'CASES', 'measure_faults', 'faults_section', 'faults_results']
+__all__ = ['STUDY', 'SCENE', 'READINGS', 'CASES', 'measure_faults', 'faults_section',
+           'faults_results']
 
 SCENE = """description: short isometric series with an injected fault
 exchange_step_s: 1.5
@@ -94,7 +97,6 @@ def measure_faults(out: pathlib.Path) -> list[dict[str, Any]]:
 
 def faults_section(r: dict[str, Any]) -> list[str]:
     """The fault table."""
-    from pam_bench.benchmarks.report import table
     return table(['fault', 'detected', 'reason', 'outcome', 'readings taken', 'readings lost',
                   'time to safe state'],
                  [(row['kind'], {True: 'yes', False: 'NO', None: 'tolerated'}[row['detected']],
@@ -106,7 +108,7 @@ def faults_section(r: dict[str, Any]) -> list[str]:
                   for row in r['faults']])
 
 
-def faults_results(r: dict[str, Any], commit: str) -> list[tuple[str, str, str, str]]:
+def faults_results(r: dict[str, Any], commit: str) -> list[Row]:
     """Key-result row: kinds tried, detected, readings lost."""
     rows = r.get('faults')
     if not rows:
@@ -116,3 +118,11 @@ def faults_results(r: dict[str, Any], commit: str) -> list[tuple[str, str, str, 
     lost = sum(x['lost'] for x in rows)
     return [('injected faults on the wall clock: detected, survived or resumable, readings lost',
              'all, all, 0', f'{detected} of {len(rows)}, {ok} of {len(rows)}, {lost}', commit)]
+
+
+STUDY = Study(
+    'faults', 'injected faults on the wall clock: detected, survived, readings lost',
+    lambda quick, out, scenes: {'faults': measure_faults(out)},
+    (('faults', lambda r, root: faults_section(r)),),
+    lambda r: faults_results(r, commit_of(r, 'faults')))
+"""Injected faults on the wall clock (bench.json ``faults``)."""

@@ -19,11 +19,13 @@ import pstats
 import tempfile
 from typing import Any
 
+from pam_bench.benchmarks.study import Study
+from pam_bench.benchmarks.tables import table
 from pam_bench.bringup.runner import run_scene
 from pam_bench.config.scene import load_scene
 from pam_bench.nodes.profiling import ENV
 
-__all__ = ['CAUSES', 'cause_of', 'profile_scene']
+__all__ = ['STUDY', 'CAUSES', 'cause_of', 'profile_scene']
 
 CAUSES = ('physics', 'node glue', 'lock-step bookkeeping', 'message objects', 'serialisation',
           'DDS and executor', 'waiting', 'bag writing', 'other')
@@ -105,3 +107,24 @@ def profile_scene(name: str, duration_s: float, one_process: bool) -> dict[str, 
             'exchanges': res.steps, 'wall_s': res.wall_s,
             'wall_us_per_exchange': 1e6 * res.wall_s / n, 'us_per_exchange': total,
             'processes': per}
+
+
+def measure(quick: bool, out: pathlib.Path, scenes: list[str] | None) -> dict[str, Any]:
+    """servo_sin_t (2 s) in both layouts and campaign_quick composed, profiled."""
+    runs = [('servo_sin_t', 2.0, True), ('servo_sin_t', 2.0, False)]
+    if not quick:
+        runs.append(('campaign_quick', 0.0, True))
+    return {'profile': [profile_scene(name, dur, one) for name, dur, one in runs]}
+
+
+def section(r: dict[str, Any], root: pathlib.Path) -> list[str]:
+    """Microseconds per exchange by cause, per profiled run."""
+    head = ['scene', 'layout', 'wall us / exchange (profiled)'] + list(CAUSES)
+    return table(head, [(p['scene'], p['layout'], f"{p['wall_us_per_exchange']:.0f}")
+                        + tuple(f"{p['us_per_exchange'][c]:.0f}" for c in CAUSES)
+                        for p in r['profile']])
+
+
+STUDY = Study('profile', 'where the wall time of an exchange goes, by cause', measure,
+              (('profile', section),))
+"""Where an exchange's time goes (bench.json ``profile``)."""

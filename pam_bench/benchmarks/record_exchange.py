@@ -10,16 +10,19 @@ sub-steps), fitted with 004 Eq. 2 (``analysis.identify.fit_step``).
 
 from __future__ import annotations
 
+import pathlib
 import time
 from typing import Any
 
 import numpy as np
 
 from pam_bench.analysis.identify import fit_step
+from pam_bench.benchmarks.study import Study
+from pam_bench.benchmarks.tables import table
 from pam_bench.models.loading_servo import LoadMode
 from pam_bench.twin.bench import SingleMuscleBench
 
-__all__ = ['CASES', 'record_step', 'record_exchange_table']
+__all__ = ['STUDY', 'CASES', 'record_step', 'record_exchange_table']
 
 # (x m, u0 V, u1 V): 004's identification steps at both ends of the fitted range
 CASES = [(0.0, 1.0, 5.0), (0.04, 1.0, 5.0), (0.08, 1.0, 5.0), (0.0, 5.0, 1.0), (0.04, 5.0, 1.0),
@@ -75,3 +78,21 @@ def record_exchange_table(quick: bool) -> list[dict[str, Any]]:
                          'max_force_difference_N': float(np.max(np.abs(y - ref))),
                          'wall_s': wall, 'wall_s_1ms': wall_ref})
     return rows
+
+
+def section(r: dict[str, Any], root: pathlib.Path) -> list[str]:
+    """b, c, d and the force of each record at each record exchange step."""
+    return table(['x mm', 'step', 'H', 'exchanges per record', 'largest b, c, d change',
+                  'largest force difference', 'wall s (1 ms wall s)'],
+                 [(f"{row['x_mm']:.0f}", f"{row['u0_V']:g} -> {row['u1_V']:g} V",
+                   f"{1e3 * row['record_exchange_s']:g} ms", row['exchanges'],
+                   f"{100 * row['max_abs_rel_error']:.3f} %",
+                   f"{row['max_force_difference_N']:.2f} N",
+                   f"{row['wall_s']:.2f} ({row['wall_s_1ms']:.2f})")
+                  for row in r['record_exchange']])
+
+
+STUDY = Study('record_exchange', 'step records at longer record exchanges against 1 ms',
+              lambda quick, out, scenes: {'record_exchange': record_exchange_table(quick)},
+              (('record_exchange', section),))
+"""Step records against the record exchange step (bench.json ``record_exchange``)."""

@@ -9,11 +9,13 @@ from typing import Any
 
 from pam_bench.analysis.bagread import read_bags
 from pam_bench.analysis.extract import model_comparison
+from pam_bench.benchmarks.study import Study
+from pam_bench.benchmarks.tables import Row, commit_of, table
 from pam_bench.bringup.runner import run_scene
 from pam_bench.config.scene import load_scene
 from pam_bench.verify.prototype import prototype_figures
 
-__all__ = ['SCENES', 'measure_straight_fibre', 'straight_fibre_section',
+__all__ = ['STUDY', 'SCENES', 'measure_straight_fibre', 'straight_fibre_section',
            'straight_fibre_results']
 
 SCENES = {3: 'straight_fibre_quick', 4: 'straight_fibre_4_quick'}
@@ -40,7 +42,6 @@ def measure_straight_fibre(out: pathlib.Path) -> dict[str, Any]:
 
 def straight_fibre_section(r: dict[str, Any]) -> list[str]:
     """The prototype table and the law table."""
-    from pam_bench.benchmarks.report import table
     s = r['straight_fibre']
 
     def fmt(v: float, unit: str) -> str:
@@ -72,7 +73,7 @@ def _opt(v: float | None) -> str:
     return '-' if v is None else f'{v:.2f}'
 
 
-def straight_fibre_results(r: dict[str, Any], commit: str) -> list[tuple[str, str, str, str]]:
+def straight_fibre_results(r: dict[str, Any], commit: str) -> list[Row]:
     """Key-result row: prototype figures within tolerance."""
     figs = r.get('straight_fibre', {}).get('figures')
     if not figs:
@@ -80,3 +81,11 @@ def straight_fibre_results(r: dict[str, Any], commit: str) -> list[tuple[str, st
     ok = sum(1 for f in figs if f['ok'])
     return [("000's straight-fibre prototype through the nodes: figures within tolerance",
              f'{len(figs)} of {len(figs)}', f'{ok} of {len(figs)}', commit)]
+
+
+STUDY = Study(
+    'straight_fibre', "000's straight-fibre prototype through the nodes, against 000's figures",
+    lambda quick, out, scenes: {'straight_fibre': measure_straight_fibre(out)},
+    (('straight_fibre', lambda r, root: straight_fibre_section(r)),),
+    lambda r: straight_fibre_results(r, commit_of(r, 'straight_fibre')))
+"""The straight-fibre muscle (bench.json ``straight_fibre``)."""

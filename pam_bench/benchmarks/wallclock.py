@@ -19,11 +19,13 @@ from typing import Any
 import numpy as np
 
 from pam_bench.analysis.delivery import delivery_table
+from pam_bench.benchmarks.study import Study
+from pam_bench.benchmarks.tables import Row, commit_of, table
 from pam_bench.bringup.runner import RunResult, run_scene
 from pam_bench.config.scene import Scene, load_scene
 from pam_bench.verify.wallclock import compare_readings
 
-__all__ = ['measure_wallclock', 'SERVO_SETUPS', 'wallclock_section', 'wallclock_results']
+__all__ = ['STUDY', 'measure_wallclock', 'SERVO_SETUPS', 'wallclock_section', 'wallclock_results']
 
 SERVO_SETUPS: tuple[tuple[str, dict[str, Any], bool], ...] = (
     ('rclpy timer + executor', {'wall_loop': 'timer', 'realtime_priority': 0}, False),
@@ -106,7 +108,6 @@ def _ms(x: float) -> str:
 
 def wallclock_section(r: dict[str, Any]) -> list[str]:
     """The tables of the section."""
-    from pam_bench.benchmarks.report import table
     w = r['wallclock']
     lines = ['Readings against the lock-step run of the same scene and seed:', '']
     lines += table(['scene', 'readings', 'max |dF|', 'RMS dF', 'max |dx|', 'within 10 N / '
@@ -141,12 +142,12 @@ def _per(p: dict[str, float]) -> str:
     return f"{p['p99_s'] * 1e3:.2f} ms / {p['late_share'] * 100:.1f} %"
 
 
-def wallclock_results(r: dict[str, Any], commit: str) -> list[tuple[str, str, str, str]]:
+def wallclock_results(r: dict[str, Any], commit: str) -> list[Row]:
     """Key-result rows."""
     w = r.get('wallclock')
     if not w:
         return []
-    rows = []
+    rows: list[Row] = []
     for row in w['readings']:
         rows.append((f"`{row['scene']}` on the wall clock against lock-step",
                      'within 10 N / 0.2 mm', f"max {row['max_force_n']:.2f} N / "
@@ -165,3 +166,11 @@ def wallclock_results(r: dict[str, Any], commit: str) -> list[tuple[str, str, st
         rows.append(('servo_sin_t on the wall clock: messages lost by the recorder', '0',
                      f"{default['lost']} of {default['written']}", commit))
     return rows
+
+
+STUDY = Study(
+    'wallclock', 'the bench on a wall clock: readings against lock-step, periods, the servo',
+    lambda quick, out, scenes: {'wallclock': measure_wallclock(out, quick)},
+    (('wallclock', lambda r, root: wallclock_section(r)),),
+    lambda r: wallclock_results(r, commit_of(r, 'wallclock')))
+"""The bench on a wall clock (bench.json ``wallclock``)."""

@@ -35,10 +35,10 @@ def register(sub: Any) -> None:
     p.add_argument('--root', default='.', help='where to write the report (default: here)')
     p.add_argument('--scene', action='append', help='scene to time (repeatable)')
     p.add_argument('--only', action='append', metavar='STUDY[,STUDY]',
-                   help='run only these studies (calibration, lockstep, layouts, profile, '
-                   'exchange_step, record_exchange, scenes, models, wallclock, faults, '
-                   'straight_fibre, calibrate, calibrate_nodes) and keep the other figures of '
-                   'bench.json, each with the commit it was measured at')
+                   help='run only these studies (--list names them) and keep the other figures '
+                   'of bench.json, each with the commit it was measured at')
+    p.add_argument('--list', action='store_true', help='list the studies and what each '
+                   'measures')
     p.add_argument('--render', action='store_true', help='only render BENCHMARKS.md again from '
                    'bench.json and docs/long_runs.md (no measurement)')
     p.set_defaults(func=_cmd_bench)
@@ -76,6 +76,11 @@ def _cmd_servo_compare(args: argparse.Namespace) -> int:
 def _cmd_bench(args: argparse.Namespace) -> int:
     from pam_bench.benchmarks.suite import render_report, run_benchmarks
     root = pathlib.Path(args.root)
+    if args.list:
+        from pam_bench.benchmarks.studies import STUDIES
+        for study in STUDIES:
+            print(f'{study.key:16s} {study.text}')
+        return 0
     if args.render:
         print(f'wrote {render_report(root)} from {root / "bench.json"}')
         return 0

@@ -11,6 +11,7 @@ import os
 import sys
 
 from pam_bench.analysis.errors import BagError, ExtractError
+from pam_bench.benchmarks.errors import UsageError as StudyUsageError
 from pam_bench.bringup.errors import LayoutError
 from pam_bench.config.errors import ConfigError
 from pam_bench.models.errors import ModelError
@@ -22,9 +23,9 @@ class UsageError(ValueError):
     """The command line asks for something it cannot do (the message says what instead)."""
 
 
-USER_ERRORS = (UsageError, LayoutError, ConfigError, ModelError, BagError, ExtractError,
-               FileNotFoundError, FileExistsError, NotADirectoryError, IsADirectoryError,
-               PermissionError)
+USER_ERRORS = (UsageError, StudyUsageError, LayoutError, ConfigError, ModelError, BagError,
+               ExtractError, FileNotFoundError, FileExistsError, NotADirectoryError,
+               IsADirectoryError, PermissionError)
 """What a user's input can cause: one line and exit code 2, never a traceback."""
 
 

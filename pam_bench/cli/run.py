@@ -170,7 +170,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
                     device_processes=args.device_processes, settings=settings,
                     netns=tuple(args.netns.split(':', 1)) if args.netns else None)
     if res.code == 130:
-        raise KeyboardInterrupt
+        import sys
+        print(f'interrupted: nodes stopped, bag closed in {out}', file=sys.stderr)
+        return 130
     if res.code != 0:
         import sys
         print(f'error: scene {scene.name} failed (exit code {res.code})', file=sys.stderr)

@@ -60,3 +60,24 @@ def test_a_misspelt_scene_key_is_refused_before_anything_starts(tmp_path: pathli
     assert res.stderr.strip().count('\n') == 0, res.stderr
     assert "did you mean 'muscle_1.muscle.gain_exponent'" in res.stderr
     assert not (tmp_path / 'bag').exists()
+
+
+def test_the_readme_path_demo_then_extract_writes_a_report(tmp_path: pathlib.Path,
+                                                           ros_domain: int) -> None:
+    """README's first steps: `make demo` records bags/demo (a ramp at x = 20 mm), then
+    `pam-bench extract bags/demo --out reports/demo` writes F(u) both ways and its gain."""
+    import json
+    bag, out = tmp_path / 'demo', tmp_path / 'report'
+    res = _run(['demo', '--out', str(bag), '--one-process'])
+    assert res.returncode == 0, res.stdout + res.stderr
+    ext = subprocess.run([sys.executable, '-m', 'pam_bench.cli', 'extract', str(bag), '--out',
+                          str(out)], capture_output=True, text=True, timeout=120)
+    assert ext.returncode == 0, ext.stdout + ext.stderr
+    summary = json.loads((out / 'summary.json').read_text())
+    iso = summary['isometric']
+    assert iso['protocol'] == 'demo' and [s['x_mm'] for s in iso['series']] == \
+        pytest.approx([20.0])
+    # the muscle's isometric gain at 20 mm is about 200 N/V (004: 284 N/V at 0 mm, falling)
+    assert 150.0 < iso['gain_N_per_V']['max'] < 260.0
+    assert {'demo_family.png', 'isometric_gain.png'} <= set(summary['figures'])
+    assert 'Isometric gain at x = 20 mm' in (out / 'report.md').read_text()

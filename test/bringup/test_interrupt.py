@@ -11,6 +11,7 @@ import time
 
 import pytest
 
+from pam_bench.analysis.baginfo import bag_info
 from test.helpers import bag_payloads
 
 
@@ -70,8 +71,8 @@ def test_interrupted_run_leaves_a_valid_bag(tmp_path: pathlib.Path, ros_domain: 
         if proc.poll() is None:
             proc.kill()
     assert proc.returncode == 130, out
-    assert 'bag closed' in out or 'interrupted' in out
-    assert (bag / 'metadata.yaml').exists()
+    assert f'interrupted: nodes stopped, bag closed in {bag}' in out, out
+    assert bag_info(str(bag))['end']['state'] == 'interrupted'
     payloads = bag_payloads(bag)
     assert len(payloads['/load_cell_1/force']) > 5       # what ran before the signal
     time.sleep(0.5)

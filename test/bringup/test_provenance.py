@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import pathlib
+import re
 import subprocess
 import sys
 
@@ -30,7 +31,8 @@ def test_a_bag_says_how_it_was_made_and_replays_to_the_same_readings(
     assert run['scene_text'] == SHORT.read_text()
     assert run['layout'] == 'one process' and '--seed' in run['command_line']
     assert run['parameters']['load_cell_1']['ros__parameters']['seed'] == 7
-    assert len(run['commit']) == 40 or run['commit'] == 'unknown'
+    assert re.fullmatch('[0-9a-f]{40}', run['commit']), run['commit']   # run in the checkout
+    assert isinstance(run['dirty'], bool)
     assert set(run['versions']) >= {'pam_bench', 'rclpy', 'rosbags', 'numpy'}
     info = bag_info(a)
     assert info['end']['state'] == 'done' and info['end']['code'] == 0

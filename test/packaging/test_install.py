@@ -52,7 +52,22 @@ def test_pip_install_runs_the_demo_from_anywhere(tmp_path: pathlib.Path,
     res = subprocess.run([str(venv / 'bin' / 'pam-bench'), 'run', 'demo', '--out', 'bag'],
                          capture_output=True, text=True, cwd=away, timeout=240)
     assert res.returncode == 0, res.stdout + res.stderr
-    assert (away / 'bag' / 'metadata.yaml').exists()
+    _check_bag(away / 'bag', 'demo', 24)
+
+
+def _check_bag(bag: pathlib.Path, scene: str, readings: int) -> None:
+    """The bag holds what the installed nodes measured: every reading of the protocol, a
+    muscle that pulls, and the run description of the installed copy."""
+    import numpy as np
+
+    from pam_bench.analysis.baginfo import bag_info
+    from pam_bench.analysis.bagread import read_bags
+    data = read_bags([str(bag)])
+    (points,) = data.points.values()
+    assert len(points) == readings
+    assert np.all(np.isfinite(points.force_n)) and points.force_n.max() > 100.0
+    info = bag_info(str(bag))
+    assert info['run']['scene'] == scene and info['end']['state'] == 'done'
 
 
 def test_colcon_workspace_builds_and_its_install_runs(tmp_path: pathlib.Path,
@@ -78,4 +93,4 @@ def test_colcon_workspace_builds_and_its_install_runs(tmp_path: pathlib.Path,
                          env=env, timeout=240)
     assert res.returncode == 0, res.stdout + res.stderr
     assert res.stdout.startswith(str(install / 'pam_bench')), res.stdout   # the built copy
-    assert (away / 'bag' / 'metadata.yaml').exists()
+    _check_bag(away / 'bag', 'config_short', 8)

@@ -14,22 +14,34 @@ drive). Units: m, N, m/N.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import Protocol
 
-from pam_bench.models.loading_servo.params import LoadMode
-
-if TYPE_CHECKING:
-    from pam_bench.models.loading_servo.drive import LoadingServoModel
+from pam_bench.models.loading_servo.params import LoadingServoParams, LoadMode
 
 __all__ = ['IdealHolder', 'IdealHold', 'IDEAL_FORCE_COMPLIANCE_M_PER_N']
 
 IDEAL_FORCE_COMPLIANCE_M_PER_N = 1.0e-3
 
 
+class HeldDrive(Protocol):
+    """What an ideal holder reads and sets of its drive (``drive.LoadingServoModel``)."""
+
+    p: LoadingServoParams
+    mode: LoadMode
+    setpoint: float
+    contraction_m: float
+    phi: float
+    w: float
+    r: float
+    torque: float
+    tau_max: float
+    saturated: bool
+
+
 class IdealHolder:
     """The ideal holder of a drive with ``dynamics: false`` (module docstring)."""
 
-    def __init__(self, drive: LoadingServoModel) -> None:
+    def __init__(self, drive: HeldDrive) -> None:
         self.drive = drive
 
     def contraction(self, force_n: float) -> float:

@@ -18,6 +18,8 @@ import numpy as np  # noqa: E402
 from pam_bench.analysis.bagread import read_bags  # noqa: E402
 from pam_bench.analysis.servo_bag import read_servo_states  # noqa: E402
 from pam_bench.benchmarks.fidelity import fidelity_table  # noqa: E402
+from pam_bench.benchmarks.study import Study  # noqa: E402
+from pam_bench.benchmarks.tables import Row, commit_of, pct, table  # noqa: E402
 from pam_bench.benchmarks.work_precision import work_precision  # noqa: E402
 from pam_bench.bringup.runner import run_scene  # noqa: E402
 from pam_bench.config.paths import config_dir  # noqa: E402
@@ -25,7 +27,7 @@ from pam_bench.config.scene import load_scene  # noqa: E402
 from pam_bench.control.inverse import InverseModel  # noqa: E402
 from pam_bench.verify.reference_check import FULL_SCALE_N  # noqa: E402
 
-__all__ = ['measure', 'plot_work_precision']
+__all__ = ['STUDY', 'measure', 'plot_work_precision']
 
 def _ros_sweep(out: pathlib.Path, quick: bool) -> dict[str, Any]:
     """isometric_quick and servo_sin_t through the nodes at several exchange steps (the
@@ -107,3 +109,72 @@ def plot_work_precision(rows: list[dict[str, Any]], root: pathlib.Path) -> str:
     fig.savefig(root / name, dpi=100)
     plt.close(fig)
     return name
+
+
+def work_precision_section(r: dict[str, Any], root: pathlib.Path) -> list[str]:
+    """The work-precision plot and table."""
+    wp = r['work_precision']
+    fastest = [(model, f"{row['scheme']} at {row['step_s'] * 1e3:g} ms "
+                       f"({row['relative_error']:.1e})" if row else 'none of the steps tried')
+               for model, row in wp['fastest_within_0.1pct'].items()]
+    return ([f"![work-precision]({plot_work_precision(wp['rows'], root)})", '']
+            + table(['model', 'scheme', 'step', 'relative error', 'wall s / sim s'],
+                    [(row['model'], row['scheme'], f"{row['step_s'] * 1e3:g} ms",
+                      f"{row['relative_error']:.2e}", f"{row['wall_s_per_sim_s']:.4f}")
+                     for row in wp['rows']])
+            + ['', 'Fastest scheme within 0.1 %:', ''] + table(['model', 'scheme'], fastest)
+            + ['', f"Exact ZOH of the valve against the closed form: largest relative error "
+               f"{wp['zoh_max_relative_error']:.1e}."])
+
+
+def fidelity_section(r: dict[str, Any], root: pathlib.Path) -> list[str]:
+    """Each model option's change of what a scene measures."""
+    return table(['scene', 'option', 'quantity', 'change', 'tolerance', 'within', 'wall s',
+                  'speed-up'],
+                 [(row['scene'], row['option'], row['quantity'],
+                   f"{row['change']:.3g} {row['unit']}", f"{row['tolerance']:g}",
+                   'yes' if row['within'] else 'no', f"{row['wall_s']:.2f}",
+                   f"{row['speed_up']:.2f}x") for row in r['fidelity']])
+
+
+def ros_exchange_step_section(r: dict[str, Any], root: pathlib.Path) -> list[str]:
+    """Scenes through the nodes at several exchange steps."""
+    return table(['scene', 'exchange step', 'wall s', 'real-time factor', 'error', '% FS'],
+                 [(row['scene'], f"{row['exchange_step_s'] * 1e3:g} ms",
+                   f"{row['wall_s']:.1f}", f"{row['real_time_factor']:.2f}x",
+                   f"{row['max_error']:.3f} {row['unit']}", pct(row['pct_fs']))
+                  for row in r['ros_exchange_step']['rows']])
+
+
+def servo_section(r: dict[str, Any], root: pathlib.Path) -> list[str]:
+    """The torque servo's tracking per scene and controller."""
+    return table(['scene', 'controller', 'engine', 'RMS error', 'max', 'at reversal',
+                  'elsewhere', 'real-time factor'],
+                 [(row['scene'], row['controller'], row['engine'],
+                   f"{row['rms_error']:.3f} {row['unit']}", f"{row['max_error']:.3f}",
+                   f"{row['error_at_reversal']:.3f}", f"{row['error_elsewhere']:.3f}",
+                   f"{row['real_time_factor']:.2f}x") for row in r['servo']])
+
+
+def results(r: dict[str, Any]) -> list[Row]:
+    """The exact ZOH against its closed form, servo_sin_t's torque RMS."""
+    rows: list[Row] = []
+    wp = r.get('work_precision')
+    if wp:
+        rows.append(('exact ZOH of the valve against its closed form', '<= 1e-12 relative',
+                     f"{wp['zoh_max_relative_error']:.1e}", commit_of(r, 'work_precision')))
+    for row in r.get('servo', []):
+        if row['scene'] == 'servo_sin_t' and row['controller'] == 'dynamic_inverse_pid':
+            rows.append((f"servo_sin_t torque RMS, dynamic inverse + PID ({row['engine']})",
+                         '-', f"{row['rms_error']:.3f} {row['unit']} at "
+                         f"{row['real_time_factor']:.2f}x real time", commit_of(r, 'servo')))
+    return rows
+
+
+STUDY = Study('models', 'work-precision, model options, exchange steps through the nodes, '
+              'the servo', lambda quick, out, scenes: measure(quick, out),
+              (('work_precision', work_precision_section), ('fidelity', fidelity_section),
+               ('ros_exchange_step', ros_exchange_step_section), ('servo', servo_section)),
+              results)
+"""The models' numerics (bench.json ``work_precision``, ``fidelity``, ``ros_exchange_step``,
+``servo``)."""

@@ -1,0 +1,38 @@
+"""The one list of benchmark studies, in the order `pam-bench bench` runs and reports them."""
+
+from __future__ import annotations
+
+from pam_bench.benchmarks import (
+    calibrate,
+    calibrate_nodes,
+    exchange_step,
+    faults,
+    figures_004,
+    layouts,
+    lockstep,
+    numerics,
+    profile,
+    record_exchange,
+    scenes,
+    servo_compare,
+    straight_fibre,
+    wallclock,
+)
+from pam_bench.benchmarks.study import Study
+
+__all__ = ['STUDIES', 'study']
+
+STUDIES: tuple[Study, ...] = (
+    figures_004.STUDY, lockstep.STUDY, layouts.STUDY, profile.STUDY, exchange_step.STUDY,
+    record_exchange.STUDY, scenes.STUDY, numerics.STUDY, wallclock.STUDY, faults.STUDY,
+    straight_fibre.STUDY, calibrate.STUDY, calibrate_nodes.STUDY, servo_compare.STUDY)
+"""Every study; ``pam-bench bench --only KEY`` runs some."""
+
+
+def study(key: str) -> Study:
+    """The study called ``key``.
+
+    Raises:
+        KeyError: no such study.
+    """
+    return {s.key: s for s in STUDIES}[key]

@@ -1,0 +1,168 @@
+"""A run on the wall clock, as a real bench runs: no sim clock, every node with ``lockstep:
+false``.
+
+The recorder starts first, then the devices (by default composed in one emulator process,
+``bringup.emulator``; with ``device_processes`` one process each), then the sequencer and the
+torque servo. The run ends when the sequencer or the servo exits (end of the protocol,
+``duration_s`` of the servo) or on Ctrl-C; the other nodes are then stopped, the recorder last.
+The recorder records the topics a real bench has (no ``sim/`` ground truth, which would double
+what crosses DDS). Every node writes its publish counts and tick periods (``stats_file``),
+which come back in ``RunResult.stats`` with the recorder's delivery table.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from typing import Any
+
+import yaml
+
+from pam_bench.bringup.common import (
+    RunResult,
+    copy_lines,
+    die_with_parent,
+    node_cmd,
+    node_error,
+    ros_env,
+    stop_processes,
+    write_end_state,
+    write_params_file,
+)
+from pam_bench.bringup.errors import LayoutError
+from pam_bench.config.nodes import controllers, devices
+from pam_bench.config.scene import Scene
+
+__all__ = ['run_wallclock']
+
+
+def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None, quiet: bool,
+                   device_processes: bool, devices_only: bool = False) -> RunResult:
+    """Run the scene on the wall clock (module docstring)."""
+    import json
+
+    env = ros_env(domain_id)
+    device_names = devices(scene.nodes)
+    controller_names = controllers(scene.nodes)
+    if devices_only:
+        scene = dataclasses.replace(scene, nodes=device_names)
+        controller_names = []
+        device_processes = False
+    elif not controller_names:
+        raise LayoutError(f'scene {scene.name}: a wall-clock run needs a sequencer or a servo')
+    procs: dict[str, subprocess.Popen] = {}
+    t0 = time.monotonic()
+    code = 0
+    with tempfile.TemporaryDirectory(prefix='pam_bench_') as tmp:
+        rep = dataclasses.replace
+        settings = {k: v for k, v in settings.items() if k in scene.nodes}   # no clock
+        for name in scene.nodes:
+            settings[name] = rep(settings[name], lockstep=False,
+                                 stats_file=os.path.join(tmp, f'{name}.json'))
+        if 'torque_servo' in settings:
+            settings['torque_servo'] = rep(settings['torque_servo'], duration_s=scene.duration_s)
+        for target in {f.target for f in scene.faults if f.kind != 'node_kill'}:
+            settings[target] = rep(settings[target], faults_yaml=yaml.safe_dump(
+                [dataclasses.asdict(f) for f in scene.faults if f.target == target]))
+        for name in controller_names:      # nothing a controller publishes goes unrecorded
+            settings[name] = rep(settings[name], await_recorder='recorder' in scene.nodes)
+        if 'recorder' in settings:          # what a real bench has: no sim/ ground truth
+            rec = settings['recorder']
+            settings['recorder'] = rep(rec, step_topics=[
+                t for t in rec.step_topics if not t.startswith('/sim/')])
+        pfile = os.path.join(tmp, 'params.yaml')
+        write_params_file(settings, pfile)
+        log = open(os.path.join(tmp, 'nodes.log'), 'w+', encoding='utf-8')
+
+        def start(name: str, cmd: list[str], pipe: bool = False) -> subprocess.Popen:
+            procs[name] = subprocess.Popen(
+                cmd, env=env, stdout=subprocess.PIPE if pipe else log,
+                stderr=subprocess.STDOUT, text=True, preexec_fn=die_with_parent)
+            return procs[name]
+
+        try:
+            if 'recorder' in scene.nodes:
+                rec = start('recorder', node_cmd('recorder', pfile), pipe=True)
+                assert rec.stdout is not None
+                for line in rec.stdout:      # wait until it has subscribed to its topics
+                    log.write(line)
+                    if line.startswith('recorder: recording') or rec.poll() is not None:
+                        break
+                threading.Thread(target=copy_lines, args=(rec.stdout, log), daemon=True).start()
+            if device_processes:
+                for name in device_names:
+                    start(name, node_cmd(name, pfile))
+            elif device_names:
+                start('emulator', [sys.executable, '-m', 'pam_bench.bringup.emulator', pfile,
+                                   *device_names])
+            for name in controller_names:
+                start(name, node_cmd(name, pfile), pipe=name == controller_names[0])
+            kills = [f for f in scene.faults if f.kind == 'node_kill']
+            main = procs[controller_names[0] if controller_names else 'emulator']
+            if devices_only and not quiet:
+                print(f'devices {", ".join(device_names)} running on the wall clock in one '
+                      f'process (ROS_DOMAIN_ID {env["ROS_DOMAIN_ID"]}); Ctrl-C stops them',
+                      flush=True)
+            if main.stdout is None:
+                main.wait()
+            for line in main.stdout or ():
+                log.write(line)
+                if kills and line.startswith('[wall]'):     # the run has started
+                    threading.Thread(target=_kill_on_time, args=(kills, procs, device_names),
+                                     daemon=True).start()
+                    kills = []
+                if not quiet and line.startswith('[wall'):
+                    print(line, end='', flush=True)
+                dead = [n for n, p in procs.items() if p.poll() is not None and p.returncode == 2]
+                if dead:
+                    break
+            code = main.wait(timeout=10.0) if main.poll() is None and not dead else \
+                (main.poll() or 0)
+            dead = [n for n, p in procs.items() if p.poll() is not None and p.returncode == 2]
+        except KeyboardInterrupt:
+            code = 130
+            dead = []
+        finally:
+            write_end_state(settings, code)
+            stop_processes(procs)
+            log.flush()
+            log.seek(0)
+            node_log = log.read()
+            log.close()
+        stats = {}
+        for name in scene.nodes:
+            path = os.path.join(tmp, f'{name}.json')
+            try:
+                with open(path, encoding='utf-8') as fh:
+                    stats[name] = json.load(fh)
+            except (OSError, ValueError):
+                sys.stderr.write(f'warning: no statistics from {name}\n')
+    wall = time.monotonic() - t0
+    result = RunResult(code, 0, wall, wall, 1.0, f'wall clock, {wall:.1f} s', stats)
+    if dead:
+        result.code = 2
+        result.summary = node_error(node_log) or f'node {dead[0]} stopped'
+        sys.stderr.write(f'error: {result.summary}\n')
+    elif code not in (0, 130):
+        sys.stderr.write(node_log[-4000:])
+    return result
+
+
+def _kill_on_time(kills: list[Any], procs: dict[str, subprocess.Popen],
+                  devices: list[str]) -> None:
+    """node_kill faults: SIGKILL the process of each target ``at_s`` after the run started
+    (called at the main controller's first progress line, within a tick of its start; a
+    device lives in the emulator, which goes with it)."""
+    t0 = time.monotonic()
+    for f in sorted(kills, key=lambda f: f.at_s):
+        time.sleep(max(0.0, t0 + f.at_s - time.monotonic()))
+        name = f.target if f.target in procs else ('emulator' if f.target in devices else '')
+        proc = procs.get(name)
+        if proc is not None and proc.poll() is None:
+            proc.send_signal(signal.SIGKILL)
