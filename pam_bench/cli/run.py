@@ -165,11 +165,15 @@ def _cmd_run(args: argparse.Namespace) -> int:
               f'{args.resume} lacks)')
     print(f'scene {scene.name}: {scene.description}\n  exchange step {scene.exchange_step_s} s, '
           f'nodes {", ".join(scene.nodes)}, bag {out}', flush=True)
-    res = run_scene(scene, str(out), seed=args.seed, realtime=args.realtime,
-                    one_process=args.one_process, wallclock=args.wallclock,
-                    device_processes=args.device_processes, settings=settings,
-                    netns=tuple(args.netns.split(':', 1)) if args.netns else None)
-    if res.code == 130:
+    try:
+        res = run_scene(scene, str(out), seed=args.seed, realtime=args.realtime,
+                        one_process=args.one_process, wallclock=args.wallclock,
+                        device_processes=args.device_processes, settings=settings,
+                        netns=tuple(args.netns.split(':', 1)) if args.netns else None)
+        code = res.code
+    except KeyboardInterrupt:
+        code = 130
+    if code == 130:
         import sys
         print(f'interrupted: nodes stopped, bag closed in {out}', file=sys.stderr)
         return 130

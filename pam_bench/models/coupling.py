@@ -29,10 +29,15 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Protocol
+from typing import Any, Protocol
 
+import numpy as np
+
+from pam_bench.models import compiled
 from pam_bench.models.bench_muscle import BenchMuscle
 from pam_bench.models.errors import ModelError
+from pam_bench.models.loading_servo.drive import LoadingServoModel
+from pam_bench.models.muscle import MuscleModel
 
 __all__ = ['Holder', 'SubStepResult', 'solve_substep', 'solve_substeps', 'substep_grid']
 
@@ -143,8 +148,11 @@ def solve_substeps(muscle: BenchMuscle, holder: Holder, steps_s: list[float],
     Raises:
         ModelError: the lists differ in length or a value is not finite.
     """
-    if len(steps_s) != len(pressures_pa) or not steps_s:
+    if len(steps_s) != len(pressures_pa) or not len(steps_s):
         raise ModelError(f'{len(pressures_pa)} pressures for {len(steps_s)} sub-steps')
+    if compiled.enabled() and type(muscle) is MuscleModel and \
+            type(holder) is LoadingServoModel:
+        return _solve_compiled(muscle, holder, steps_s, pressures_pa, force_n)
     forces, xs = [], []
     k = ff = 0.0
     iters = 0
@@ -155,3 +163,29 @@ def solve_substeps(muscle: BenchMuscle, holder: Holder, steps_s: list[float],
         xs.append(x)
         iters += it
     return SubStepResult(list(steps_s), forces, xs, k, ff, iters)
+
+
+def _solve_compiled(muscle: MuscleModel, drive: LoadingServoModel, steps_s: Any,
+                    pressures_pa: Any, force_n: float) -> SubStepResult:
+    """``solve_substeps`` on the compiled core (``models.compiled``): bit-equal results, the
+    muscle's friction and the drive's state kept as the reference keeps them."""
+    steps = np.asarray(steps_s, dtype=float)
+    pressures = np.asarray(pressures_pa, dtype=float)
+    if not np.isfinite(pressures).all():
+        bad = pressures[~np.isfinite(pressures)][0]
+        raise ModelError(f'muscle pressure {bad!r} is not finite')
+    if not (np.isfinite(steps).all() and (steps > 0.0).all()):
+        bad = steps[~(np.isfinite(steps) & (steps > 0.0))][0]
+        raise ModelError(f'loading servo sub-step {bad!r} s is not finite and positive')
+    mp, fk, ff0, fmu, z, st = muscle.arrays()
+    dp, ds = drive.arrays()
+    n = len(steps)
+    out_f, out_x = np.empty(n), np.empty(n)
+    k, ff, iters, status = compiled.solve_mckibben(
+        steps, pressures, float(force_n), mp, fk, ff0, fmu, z, st, dp, ds, int(drive.mode),
+        float(drive.setpoint), out_f, out_x)
+    if status != compiled.OK:
+        raise ModelError('holder position is not finite')
+    muscle.friction.set_state(z, st)
+    drive.set_state(ds)
+    return SubStepResult(list(steps_s), out_f.tolist(), out_x.tolist(), k, ff, iters)

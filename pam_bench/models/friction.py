@@ -20,6 +20,8 @@ simulated second, so it works on Python floats rather than numpy arrays.
 
 from __future__ import annotations
 
+from typing import Any
+
 __all__ = ['MaxwellSlip', 'FrictionTrial']
 
 FrictionTrial = tuple[float, float, tuple[float, ...], tuple[bool, ...]]
@@ -80,6 +82,12 @@ class MaxwellSlip:
     def commit(self, trial: FrictionTrial) -> None:
         """Keep the element state of a ``trial``."""
         self.z, self.sticking = trial[2], trial[3]
+
+    def set_state(self, z: Any, sticking: Any) -> None:
+        """Take the element positions (m) and sticking flags a compiled solve left, shapes
+        (n,)."""
+        self.z = tuple(float(v) for v in z)
+        self.sticking = tuple(bool(v) for v in sticking)
 
     def force(self, s_m: float, load_n: float) -> float:
         """Advance to slip coordinate ``s_m`` (m) under the load ``load_n`` (N); return F_f, N."""

@@ -57,6 +57,8 @@ import dataclasses
 import math
 from typing import Any
 
+import numpy as np
+
 from pam_bench.models.errors import ModelError
 from pam_bench.models.friction import FrictionTrial, MaxwellSlip
 from pam_bench.models.params import field
@@ -225,6 +227,21 @@ class MuscleModel(FrictionMuscle):
     def reset(self, contraction_m: float = 0.0, pressure_pa: float = 0.0) -> None:
         """Friction relaxed at the given state."""
         self.friction.reset(self.slip(contraction_m, pressure_pa))
+
+    def arrays(self) -> tuple[np.ndarray, ...]:
+        """The muscle as the compiled core takes it (``models.compiled``): parameters in the
+        order of ``MUSCLE_SLOTS``, then the friction elements' stiffness, break force, growth,
+        positions and sticking flags, shapes (14,) and (n,)."""
+        p = self.p
+        mp = np.array([p.gain_n_per_pa, p.gain_min_n_per_pa, p.gain_min_contraction_m,
+                       p.gain_exponent, p.gain_rise_n_per_pa_m, p.threshold_pressure_pa,
+                       p.threshold_width_pa, self._e0, p.bladder_stiffness_n_per_m,
+                       p.stretch_stiffness_n_per_m, p.lock_stiffness_n_per_m,
+                       self.lock_contraction_m, 1.0 if p.hysteresis else 0.0,
+                       p.slip_compliance_m_per_n])
+        fr = self.friction
+        return (mp, np.array(fr.k), np.array(fr.f0), np.array(fr.mu), np.array(fr.z),
+                np.array(fr.sticking, dtype=np.uint8))
 
     # --- static parts -------------------------------------------------------------------
     def effective_pressure(self, pressure_pa: float) -> tuple[float, float]:

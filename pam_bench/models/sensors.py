@@ -55,6 +55,28 @@ class LoadCellModel:
         f = min(max(force_n, -self.p.range_n), self.p.range_n)
         return f * self.p.output_range_v / self.p.range_n
 
+    def measure_many(self, forces_n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``measure`` of every force in order, in one batch: the same noise draws, the same
+        rounding (numpy's is Python's, half to even), bit for bit. Returns (measured N,
+        saturated), shapes (n,); ``saturated`` is left as the last sample leaves it.
+
+        Raises:
+            ModelError: a true force is not finite.
+        """
+        f = np.array(forces_n, dtype=float)
+        if not np.isfinite(f).all():
+            raise ModelError(f'load cell input {f[~np.isfinite(f)][0]!r} is not finite')
+        if self.p.noise and self.p.noise_std_n > 0.0:
+            f = f + self.rng.normal(0.0, self.p.noise_std_n, f.shape[0])
+        sat = np.abs(f) >= self.p.range_n
+        if len(f):
+            self.saturated = bool(sat[-1])
+        f = np.minimum(np.maximum(f, -self.p.range_n), self.p.range_n)
+        if self.p.quantise:
+            q = self.count_n
+            f = np.round(f / q) * q
+        return f, sat
+
     def measure(self, force_n: float) -> float:
         """Measured force for a true tension, N.
 

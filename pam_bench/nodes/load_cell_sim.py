@@ -62,13 +62,14 @@ class LoadCellSim(BenchNode):
                 elapsed += d
                 samples.append((t0 + round(elapsed * 1e9), f))
             samples[-1] = (t_ns, samples[-1][1])
-        for stamp, force in samples:
+        measured, saturated = self.model.measure_many([f for _, f in samples])
+        for (stamp, force), f, sat in zip(samples, measured.tolist(), saturated.tolist(),
+                                          strict=True):
             self.force_n = force
-            f = self.model.measure(force)
-            if self.model.saturated != self._was_saturated:
-                self._was_saturated = self.model.saturated
-                level = DiagnosticStatus.WARN if self.model.saturated else DiagnosticStatus.OK
-                state = 'saturated' if self.model.saturated else 'in range'
+            if sat != self._was_saturated:
+                self._was_saturated = sat
+                level = DiagnosticStatus.WARN if sat else DiagnosticStatus.OK
+                state = 'saturated' if sat else 'in range'
                 self.diagnose(level, f'load cell {state}', force_n=force)
             reported = self.faulty(f)             # injected faults (wall clock)
             if reported is None:

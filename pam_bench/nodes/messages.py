@@ -3,6 +3,7 @@ acknowledgements between their plain form (``sim.lockstep.Ack``) and StepAck."""
 
 from __future__ import annotations
 
+import array
 import functools
 import importlib
 import struct
@@ -15,8 +16,17 @@ from std_msgs.msg import Header
 
 from pam_bench.sim.lockstep import Ack, StopRequest
 
-__all__ = ['ns_of', 'stamp_of_cdr', 'stamp_of_msg', 'message_class', 'time_of', 'ack_message',
-           'ack_of', 'force_reading']
+__all__ = ['floats', 'ns_of', 'stamp_of_cdr', 'stamp_of_msg', 'message_class', 'time_of',
+           'ack_message', 'ack_of', 'force_reading']
+
+
+def floats(values: Any) -> array.array:
+    """A float64[] field's value as rosidl takes it without checking every element
+    (``array('d')``: its setter's fast path; a list of 600 sub-step samples costs the element
+    checks otherwise)."""
+    if isinstance(values, array.array):
+        return values
+    return array.array('d', values)
 
 
 def ns_of(stamp: Time) -> int:

@@ -25,7 +25,7 @@ from pam_bench.models.coupling import solve_substeps, substep_grid
 from pam_bench.models.errors import ModelError
 from pam_bench.models.loading_servo import IdealHold, drive_from_law
 from pam_bench.nodes.base import BenchNode
-from pam_bench.nodes.messages import time_of
+from pam_bench.nodes.messages import floats, time_of
 from pam_bench.nodes.process import run_node
 
 __all__ = ['MuscleSim', 'main']
@@ -99,7 +99,8 @@ class MuscleSim(BenchNode):
         self.force_n = res.forces_n[-1]
         self.contraction_m = res.contractions_m[-1]
         self._publish(t_ns, res.stiffness_n_per_m, res.friction_n)
-        out = MuscleSamples(step=steps, force=res.forces_n, contraction=res.contractions_m,
+        out = MuscleSamples(step=floats(steps), force=floats(res.forces_n),
+                            contraction=floats(res.contractions_m),
                             record=samples.record)
         out.header.stamp = time_of(t_ns)
         out.header.frame_id = self.joint

@@ -317,10 +317,10 @@ def record(out_dir: str, topic_names: list[str], record_all: bool) -> int:
         node = Recorder('recorder', parameter_overrides=[
             Parameter('lockstep', value=False), Parameter('out_dir', value=out_dir),
             Parameter('record_all', value=record_all),
-            Parameter('topic_names', Parameter.Type.STRING_ARRAY, list(topic_names)),
-            Parameter('event_topics', Parameter.Type.STRING_ARRAY,
-                      ['/diagnostics:diagnostic_msgs/msg/DiagnosticArray'] if record_all
-                      else [])])
+            # an empty list of strings is [''] to ROS (nodes.params.ros_value)
+            Parameter('topic_names', value=list(topic_names) or ['']),
+            Parameter('event_topics', value=['/diagnostics:diagnostic_msgs/msg/'
+                                             'DiagnosticArray'] if record_all else [''])])
         lean_spin(node, graceful=True, poll=serve_services(node))
     except KeyboardInterrupt:
         pass

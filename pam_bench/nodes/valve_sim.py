@@ -26,7 +26,7 @@ from pam_bench.models.constants import ATMOSPHERE_PA
 from pam_bench.models.coupling import substep_grid
 from pam_bench.models.valve import ValveModel, VolumeEvidence
 from pam_bench.nodes.base import RELIABLE, BenchNode
-from pam_bench.nodes.messages import time_of
+from pam_bench.nodes.messages import floats, time_of
 from pam_bench.nodes.process import run_node
 
 __all__ = ['ValveSim', 'main']
@@ -99,7 +99,7 @@ class ValveSim(BenchNode):
             msg.header.stamp = stamp
             msg.header.frame_id = f'valve_{self.channel}'
             self.pub.publish(msg)
-        samples = PressureSamples(step=steps, pressure=pressures, record=record)
+        samples = PressureSamples(step=floats(steps), pressure=floats(pressures), record=record)
         samples.header.stamp = stamp
         samples.header.frame_id = f'valve_{self.channel}'
         self.samples_pub.publish(samples)

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import dataclasses
 
+import numpy as np
+
 from pam_bench.models.loading_servo import LoadMode
 from pam_bench.protocol.schedules import Reading
 
@@ -91,6 +93,22 @@ class RecordWindow:
         if 0 <= i < self.n and abs(t_s - self.t_step - i * period) <= 0.5 * period:
             self.values.setdefault(i, force_n)
         self.latest = max(self.latest, t_s)
+
+    def add_many(self, samples: list[tuple[float, float]]) -> None:
+        """``add`` of every (stamp s, N) sample in order, the slots computed in one batch."""
+        if not samples:
+            return
+        t = np.array([ts for ts, _ in samples])
+        period = self.reading.sample_period_s
+        idx = np.round((t - self.t_step) / period)
+        keep = (idx >= 0) & (idx < self.n) & (np.abs(t - self.t_step - idx * period)
+                                             <= 0.5 * period)
+        values = self.values
+        for i, (_, f) in zip(idx[keep].astype(int).tolist(),
+                             (s for s, k in zip(samples, keep.tolist(), strict=True) if k),
+                             strict=True):
+            values.setdefault(i, f)
+        self.latest = max(self.latest, float(t.max()))
 
     @property
     def complete(self) -> bool:

@@ -244,8 +244,7 @@ class Sequencer:
         """Put the samples into the open records; hand out a pending record now complete."""
         for rec in (self.pending, self.rec):
             if rec is not None:
-                for ts, f in samples:
-                    rec.add(ts, f)
+                rec.add_many(samples)
         if self.pending is not None and self.pending.complete:
             done, self.pending = self.pending.finished(), None
             return done
@@ -270,8 +269,7 @@ class Sequencer:
             return self._take(r, t_s, meas)
         self.phase, self.t_phase = Phase.RECORD, t_s
         self.rec = RecordWindow(r, t_s)
-        for ts, f in samples:                   # the sample at t_step may be in already
-            self.rec.add(ts, f)
+        self.rec.add_many(samples)              # the sample at t_step may be in already
         return None
 
     def _record(self, t_s: float, meas: Measurement) -> tuple[Point | None, StepRecord | None]:

@@ -118,10 +118,12 @@ class SingleMuscleBench:
         self._request = self.valve.max_step(self.u, self.evidence)
         self.volume = self.muscle.volume(self.x)
         if sample_period_s > 0.0:
-            t, self.samples = self.t, []
-            for d, f in zip(steps, res.forces_n, strict=True):
+            t, stamps = self.t, []
+            for d in steps:
                 t += d
-                self.samples.append((t, self.cell.measure(f)))
+                stamps.append(t)
+            measured, _ = self.cell.measure_many(res.forces_n)
+            self.samples = list(zip(stamps, measured.tolist(), strict=True))
             self.f_meas = self.samples[-1][1]
         else:
             self.f_meas = self.cell.measure(self.f)

@@ -17,6 +17,7 @@ the nodes are built from.
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from collections.abc import Sequence
 from typing import Any
@@ -37,7 +38,10 @@ from pam_bench.protocol.settings import COMMAND_STEP_S, RECORD_EXCHANGE_S, Runne
 from pam_bench.sim.lockstep import negotiate
 from pam_bench.twin.bench import SingleMuscleBench
 
-__all__ = ['TwinRun', 'run_readings', 'run_protocol', 'run_scene']
+__all__ = ['TwinRun', 'run_readings', 'run_protocol', 'run_scene', 'TIMED_OUT']
+
+TIMED_OUT = 6
+"""Exit code of a twin run stopped at its ``max_sim_s``."""
 
 
 @dataclasses.dataclass
@@ -65,11 +69,14 @@ def run_readings(name: str, readings: list[Reading], settle_s: float, exchange_s
                  record_exchange_s: float = RECORD_EXCHANGE_S,
                  events: Sequence[tuple[float, str]] = (),
                  straight_fibre: StraightFibreParams | None = None,
-                 runner: RunnerSettings | None = None, start_index: int = 0) -> TwinRun:
+                 runner: RunnerSettings | None = None, start_index: int = 0,
+                 max_sim_s: float = math.inf) -> TwinRun:
     """Run a schedule to its end (module docstring); the bench starts at rest. ``events``:
     (sim time s, 'pause' | 'pause_vent' | 'resume'), given to the runner at the first tick
     at or after that time, as an operator's service call would be. ``runner``: the runner's
-    settings (limits, suspenders, pause action; default: the defaults with these steps)."""
+    settings (limits, suspenders, pause action; default: the defaults with these steps).
+    ``max_sim_s``: stop there (exit code ``TIMED_OUT``; a run a suspender holds for ever, or
+    a job of a sweep, must end)."""
     bench = SingleMuscleBench(valve=valve, muscle=muscle, load_cell=load_cell, servo=servo,
                               seed=seed, sub_step_s=sub_step_s, straight_fibre=straight_fibre)
     settings = runner or RunnerSettings(command_step_s=command_step_s,
@@ -110,6 +117,11 @@ def run_readings(name: str, readings: list[Reading], settle_s: float, exchange_s
             records.append(tick.record)
         if run.ended:
             break
+        if t >= max_sim_s:
+            return TwinRun(points, records, bench.steps, bench.substeps, bench.t,
+                           time.perf_counter() - t0, TIMED_OUT,
+                           f'stopped at {max_sim_s:g} s of sim time', core.paused_s,
+                           suspensions)
         cmd = tick.commands
         bench.command_valve(cmd.voltage_v)
         bench.command_load(cmd.load_mode, cmd.load_value)

@@ -14,7 +14,7 @@ from pam_bench.models.params import flat_infos
 from pam_bench.nodes import intra
 
 NODES_DIR = pathlib.Path(__file__).resolve().parents[2] / 'pam_bench' / 'nodes'
-ROS_OWN = {'use_sim_time'}          # rclpy declares it on every node
+ROS_OWN = {'use_sim_time', 'start_type_description_service'}   # rclpy's own, on every node
 
 
 @pytest.mark.parametrize('name', sorted(NODES))
@@ -28,14 +28,16 @@ def test_declared_parameters_are_the_settings_dataclass(name: str, ros_domain: i
     node = None
     try:
         from rclpy.parameter import Parameter
-        overrides = ([Parameter('out_dir', value=str(tmp_path / 'bag'))]
-                     if name == 'recorder' else [])
+        # what a node cannot start without: a bag folder to create, an inverse model to load
+        need = {'recorder': [Parameter('out_dir', value=str(tmp_path / 'bag'))],
+                'torque_servo': [Parameter('controller', value='pid')]}
+        overrides = need.get(name, [])
         node = cls(name, context=context, parameter_overrides=overrides)
         declared = set(node.list_parameters([], 0).names) - ROS_OWN
         infos = {i.name: i for i in flat_infos(t.settings)}
         assert declared == set(infos), (declared ^ set(infos))
         for key, info in infos.items():
-            if key == 'out_dir':
+            if key in ('out_dir', 'controller'):
                 continue
             value = node.get_parameter(key).value
             if isinstance(info.default, list):

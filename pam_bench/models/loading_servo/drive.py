@@ -55,6 +55,9 @@ import dataclasses
 import math
 from typing import NamedTuple
 
+import numpy as np
+
+from pam_bench.models import compiled
 from pam_bench.models.errors import ModelError
 from pam_bench.models.loading_servo.holders import IdealHolder
 from pam_bench.models.loading_servo.params import LoadingServoParams, LoadMode
@@ -282,6 +285,27 @@ class LoadingServoModel:
         self.contraction_m = x
         self.encoder_rad = self.quantised(self.angle)
 
+    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        """The drive as the compiled core takes it (``models.compiled``): parameters in the
+        order of ``DRIVE_SLOTS`` and state in that of ``STATE_SLOTS``, shapes (20,), (8,)."""
+        p = self.p
+        dp = np.array([self.r, p.inertia_kg_m2, p.damping_nm_s_per_rad, self.tau_max,
+                       self.half_play, self.count_rad, p.backlash_force_n,
+                       p.belt_stiffness_n_per_m, p.travel_min_m, p.travel_max_m,
+                       p.speed_limit_rad_s, p.force_kp, p.force_ki_per_s, p.force_kd_s,
+                       p.force_integral_band_n, p.position_kp_n_per_m,
+                       p.position_ki_n_per_m_s, p.position_kd_n_s_per_m, p.force_limit_n,
+                       1.0 if p.dynamics else 0.0])
+        ds = np.array([self.phi, self.w, self.integral, self.force_n, self.encoder_rad,
+                       self.contraction_m, self.torque, 1.0 if self.saturated else 0.0])
+        return dp, ds
+
+    def set_state(self, ds: np.ndarray) -> None:
+        """Take the state (``STATE_SLOTS``) a compiled solve or replay left."""
+        (self.phi, self.w, self.integral, self.force_n, self.encoder_rad,
+         self.contraction_m, self.torque) = (float(v) for v in ds[:7])
+        self.saturated = bool(ds[7])
+
     def output(self) -> ServoOutput:
         """Pulley angle and rate, muscle end, torque and saturation of the kept state."""
         return ServoOutput(self.angle, self.w, self.contraction_m, self.torque, self.saturated)
@@ -298,6 +322,16 @@ class LoadingServoModel:
         if not all(map(math.isfinite, forces_n)):
             bad = next(f for f in forces_n if not math.isfinite(f))
             raise ModelError(f'muscle force {bad!r} is not finite')
+        if compiled.enabled() and len(steps_s) > 1:
+            steps = np.asarray(steps_s, dtype=float)
+            if not (np.isfinite(steps).all() and (steps > 0.0).all()):
+                bad = steps[~(np.isfinite(steps) & (steps > 0.0))][0]
+                raise ModelError(f'loading servo sub-step {bad!r} s is not finite and positive')
+            dp, ds = self.arrays()
+            compiled.replay_drive(steps, np.asarray(forces_n, dtype=float), dp, ds,
+                                  int(self.mode), float(self.setpoint))
+            self.set_state(ds)
+            return self.output()
         for d, f in zip(steps_s, forces_n, strict=True):
             self.prepare(d)
             self.commit(f)

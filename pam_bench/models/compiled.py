@@ -1,0 +1,437 @@
+"""The physics' hot loops compiled with numba: the reference's equations, in machine code.
+
+What is compiled (``@njit(cache=True)``, plain floats and arrays in and out):
+
+- the valve's exact ZOH over a run of equal sub-steps (``models.valve``, 004 section 2.1:
+  s_(k+1) = A_d s_k + B_d p_ss, the gauge pressure clamped to [0, p_max]);
+- the McKibben muscle's backbone F_bb(p, x) and stiffness (``models.muscle``: g(x) e(p) -
+  k_bl x + k_s (-x)^+ - k_l (x - x_l)^+, e(p) the softplus contact band) with the Maxwell-slip
+  braid friction on s = x + c_t F_bb^+ (``models.friction``, 004 section 2.2);
+- the loading drive's backward-Euler sub-step law X(F) and its commit
+  (``models.loading_servo.drive``: force, position and off modes, the ideal holder of
+  ``dynamics: false``);
+- the coupled sub-step solve g(F) = F_m(p_+, X(F)) - F = 0 by bracketed Newton
+  (``models.coupling``), sub-step after sub-step.
+
+Every function repeats the reference's floating-point operations in the reference's order, so
+the results are bit-equal (``test/models/test_compiled.py`` checks tables, the friction's turning
+points, the braid lock-up, the valve's clamp and whole protocol runs). The pure-Python modules
+stay the reference; ``PAM_BENCH_CORE=python`` (or ``use('python')``) runs them instead, and
+000's straight-fibre muscle always does (its law interpolates 000's printed graph).
+
+The compiled cache goes to ``NUMBA_CACHE_DIR`` when set, else to
+``$XDG_CACHE_HOME/pam_bench/numba`` (``~/.cache``): a wheel or a colcon ``install/`` is
+read-only, and numba's default (``__pycache__`` beside the module) is not writable there.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import pathlib
+
+__all__ = ['available', 'enabled', 'use', 'cache_dir', 'zoh_run', 'solve_mckibben',
+           'replay_drive',
+           'MUSCLE_SLOTS', 'DRIVE_SLOTS', 'STATE_SLOTS', 'MODE_OFF', 'MODE_FORCE',
+           'MODE_POSITION', 'OK', 'BAD_POSITION', 'warm_up']
+
+
+def cache_dir() -> pathlib.Path:
+    """Where numba keeps the compiled functions (module docstring)."""
+    env = os.environ.get('NUMBA_CACHE_DIR')
+    if env:
+        return pathlib.Path(env)
+    base = os.environ.get('XDG_CACHE_HOME') or str(pathlib.Path.home() / '.cache')
+    return pathlib.Path(base) / 'pam_bench' / 'numba'
+
+
+os.environ.setdefault('NUMBA_CACHE_DIR', str(cache_dir()))
+
+try:                                            # numba reads its cache folder at import
+    import numba
+    from numba import njit
+    numba.config.CACHE_DIR = os.environ['NUMBA_CACHE_DIR']
+    _AVAILABLE = True
+except ImportError:                             # pragma: no cover - numba is a requirement
+    _AVAILABLE = False
+
+_ENABLED = _AVAILABLE and os.environ.get('PAM_BENCH_CORE', 'compiled') != 'python'
+
+
+def available() -> bool:
+    """Whether numba imports here."""
+    return _AVAILABLE
+
+
+def enabled() -> bool:
+    """Whether the compiled core runs (else the pure-Python reference)."""
+    return _ENABLED
+
+
+def use(core: str) -> None:
+    """Run the 'compiled' core or the 'python' reference from now on (tests compare them).
+
+    Raises:
+        ValueError: an unknown core, or 'compiled' without numba.
+    """
+    global _ENABLED
+    if core not in ('compiled', 'python'):
+        raise ValueError(f"core {core!r}: 'compiled' or 'python'")
+    if core == 'compiled' and not _AVAILABLE:
+        raise ValueError('the compiled core needs numba')
+    _ENABLED = core == 'compiled'
+
+
+# --- layouts of the arrays the kernels take ----------------------------------------------
+MUSCLE_SLOTS = ('g0', 'gm', 'xm', 'n', 'gr', 'pth', 'w', 'e0', 'kbl', 'ks', 'kl', 'xl',
+                'hysteresis', 'ct')
+"""McKibben parameters, in the order of the muscle array (``models.muscle``)."""
+DRIVE_SLOTS = ('r', 'j', 'c', 'tau_max', 'half_play', 'count_rad', 'backlash_force_n',
+               'belt_stiffness', 'travel_min', 'travel_max', 'speed_limit', 'force_kp',
+               'force_ki', 'force_kd', 'force_band', 'position_kp', 'position_ki',
+               'position_kd', 'force_limit', 'dynamics')
+"""Loading-drive parameters, in the order of the drive array (``models.loading_servo``)."""
+STATE_SLOTS = ('phi', 'w', 'integral', 'force_n', 'encoder_rad', 'contraction_m', 'torque',
+               'saturated')
+"""Loading-drive state, in the order of the state array."""
+MODE_OFF, MODE_FORCE, MODE_POSITION = 0, 1, 2
+OK, BAD_POSITION = 0, 1
+FORCE_TOLERANCE_N = 1.0e-7
+MAX_ITERATIONS = 60
+IDEAL_FORCE_COMPLIANCE_M_PER_N = 1.0e-3
+
+
+def _jit(fn):  # type: ignore[no-untyped-def]
+    return njit(cache=True, nogil=True)(fn) if _AVAILABLE else fn
+
+
+# --- valve ---------------------------------------------------------------------------------
+@_jit
+def zoh_run(s0, s1, a00, a01, a10, a11, b0, b1, n, p_max, out, start):  # type: ignore[no-untyped-def]
+    """``n`` equal ZOH sub-steps from the state (s0 Pa, s1 Pa/s) with the (already scaled)
+    input terms b0, b1; the clamped gauge pressure of each into ``out[start:start + n]``.
+    Returns the state after them."""
+    for i in range(n):
+        s0, s1 = a00 * s0 + a01 * s1 + b0, a10 * s0 + a11 * s1 + b1
+        out[start + i] = min(max(s0, 0.0), p_max)
+    return s0, s1
+
+
+# --- muscle --------------------------------------------------------------------------------
+@_jit
+def _softplus(z):  # type: ignore[no-untyped-def]
+    return (z if z > 0.0 else 0.0) + math.log1p(math.exp(-abs(z)))
+
+
+@_jit
+def _effective_pressure(p, mp):  # type: ignore[no-untyped-def]
+    w, pth = mp[6], mp[5]
+    p = p if p > 0.0 else 0.0
+    if w <= 0.0:
+        return p - pth if p > pth else 0.0
+    z = (p - pth) / w
+    e = w * _softplus(z) - mp[7]
+    return e if e > 0.0 else 0.0
+
+
+@_jit
+def _backbone(e, x, mp):  # type: ignore[no-untyped-def]
+    g0, gm, xm, n, gr = mp[0], mp[1], mp[2], mp[3], mp[4]
+    if x <= xm:
+        r = 1.0 - x / xm
+        rn = r ** (n - 1.0)
+        g = gm + (g0 - gm) * rn * r
+        dg = -(g0 - gm) * n * rn / xm
+    else:
+        g = gm + gr * (x - xm)
+        dg = gr
+    kbl = mp[8]
+    f = g * e - kbl * x
+    k = -dg * e + kbl
+    if x < 0.0:
+        f -= mp[9] * x
+        k += mp[9]
+    elif x > mp[11]:
+        f -= mp[10] * (x - mp[11])
+        k += mp[10]
+    return f, k
+
+
+@_jit
+def _muscle_trial(e, x, mp, fk, ff0, fmu, z, zt, st):  # type: ignore[no-untyped-def]
+    """(F, -dF/dx, friction) at (e(p), x); the friction elements' trial state into zt, st."""
+    f_bb, k_bb = _backbone(e, x, mp)
+    ff = 0.0
+    kf = 0.0
+    if mp[12] != 0.0:
+        tension = f_bb if f_bb > 0.0 else 0.0
+        ct = mp[13]
+        s = x + ct * tension
+        load = tension if tension > 0.0 else 0.0
+        force = 0.0
+        k_stick = 0.0
+        for i in range(fk.shape[0]):
+            k = fk[i]
+            lim = (ff0[i] + fmu[i] * load) / k
+            zi = z[i]
+            d = s - zi
+            if d >= lim:
+                zi = s - lim
+                st[i] = 0
+            elif d <= -lim:
+                zi = s + lim
+                st[i] = 0
+            else:
+                k_stick += k
+                st[i] = 1
+            zt[i] = zi
+            force += k * (s - zi)
+        ff = force
+        kf = k_stick * (1.0 - ct * k_bb if f_bb > 0.0 else 1.0)
+    f = f_bb - ff
+    if f <= 0.0:
+        return 0.0, 0.0, ff
+    return f, k_bb + kf, ff
+
+
+# --- drive ---------------------------------------------------------------------------------
+@_jit
+def _play(f, dp):  # type: ignore[no-untyped-def]
+    a = f / dp[6]
+    return dp[4] * (1.0 if a > 1.0 else (-1.0 if a < -1.0 else a))
+
+
+@_jit
+def _prepare(d, dp, ds, mode, sp, prep):  # type: ignore[no-untyped-def]
+    """The sub-step of length d into prep: (d, den, t0, t1, i0, i1, i_lim, ki, w_pos,
+    has_w_pos)."""
+    r, j, c = dp[0], dp[1], dp[2]
+    den = 1.0 + d * c / j
+    prep[0], prep[1] = d, den
+    prep[9] = 0.0
+    if mode == MODE_FORCE:
+        e0 = sp - ds[3]
+        ki = dp[12]
+        gain = dp[11] + dp[13] / d
+        integrate = abs(e0) <= dp[14]
+        if integrate:
+            gain += ki * d
+        prep[2] = r * (sp * (1.0 + gain) + ki * ds[2] - dp[13] * e0 / d)
+        prep[3] = -r * gain
+        if integrate:
+            prep[4], prep[5] = ds[2] + d * sp, -d
+        else:
+            prep[4], prep[5] = ds[2], 0.0
+        prep[6] = 0.25 * dp[18] / ki if ki > 0.0 else math.inf
+        prep[7] = ki
+    elif mode == MODE_POSITION:
+        kp, kd, ki = dp[15], dp[17], dp[16]
+        i_lim = 0.25 * dp[18] / ki if ki > 0.0 else math.inf
+        i_c = ds[2] + d * (r * ds[4] - sp)
+        w_new = ((j * ds[1] / d - r * kp * (r * ds[0] - sp) - r * ki * i_c)
+                 / (j / d + c + r * r * kd + r * r * kp * d + r * r * ki * d * d))
+        i_new = min(max(i_c + d * d * r * w_new, -i_lim), i_lim)
+        prep[2] = r * (kp * (r * (ds[0] + d * w_new) - sp) + kd * r * w_new + ki * i_new)
+        prep[3] = r
+        prep[4], prep[5] = i_new, 0.0
+        prep[6] = math.inf
+        prep[7] = 0.0
+        prep[8] = w_new
+        prep[9] = 1.0
+    else:
+        prep[2], prep[3], prep[4], prep[5] = 0.0, 0.0, 0.0, 0.0
+        prep[6] = math.inf
+        prep[7] = 0.0
+
+
+@_jit
+def _end(f, dp, ds, prep):  # type: ignore[no-untyped-def]
+    """(phi_+, w_+, I_+, tau_+, saturated) of the prepared sub-step for the force f."""
+    d, den, t0, t1, i0, i1, i_lim, ki = (prep[0], prep[1], prep[2], prep[3], prep[4],
+                                         prep[5], prep[6], prep[7])
+    r, j = dp[0], dp[1]
+    tau_max = dp[3]
+    tau = t0 + t1 * f
+    sat = abs(tau) > tau_max
+    if sat:
+        tau = tau_max if tau > 0.0 else -tau_max
+        i_new = ds[2]
+        w = (ds[1] + d / j * (r * f - tau)) / den
+    else:
+        i_new = i0 + i1 * f
+        if i_new > i_lim or i_new < -i_lim:
+            i_new = i_lim if i_new > 0.0 else -i_lim
+            tau += ki * r * (i_new - i0 - i1 * f)
+        if prep[9] != 0.0:
+            w = prep[8]
+        else:
+            w = (ds[1] + d / j * (r * f - tau)) / den
+    wm = dp[10]
+    if w > wm:
+        w = wm
+    elif w < -wm:
+        w = -wm
+    return ds[0] + d * w, w, i_new, tau, sat
+
+
+@_jit
+def _ideal_contraction(f, dp, ds, mode, sp):  # type: ignore[no-untyped-def]
+    kb = dp[7]
+    if mode == MODE_POSITION:
+        x = sp + f / kb
+    else:
+        target = sp if mode == MODE_FORCE else 0.0
+        x = ds[5] + IDEAL_FORCE_COMPLIANCE_M_PER_N * (f - target)
+    return min(max(x, dp[8]), dp[9])
+
+
+@_jit
+def _contraction_and_compliance(f, dp, ds, mode, sp, prep):  # type: ignore[no-untyped-def]
+    kb = dp[7]
+    if dp[19] == 0.0:                                     # the ideal holder
+        x = _ideal_contraction(f, dp, ds, mode, sp)
+        return x, (1.0 / kb if mode == MODE_POSITION else IDEAL_FORCE_COMPLIANCE_M_PER_N)
+    r, j = dp[0], dp[1]
+    phi, w, _, _, sat = _end(f, dp, ds, prep)
+    x = r * (phi + _play(f, dp)) + f / kb
+    if x <= dp[8]:
+        return dp[8], 0.0
+    if x >= dp[9]:
+        return dp[9], 0.0
+    d, den, t1 = prep[0], prep[1], prep[3]
+    if abs(w) >= dp[10] or (prep[9] != 0.0 and not sat):
+        dw = 0.0
+    elif sat:
+        dw = d / j * r / den
+    else:
+        dw = d / j * (r - t1) / den
+    bf = dp[6]
+    play = dp[4] / bf if abs(f) < bf else 0.0
+    return x, r * (d * dw + play) + 1.0 / kb
+
+
+@_jit
+def _commit(f, dp, ds, mode, sp, prep):  # type: ignore[no-untyped-def]
+    kb = dp[7]
+    r = dp[0]
+    if dp[19] == 0.0:                                     # the ideal holder
+        x = _ideal_contraction(f, dp, ds, mode, sp)
+        ds[0] = (x - f / kb) / r
+        ds[1] = 0.0
+        torque = r * f
+        sat = abs(torque) > dp[3]
+        if sat:
+            torque = math.copysign(dp[3], torque)
+        ds[6] = torque
+        ds[7] = 1.0 if sat else 0.0
+    else:
+        phi, w, i_new, tau, sat = _end(f, dp, ds, prep)
+        x = r * (phi + _play(f, dp)) + f / kb
+        if x < dp[8] or x > dp[9]:
+            x = dp[8] if x < dp[8] else dp[9]
+            phi = (x - f / kb) / r - _play(f, dp)
+            w = 0.0
+        ds[0], ds[1], ds[2] = phi, w, i_new
+        ds[6] = tau
+        ds[7] = 1.0 if sat else 0.0
+    ds[3] = f
+    ds[5] = x
+    angle = ds[0] + _play(f, dp)
+    ds[4] = round(angle / dp[5]) * dp[5]
+
+
+# --- the coupled sub-steps -----------------------------------------------------------------
+@_jit
+def solve_mckibben(steps, pressures, f, mp, fk, ff0, fmu, z, st, dp, ds, mode, sp,
+                   out_f, out_x):  # type: ignore[no-untyped-def]
+    """Every sub-step of an exchange (``models.coupling.solve_substeps``) for a McKibben muscle
+    on the loading drive. ``z``, ``st`` (friction) and ``ds`` (drive) are updated in place;
+    forces and contractions go to ``out_f``, ``out_x``. Returns (stiffness -dF/dx N/m and
+    friction N at the end, Newton iterations, status: ``OK`` or ``BAD_POSITION``)."""
+    n_el = fk.shape[0]
+    zt = z.copy()
+    stt = st.copy()
+    prep = [0.0] * 10
+    k_last = 0.0
+    ff_last = 0.0
+    iters = 0
+    for idx in range(steps.shape[0]):
+        d = steps[idx]
+        p = pressures[idx]
+        e = _effective_pressure(p, mp)
+        if dp[19] != 0.0:
+            _prepare(d, dp, ds, mode, sp, prep)
+        lo, hi = 0.0, math.inf
+        f = f if f > 0.0 else 0.0
+        f_hi = -1.0
+        it = 1
+        while True:
+            x, dxdf = _contraction_and_compliance(f, dp, ds, mode, sp, prep)
+            if not math.isfinite(x):
+                return k_last, ff_last, iters, BAD_POSITION
+            tf, tk, tff = _muscle_trial(e, x, mp, fk, ff0, fmu, z, zt, stt)
+            if f == 0.0:
+                f_hi = tf
+            g = tf - f
+            if g >= 0.0:
+                lo = f
+            else:
+                hi = f
+            if abs(g) <= FORCE_TOLERANCE_N or hi - lo <= FORCE_TOLERANCE_N or \
+                    it >= MAX_ITERATIONS:
+                break
+            it += 1
+            nxt = f + g / (1.0 + tk * dxdf)
+            if lo < nxt < hi:
+                f = nxt
+            elif hi < math.inf and (lo > 0.0 or f_hi >= 0.0):
+                f = 0.5 * (lo + hi)
+            elif f_hi < 0.0:
+                f = 0.0
+            else:
+                f = 2.0 * f_hi
+        if mp[12] != 0.0:
+            for i in range(n_el):
+                z[i] = zt[i]
+                st[i] = stt[i]
+        _commit(f, dp, ds, mode, sp, prep)
+        out_f[idx] = f
+        out_x[idx] = x
+        k_last, ff_last = tk, tff
+        iters += it
+    return k_last, ff_last, iters, OK
+
+
+@_jit
+def replay_drive(steps, forces, dp, ds, mode, sp):  # type: ignore[no-untyped-def]
+    """Follow the sub-steps a coupled solve took (``LoadingServoModel.replay``): prepare and
+    commit each with its end force; ``ds`` updated in place."""
+    prep = [0.0] * 10
+    for idx in range(steps.shape[0]):
+        if dp[19] != 0.0:
+            _prepare(steps[idx], dp, ds, mode, sp, prep)
+        _commit(forces[idx], dp, ds, mode, sp, prep)
+
+
+def warm_up() -> float:
+    """Compile (or load from the cache) every kernel once; returns the seconds it took."""
+    import time
+
+    import numpy as np
+    t0 = time.perf_counter()
+    if _AVAILABLE:
+        out = np.zeros(2)
+        zoh_run(0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 2, 1.0, out, 0)
+        mp = np.zeros(len(MUSCLE_SLOTS))
+        mp[:] = (3e-3, 2e-4, 0.095, 1.4, 2.6e-4, 8e4, 4e4, 0.0, 350.0, 1e5, 5e5, 0.15, 1.0,
+                 8e-7)
+        dp = np.zeros(len(DRIVE_SLOTS))
+        dp[:] = (0.032, 0.15, 0.5, 88.0, 1e-3, 1e-4, 5.0, 2e6, -0.05, 0.16, 4.5, 5.0, 12.0,
+                 1.8, 25.0, 2e6, 1e7, 3e4, 2792.0, 1.0)
+        ds = np.zeros(len(STATE_SLOTS))
+        fk = np.array([1e5])
+        solve_mckibben(np.full(2, 0.005), np.full(2, 1e5), 0.0, mp, fk, np.ones(1),
+                       np.full(1, 0.01), np.zeros(1), np.ones(1, np.uint8), dp, ds,
+                       MODE_POSITION, 0.0, np.zeros(2), np.zeros(2))
+        replay_drive(np.full(2, 0.005), np.full(2, 10.0), dp, ds, MODE_FORCE, 10.0)
+    return time.perf_counter() - t0

@@ -1,0 +1,174 @@
+"""The compiled core against the pure-Python reference it replaces: bit-equal, case by case.
+
+Every comparison runs the same objects twice, once per core, from identical copies, and
+compares with ``==`` (``assert_array_equal``): the compiled kernels repeat the reference's
+floating-point operations in its order, so nothing is allowed to differ.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+from collections.abc import Iterator
+
+import numpy as np
+import pytest
+
+from pam_bench.models import compiled
+from pam_bench.models.coupling import solve_substeps, substep_grid
+from pam_bench.models.loading_servo import LoadingServoModel, LoadingServoParams, LoadMode
+from pam_bench.models.muscle import MuscleModel, MuscleParams
+from pam_bench.models.valve import ValveModel, ValveParams
+
+
+@pytest.fixture(autouse=True)
+def restore_core() -> Iterator[None]:
+    before = compiled.enabled()
+    yield
+    compiled.use('compiled' if before else 'python')
+
+
+def _both(fn):  # run fn() under each core on fresh copies; return (python, compiled)
+    out = []
+    for core in ('python', 'compiled'):
+        compiled.use(core)
+        out.append(fn())
+    return out
+
+
+def _state(muscle: MuscleModel, drive: LoadingServoModel) -> tuple:
+    return (muscle.friction.z, muscle.friction.sticking, drive.phi, drive.w, drive.integral,
+            drive.force_n, drive.encoder_rad, drive.contraction_m, drive.torque,
+            drive.saturated)
+
+
+def _run(muscle: MuscleModel, drive: LoadingServoModel, pressures: np.ndarray,
+         d: float = 0.005, force: float = 0.0) -> tuple:
+    m, dr = copy.deepcopy(muscle), copy.deepcopy(drive)
+    res = solve_substeps(m, dr, [d] * len(pressures), list(pressures), force)
+    return (res.forces_n, res.contractions_m, res.stiffness_n_per_m, res.friction_n,
+            res.iterations, _state(m, dr))
+
+
+def _drive(mode: LoadMode, setpoint: float, x0: float = 0.0, **kw: object
+           ) -> LoadingServoModel:
+    d = LoadingServoModel(LoadingServoParams(**kw))  # type: ignore[arg-type]
+    d.reset(x0)
+    d.command(mode, setpoint)
+    return d
+
+
+def _ramp(*points: float, n: int = 120) -> np.ndarray:
+    """Pressures (Pa) through the given points, n sub-steps per leg."""
+    return np.concatenate([np.linspace(a, b, n) for a, b in zip(points, points[1:])])
+
+
+CASES = {
+    # isometric: the position loop holds x while the pressure rises and falls (friction turns)
+    'position hold, up and down': (MuscleParams(), (LoadMode.POSITION, 0.04, 0.04),
+                                   _ramp(0.0, 6e5, 1e5, 4e5)),
+    # isotonic: the force loop lets the muscle contract and stretch back
+    'force hold, light load': (MuscleParams(), (LoadMode.FORCE, 50.0, 0.0),
+                               _ramp(0.0, 6e5, 0.0)),
+    # a heavy load on a deflated muscle: stretched below nominal length, the braid locks up
+    'lock-up under a heavy load': (MuscleParams(), (LoadMode.FORCE, 900.0, 0.0),
+                                   _ramp(0.0, 2e5, 0.0)),
+    # friction turning points, many small reversals at a held position
+    'friction reversals': (MuscleParams(), (LoadMode.POSITION, 0.02, 0.02),
+                           _ramp(2e5, 2.4e5, 2.1e5, 2.3e5, 2.15e5, 2.25e5, n=40)),
+    'no hysteresis': (MuscleParams(hysteresis=False), (LoadMode.FORCE, 300.0, 0.0),
+                      _ramp(0.0, 5e5, 1e5)),
+    'drive off': (MuscleParams(), (LoadMode.OFF, 0.0, 0.03), _ramp(1e5, 4e5)),
+    'sharp threshold (w = 0)': (MuscleParams(threshold_width_pa=0.0),
+                                (LoadMode.FORCE, 100.0, 0.0), _ramp(0.0, 3e5, 5e4)),
+}
+
+
+@pytest.mark.parametrize('name', list(CASES))
+def test_coupled_sub_steps_are_bit_equal(name: str) -> None:
+    params, (mode, sp, x0), pressures = CASES[name]
+    muscle, drive = MuscleModel(params), _drive(mode, sp, x0)
+    muscle.reset(x0, float(pressures[0]))
+    py, nb = _both(lambda: _run(muscle, drive, pressures))
+    for a, b in zip(py, nb, strict=True):
+        np.testing.assert_array_equal(np.asarray(a, dtype=object), np.asarray(b, dtype=object))
+
+
+@pytest.mark.parametrize('dynamics', [True, False])
+@pytest.mark.parametrize('d', [1e-3, 5e-3, 0.1, 3.0])
+def test_any_sub_step_length_and_the_ideal_holder(dynamics: bool, d: float) -> None:
+    muscle = MuscleModel()
+    drive = _drive(LoadMode.FORCE, 200.0, 0.0, dynamics=dynamics)
+    py, nb = _both(lambda: _run(muscle, drive, _ramp(0.0, 4e5, n=20), d=d))
+    assert py == nb
+
+
+def test_speed_limit_and_end_stop_are_bit_equal() -> None:
+    """A slack muscle and a force set value far above it: the drive runs at its speed limit
+    into the end of its travel."""
+    muscle = MuscleModel()
+    drive = _drive(LoadMode.FORCE, 2000.0, 0.0)
+    py, nb = _both(lambda: _run(muscle, drive, np.full(400, 1e4)))
+    assert py == nb
+
+
+@pytest.mark.parametrize('voltage', [0.0, 3.0, 10.0, 12.0])
+def test_valve_samples_are_bit_equal_clamp_included(voltage: float) -> None:
+    """12 V is beyond the range (clamped to 10 V, 1 MPa); 0 V from a high state overshoots
+    below atmosphere, where the report clamps at 0."""
+    steps = substep_grid(0.503, 0.005) + [1e-3] * 7 + [0.2]
+
+    def go() -> tuple:
+        v = ValveModel(ValveParams(damping_ratio=0.1))
+        v.reset(8e5 if voltage == 0.0 else 0.0)
+        out = v.samples(voltage, steps, 1.0e-4)
+        return out, v.state.tolist()
+    py, nb = _both(go)
+    assert py == nb
+    assert min(py[0]) >= 0.0 and max(py[0]) <= ValveParams().pressure_max_pa
+
+
+def test_a_whole_protocol_is_bit_equal() -> None:
+    """isometric_quick and step records on the twin: every reading and sample equal."""
+    from pam_bench.twin.protocol_run import run_protocol
+
+    def go() -> tuple:
+        iso = run_protocol('isometric_quick', 3.0)
+        step = run_protocol('step_response_quick', 3.0, overrides={
+            'x_m': [0.0, 0.04, 0.04]})
+        return ([dataclasses.astuple(p.measurement) for p in iso.points + step.points],
+                [r.samples for r in step.records], iso.substeps + step.substeps)
+    py, nb = _both(go)
+    assert py == nb
+    assert len(py[1]) > 0
+
+
+def test_a_non_finite_pressure_is_one_error_in_both() -> None:
+    from pam_bench.models.errors import ModelError
+    for core in ('python', 'compiled'):
+        compiled.use(core)
+        with pytest.raises(ModelError, match='not finite'):
+            solve_substeps(MuscleModel(), _drive(LoadMode.OFF, 0.0), [0.005, 0.005],
+                           [1e5, float('nan')], 0.0)
+
+
+def test_the_cache_lives_where_the_install_can_write() -> None:
+    import os
+    assert os.environ['NUMBA_CACHE_DIR'] == str(compiled.cache_dir())
+    assert compiled.warm_up() >= 0.0
+
+
+@pytest.mark.parametrize('mode, sp', [(LoadMode.FORCE, 300.0), (LoadMode.POSITION, 0.05),
+                                      (LoadMode.OFF, 0.0)])
+def test_the_drive_replay_is_bit_equal(mode: LoadMode, sp: float) -> None:
+    """The loading-servo node replays the muscle's sub-steps (``replay``): the same state as
+    the muscle node's copy of the drive after its coupled solve."""
+    forces = list(np.concatenate([np.linspace(0.0, 600.0, 300), np.linspace(600.0, 20.0, 200)]))
+    steps = [0.005] * 250 + [0.001] * 250
+
+    def go() -> tuple:
+        d = _drive(mode, sp, 0.03)
+        out = d.replay(steps, forces)
+        return dataclasses.astuple(out), _state(MuscleModel(), d)
+    py, nb = _both(go)
+    assert py == nb
