@@ -61,4 +61,7 @@ if [ "$(cat "$VENV/.stamp-pkg" 2>/dev/null)" != "$want" ]; then
 fi
 "$VPY" -c 'import rclpy, pam_bench_interfaces.msg, pam_bench' \
   || { log "the environment does not import; remove .venv and run again"; exit 1; }
+# 5. The compiled physics core, compiled once into its cache (models/compiled.py says where).
+"$VPY" -c 'from pam_bench.models.compiled import warm_up; warm_up()' \
+  || { log "the compiled core does not compile"; exit 1; }
 log "ready: $VENV"

@@ -1,3 +1,4 @@
+# mypy: disable-error-code="no-untyped-def"
 """The physics' hot loops compiled with numba: the reference's equations, in machine code.
 
 What is compiled (``@njit(cache=True)``, plain floats and arrays in and out):
@@ -50,7 +51,7 @@ os.environ.setdefault('NUMBA_CACHE_DIR', str(cache_dir()))
 try:                                            # numba reads its cache folder at import
     import numba
     from numba import njit
-    numba.config.CACHE_DIR = os.environ['NUMBA_CACHE_DIR']
+    setattr(numba.config, 'CACHE_DIR', os.environ['NUMBA_CACHE_DIR'])  # noqa: B010
     _AVAILABLE = True
 except ImportError:                             # pragma: no cover - numba is a requirement
     _AVAILABLE = False
@@ -101,13 +102,13 @@ MAX_ITERATIONS = 60
 IDEAL_FORCE_COMPLIANCE_M_PER_N = 1.0e-3
 
 
-def _jit(fn):  # type: ignore[no-untyped-def]
+def _jit(fn):
     return njit(cache=True, nogil=True)(fn) if _AVAILABLE else fn
 
 
 # --- valve ---------------------------------------------------------------------------------
 @_jit
-def zoh_run(s0, s1, a00, a01, a10, a11, b0, b1, n, p_max, out, start):  # type: ignore[no-untyped-def]
+def zoh_run(s0, s1, a00, a01, a10, a11, b0, b1, n, p_max, out, start):
     """``n`` equal ZOH sub-steps from the state (s0 Pa, s1 Pa/s) with the (already scaled)
     input terms b0, b1; the clamped gauge pressure of each into ``out[start:start + n]``.
     Returns the state after them."""
@@ -119,12 +120,12 @@ def zoh_run(s0, s1, a00, a01, a10, a11, b0, b1, n, p_max, out, start):  # type: 
 
 # --- muscle --------------------------------------------------------------------------------
 @_jit
-def _softplus(z):  # type: ignore[no-untyped-def]
+def _softplus(z):
     return (z if z > 0.0 else 0.0) + math.log1p(math.exp(-abs(z)))
 
 
 @_jit
-def _effective_pressure(p, mp):  # type: ignore[no-untyped-def]
+def _effective_pressure(p, mp):
     w, pth = mp[6], mp[5]
     p = p if p > 0.0 else 0.0
     if w <= 0.0:
@@ -135,7 +136,7 @@ def _effective_pressure(p, mp):  # type: ignore[no-untyped-def]
 
 
 @_jit
-def _backbone(e, x, mp):  # type: ignore[no-untyped-def]
+def _backbone(e, x, mp):
     g0, gm, xm, n, gr = mp[0], mp[1], mp[2], mp[3], mp[4]
     if x <= xm:
         r = 1.0 - x / xm
@@ -158,7 +159,7 @@ def _backbone(e, x, mp):  # type: ignore[no-untyped-def]
 
 
 @_jit
-def _muscle_trial(e, x, mp, fk, ff0, fmu, z, zt, st):  # type: ignore[no-untyped-def]
+def _muscle_trial(e, x, mp, fk, ff0, fmu, z, zt, st):
     """(F, -dF/dx, friction) at (e(p), x); the friction elements' trial state into zt, st."""
     f_bb, k_bb = _backbone(e, x, mp)
     ff = 0.0
@@ -196,13 +197,13 @@ def _muscle_trial(e, x, mp, fk, ff0, fmu, z, zt, st):  # type: ignore[no-untyped
 
 # --- drive ---------------------------------------------------------------------------------
 @_jit
-def _play(f, dp):  # type: ignore[no-untyped-def]
+def _play(f, dp):
     a = f / dp[6]
     return dp[4] * (1.0 if a > 1.0 else (-1.0 if a < -1.0 else a))
 
 
 @_jit
-def _prepare(d, dp, ds, mode, sp, prep):  # type: ignore[no-untyped-def]
+def _prepare(d, dp, ds, mode, sp, prep):
     """The sub-step of length d into prep: (d, den, t0, t1, i0, i1, i_lim, ki, w_pos,
     has_w_pos)."""
     r, j, c = dp[0], dp[1], dp[2]
@@ -245,7 +246,7 @@ def _prepare(d, dp, ds, mode, sp, prep):  # type: ignore[no-untyped-def]
 
 
 @_jit
-def _end(f, dp, ds, prep):  # type: ignore[no-untyped-def]
+def _end(f, dp, ds, prep):
     """(phi_+, w_+, I_+, tau_+, saturated) of the prepared sub-step for the force f."""
     d, den, t0, t1, i0, i1, i_lim, ki = (prep[0], prep[1], prep[2], prep[3], prep[4],
                                          prep[5], prep[6], prep[7])
@@ -275,7 +276,7 @@ def _end(f, dp, ds, prep):  # type: ignore[no-untyped-def]
 
 
 @_jit
-def _ideal_contraction(f, dp, ds, mode, sp):  # type: ignore[no-untyped-def]
+def _ideal_contraction(f, dp, ds, mode, sp):
     kb = dp[7]
     if mode == MODE_POSITION:
         x = sp + f / kb
@@ -286,7 +287,7 @@ def _ideal_contraction(f, dp, ds, mode, sp):  # type: ignore[no-untyped-def]
 
 
 @_jit
-def _contraction_and_compliance(f, dp, ds, mode, sp, prep):  # type: ignore[no-untyped-def]
+def _contraction_and_compliance(f, dp, ds, mode, sp, prep):
     kb = dp[7]
     if dp[19] == 0.0:                                     # the ideal holder
         x = _ideal_contraction(f, dp, ds, mode, sp)
@@ -311,7 +312,7 @@ def _contraction_and_compliance(f, dp, ds, mode, sp, prep):  # type: ignore[no-u
 
 
 @_jit
-def _commit(f, dp, ds, mode, sp, prep):  # type: ignore[no-untyped-def]
+def _commit(f, dp, ds, mode, sp, prep):
     kb = dp[7]
     r = dp[0]
     if dp[19] == 0.0:                                     # the ideal holder
@@ -343,7 +344,7 @@ def _commit(f, dp, ds, mode, sp, prep):  # type: ignore[no-untyped-def]
 # --- the coupled sub-steps -----------------------------------------------------------------
 @_jit
 def solve_mckibben(steps, pressures, f, mp, fk, ff0, fmu, z, st, dp, ds, mode, sp,
-                   out_f, out_x):  # type: ignore[no-untyped-def]
+                   out_f, out_x):
     """Every sub-step of an exchange (``models.coupling.solve_substeps``) for a McKibben muscle
     on the loading drive. ``z``, ``st`` (friction) and ``ds`` (drive) are updated in place;
     forces and contractions go to ``out_f``, ``out_x``. Returns (stiffness -dF/dx N/m and
@@ -403,7 +404,7 @@ def solve_mckibben(steps, pressures, f, mp, fk, ff0, fmu, z, st, dp, ds, mode, s
 
 
 @_jit
-def replay_drive(steps, forces, dp, ds, mode, sp):  # type: ignore[no-untyped-def]
+def replay_drive(steps, forces, dp, ds, mode, sp):
     """Follow the sub-steps a coupled solve took (``LoadingServoModel.replay``): prepare and
     commit each with its end force; ``ds`` updated in place."""
     prep = [0.0] * 10

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -55,7 +56,8 @@ class LoadCellModel:
         f = min(max(force_n, -self.p.range_n), self.p.range_n)
         return f * self.p.output_range_v / self.p.range_n
 
-    def measure_many(self, forces_n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def measure_many(self, forces_n: Sequence[float] | np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray]:
         """``measure`` of every force in order, in one batch: the same noise draws, the same
         rounding (numpy's is Python's, half to even), bit for bit. Returns (measured N,
         saturated), shapes (n,); ``saturated`` is left as the last sample leaves it.

@@ -60,7 +60,8 @@ def _drive(mode: LoadMode, setpoint: float, x0: float = 0.0, **kw: object
 
 def _ramp(*points: float, n: int = 120) -> np.ndarray:
     """Pressures (Pa) through the given points, n sub-steps per leg."""
-    return np.concatenate([np.linspace(a, b, n) for a, b in zip(points, points[1:])])
+    return np.concatenate([np.linspace(a, b, n) for a, b in zip(points[:-1], points[1:],
+                                                                      strict=True)])
 
 
 CASES = {
