@@ -39,7 +39,7 @@ inverse-model: setup
 
 # every servo scene x controller through the ROS nodes, composed in one process -> reports/servo
 servo-compare: setup
-	$(VENV)/bin/pam-bench servo-compare --engine ros --one-process --out reports/servo
+	$(VENV)/bin/pam-bench servo-compare --engine ros --out reports/servo
 
 clean:
 	rm -rf bags/*/ .pytest_cache .ruff_cache

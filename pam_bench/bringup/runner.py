@@ -24,24 +24,28 @@ __all__ = ['RunResult', 'ros_env', 'run_scene', 'write_params_file']
 
 
 def run_scene(scene: Scene, out_dir: str, seed: int = 0, realtime: bool = False,
-              one_process: bool = False, domain_id: int | None = None,
+              one_process: bool = True, domain_id: int | None = None,
               quiet: bool = False, wallclock: bool = False,
               device_processes: bool = False, devices_only: bool = False,
               settings: dict[str, Any] | None = None,
               netns: tuple[str, str] | None = None) -> RunResult:
-    """Run ``scene``, recording into ``out_dir``; return the clock's summary. With
+    """Run ``scene``, recording into ``out_dir``; return the clock's summary. A lock-step run is
+    composed in this process by default (``one_process``; False: one process per node, as
+    beside drivers; ``netns`` implies it). With
     ``devices_only`` (wall clock) only the simulated devices run, until Ctrl-C: a bench to
     point a lab's own controllers or ``check-drivers`` at. ``settings`` (node -> settings: the
     ones a bag recorded, ``--replay``) replace the scene's. ``netns`` (device namespace,
     other namespace) runs the simulated devices and the other nodes in two network
     namespaces, as on two hosts, with DDS discovery on their subnet (separate processes)."""
     settings = copy.deepcopy(settings) if settings else scene.settings(out_dir, seed, realtime)
+    if netns or wallclock:
+        one_process = False
     if 'recorder' in settings:
         from pam_bench.bringup.provenance import run_description
         rec = dataclasses.replace(settings['recorder'], out_dir=out_dir, run_yaml='',
                                   end_file='')
         settings['recorder'] = rec
-        layout = ('wall clock' if wallclock else 'one process' if one_process
+        layout = ('wall clock' if wallclock else 'composed' if one_process
                   else 'separate processes')
         fd, end_file = tempfile.mkstemp(prefix='pam_bench_end_', suffix='.json')
         os.close(fd)
@@ -53,14 +57,9 @@ def run_scene(scene: Scene, out_dir: str, seed: int = 0, realtime: bool = False,
         raise LayoutError(f'scene {scene.name} injects faults: they run on the wall clock '
                          '(--wallclock)')
     if wallclock:
-        if one_process:
-            raise LayoutError('a wall-clock run composes the devices only (the emulator); '
-                             'drop --one-process')
         from pam_bench.bringup.wallclock import run_wallclock
         return run_wallclock(scene, settings, domain_id, quiet, device_processes, devices_only)
     if one_process:
-        if netns:
-            raise LayoutError('two namespaces need separate processes: drop --one-process')
         from pam_bench.bringup.composed import run_composed
         return run_composed(scene, settings, domain_id, quiet)
     from pam_bench.bringup.processes import run_processes

@@ -19,16 +19,17 @@ def register(sub: Any) -> None:
     p.set_defaults(func=_cmd_pingpong)
     p = sub.add_parser('servo-compare', help='every servo scene x controller -> metrics.json')
     p.add_argument('--engine', choices=['numpy', 'ros'], default='ros',
-                   help='ros: separate-process nodes (minutes); numpy: same models in one '
-                   'process (seconds)')
+                   help='ros: the nodes, composed (--processes: one process each); numpy: the '
+                   'same models without ROS (seconds)')
     p.add_argument('--out', default='reports/servo', help='output folder')
     p.add_argument('--scene', action='append', help='servo scene (repeatable; default all)')
     p.add_argument('--duration', type=float, help='sim time per run, s (default: the scene)')
-    p.add_argument('--one-process', action='store_true',
-                   help='with --engine ros: compose the nodes in one process (same bags, faster)')
+    p.add_argument('--processes', action='store_true',
+                   help='with --engine ros: every node in its own process (same bags, slower)')
+    p.add_argument('--one-process', action='store_true', help=argparse.SUPPRESS)  # the default
     p.add_argument('--jobs', type=int, default=0,
                    help='runs at once, each in a worker process on its own ROS domain (default: '
-                   'one per CPU for numpy and --one-process, else 1)')
+                   'one per CPU, 1 with --processes)')
     p.set_defaults(func=_cmd_servo_compare)
     p = sub.add_parser('bench', help='benchmarks -> BENCHMARKS.md and bench.json')
     p.add_argument('--quick', action='store_true', help='a few minutes: quick grids and scenes')
@@ -55,10 +56,9 @@ def _cmd_pingpong(args: argparse.Namespace) -> int:
 def _cmd_servo_compare(args: argparse.Namespace) -> int:
     from pam_bench.benchmarks.servo_compare import compare_servo
     out = pathlib.Path(args.out)
-    jobs = args.jobs or (os.cpu_count() or 1 if args.engine == 'numpy' or args.one_process
-                         else 1)
-    rows = compare_servo(out, args.engine, args.scene or None, args.duration, args.one_process,
-                         jobs)
+    composed = not args.processes
+    jobs = args.jobs or (os.cpu_count() or 1 if args.engine == 'numpy' or composed else 1)
+    rows = compare_servo(out, args.engine, args.scene or None, args.duration, composed, jobs)
     print(f"{'scene':26s} {'controller':20s} {'RMS':>8s} {'max':>8s} {'at reversal':>12s}")
     for r in rows:
         print(f"{r['scene']:26s} {r['controller']:20s} {r['rms_error']:8.3f} "

@@ -29,7 +29,10 @@ def register(sub: Any) -> None:
                    'muscle_1.muscle.gain_exponent=1.4 (repeatable; pam-bench params lists them)')
     p.add_argument('--seed', type=int, default=0, help='seed of the sensor noise')
     p.add_argument('--realtime', action='store_true', help='pace sim time to the wall clock')
-    p.add_argument('--one-process', action='store_true', help='compose all nodes in one process')
+    p.add_argument('--processes', action='store_true', help='lock-step: every node in its own '
+                   'process, as beside drivers (default: the nodes composed in one process on '
+                   'the intra-process bus)')
+    p.add_argument('--one-process', action='store_true', help=argparse.SUPPRESS)  # the default
     p.add_argument('--resume', metavar='BAG', help='bag of an interrupted run of this scene: '
                    'start at the first reading it lacks (into a new --out)')
     p.add_argument('--wallclock', action='store_true', help='run on the wall clock as on a '
@@ -110,8 +113,8 @@ def _replayed(args: argparse.Namespace) -> tuple[Any, dict[str, Any] | None]:
         scene = load_scene(str(path))
     args.seed = int(run['seed'])
     layout = run.get('layout', '')
-    if layout == 'one process':
-        args.one_process = True
+    if layout == 'separate processes':
+        args.processes = True
     elif layout == 'wall clock':
         args.wallclock = True
     print(f'replaying {args.replay}: scene {run["scene"]}, seed {args.seed}, {layout}, '
@@ -143,9 +146,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
     out = pathlib.Path(args.out or f'bags/{scene.name}')
     if args.resume and pathlib.Path(args.resume).resolve() == out.resolve():
         raise UsageError('--resume needs a new --out (the old bag is kept)')
-    if args.wallclock and (args.one_process or args.realtime or args.resume):
+    if args.wallclock and (args.processes or args.realtime or args.resume):
         raise UsageError('--wallclock runs the devices in the emulator on the wall clock: drop '
-                         '--one-process, --realtime and --resume')
+                         '--processes, --realtime and --resume')
     if out.exists():
         if not args.overwrite and args.out:
             raise UsageError(f'{out} exists (use --overwrite)')
@@ -167,7 +170,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
           f'nodes {", ".join(scene.nodes)}, bag {out}', flush=True)
     try:
         res = run_scene(scene, str(out), seed=args.seed, realtime=args.realtime,
-                        one_process=args.one_process, wallclock=args.wallclock,
+                        one_process=not args.processes, wallclock=args.wallclock,
                         device_processes=args.device_processes, settings=settings,
                         netns=tuple(args.netns.split(':', 1)) if args.netns else None)
         code = res.code

@@ -19,14 +19,16 @@ def _run(args: list[str], timeout: float = 120.0) -> subprocess.CompletedProcess
                           capture_output=True, text=True, timeout=timeout)
 
 
-def test_one_process_run_exits_0_with_a_valid_bag(tmp_path: pathlib.Path,
-                                                  ros_domain: int) -> None:
+def test_a_run_composes_by_default_and_exits_0_with_a_valid_bag(
+        tmp_path: pathlib.Path, ros_domain: int) -> None:
+    from pam_bench.analysis.baginfo import run_of_bag
     bag = tmp_path / 'bag'
-    res = _run([str(SHORT), '--one-process', '--out', str(bag)])
+    res = _run([str(SHORT), '--out', str(bag)])
     assert res.returncode == 0, res.stdout + res.stderr
     assert 'Traceback' not in res.stderr
     assert 'done:' in res.stdout
     assert len(bag_messages(bag, '/protocol/point')) == 8
+    assert run_of_bag(str(bag))['layout'] == 'composed'
 
 
 @pytest.mark.parametrize('one_process', [False, True])
@@ -43,7 +45,7 @@ def test_a_bad_node_parameter_stops_the_run_with_one_line(
     scene.write_text(SHORT.read_text() + f'\nparameters:\n  {params}\n')
     t0 = time.monotonic()
     res = _run([str(scene), '--out', str(tmp_path / 'bag')]
-               + (['--one-process'] if one_process else []))
+               + ([] if one_process else ['--processes']))
     assert res.returncode == 2, res.stdout + res.stderr
     assert time.monotonic() - t0 < 30.0            # not after the clock's stall timeout
     assert 'Traceback' not in res.stderr, res.stderr
@@ -68,7 +70,7 @@ def test_the_readme_path_demo_then_extract_writes_a_report(tmp_path: pathlib.Pat
     `pam-bench extract bags/demo --out reports/demo` writes F(u) both ways and its gain."""
     import json
     bag, out = tmp_path / 'demo', tmp_path / 'report'
-    res = _run(['demo', '--out', str(bag), '--one-process'])
+    res = _run(['demo', '--out', str(bag)])
     assert res.returncode == 0, res.stdout + res.stderr
     ext = subprocess.run([sys.executable, '-m', 'pam_bench.cli', 'extract', str(bag), '--out',
                           str(out)], capture_output=True, text=True, timeout=120)

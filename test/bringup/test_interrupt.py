@@ -52,9 +52,9 @@ def _ignore_sigint() -> None:
 
 
 @pytest.mark.parametrize('sig, inherited, layout', [
-    (signal.SIGINT, 'default', ()), (signal.SIGTERM, 'default', ()),
-    (signal.SIGINT, 'ignored', ()), (signal.SIGINT, 'ignored', ('--one-process',)),
-    (signal.SIGTERM, 'default', ('--one-process',))])
+    (signal.SIGINT, 'default', ('--processes',)), (signal.SIGTERM, 'default', ('--processes',)),
+    (signal.SIGINT, 'ignored', ('--processes',)), (signal.SIGINT, 'ignored', ()),
+    (signal.SIGTERM, 'default', ())])
 def test_interrupted_run_leaves_a_valid_bag(tmp_path: pathlib.Path, ros_domain: int,
                                             sig: signal.Signals, inherited: str,
                                             layout: tuple[str, ...]) -> None:
@@ -81,7 +81,7 @@ def test_interrupted_run_leaves_a_valid_bag(tmp_path: pathlib.Path, ros_domain: 
 
 def test_dead_node_ends_the_run_with_a_reason(tmp_path: pathlib.Path, ros_domain: int) -> None:
     bag = tmp_path / 'bag'
-    proc, lines = start_run('isotonic_quick', bag)
+    proc, lines = start_run('isotonic_quick', bag, extra=('--processes',))
     try:
         muscle = [p for p in node_processes(ros_domain)
                   if b'muscle_sim' in pathlib.Path(f'/proc/{p}/cmdline').read_bytes()]

@@ -24,12 +24,12 @@ def _cli(*args: str) -> subprocess.CompletedProcess:
 def test_a_bag_says_how_it_was_made_and_replays_to_the_same_readings(
         tmp_path: pathlib.Path, ros_domain: int) -> None:
     a, b = tmp_path / 'a', tmp_path / 'b'
-    res = _cli('run', str(SHORT), '--one-process', '--seed', '7', '--out', str(a))
+    res = _cli('run', str(SHORT), '--seed', '7', '--out', str(a))
     assert res.returncode == 0, res.stderr
     run = run_of_bag(a)
     assert run['scene'] == 'config_short' and run['seed'] == 7
     assert run['scene_text'] == SHORT.read_text()
-    assert run['layout'] == 'one process' and '--seed' in run['command_line']
+    assert run['layout'] == 'composed' and '--seed' in run['command_line']
     assert run['parameters']['load_cell_1']['ros__parameters']['seed'] == 7
     assert re.fullmatch('[0-9a-f]{40}', run['commit']), run['commit']   # run in the checkout
     assert isinstance(run['dirty'], bool)
@@ -60,7 +60,7 @@ def test_a_bag_says_how_it_was_made_and_replays_to_the_same_readings(
 def test_diff_reports_a_different_seed(tmp_path: pathlib.Path, ros_domain: int) -> None:
     a, b = tmp_path / 'a', tmp_path / 'b'
     for bag, seed in ((a, '1'), (b, '2')):
-        assert _cli('run', str(SHORT), '--one-process', '--seed', seed, '--out',
+        assert _cli('run', str(SHORT), '--seed', seed, '--out',
                     str(bag)).returncode == 0
     res = _cli('diff', str(a), str(b), '--json')
     assert res.returncode == 1 and 'the bags differ' in res.stdout
@@ -73,9 +73,9 @@ def test_an_interrupted_run_says_so(tmp_path: pathlib.Path, ros_domain: int) -> 
     import signal
     import time
     bag = tmp_path / 'bag'
-    proc = subprocess.Popen([sys.executable, '-m', 'pam_bench.cli', 'run', 'demo', '--out',
-                             str(bag)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True, start_new_session=True)
+    proc = subprocess.Popen([sys.executable, '-m', 'pam_bench.cli', 'run', 'isometric',
+                             '--out', str(bag)], stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, start_new_session=True)
     try:
         for line in proc.stdout:
             if line.startswith('[sim'):
