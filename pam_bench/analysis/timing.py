@@ -13,9 +13,8 @@ within 0.1 %), so a six-hour run at 1 kHz keeps the same 200 kB as a one-second 
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
