@@ -24,8 +24,11 @@ def clock_done(nodes: list[Any], scene: Scene) -> bool:
 
 def run_composed(scene: Scene, settings: dict[str, Any], domain_id: int | None,
                     quiet: bool) -> RunResult:
-    """Run the scene composed in this process (module docstring)."""
+    """Run the scene composed in this process (module docstring). The clock starts at once
+    when every node is ready: its grace for late DDS matches is for nodes in other processes,
+    and here there are none."""
     import contextlib
+    import dataclasses
     import importlib
     import io
 
@@ -55,7 +58,10 @@ def run_composed(scene: Scene, settings: dict[str, Any], domain_id: int | None,
                 n for n in scene.nodes if n != 'recorder'] + ['sim_clock']:
             t = NODES[name]
             cls = getattr(importlib.import_module(t.module), t.cls)
-            overrides = overrides_of(settings[name])
+            st = settings[name]
+            if name == 'sim_clock':
+                st = dataclasses.replace(st, grace_s=0.0)
+            overrides = overrides_of(st)
             extra = {'lean': True} if name == 'sim_clock' else {}    # polled by the loop
             try:
                 node = cls(name, context=context, parameter_overrides=overrides, **extra)

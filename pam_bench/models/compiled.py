@@ -20,9 +20,13 @@ points, the braid lock-up, the valve's clamp and whole protocol runs). The pure-
 stay the reference; ``PAM_BENCH_CORE=python`` (or ``use('python')``) runs them instead, and
 000's straight-fibre muscle always does (its law interpolates 000's printed graph).
 
-The compiled cache goes to ``NUMBA_CACHE_DIR`` when set, else to
-``$XDG_CACHE_HOME/pam_bench/numba`` (``~/.cache``): a wheel or a colcon ``install/`` is
-read-only, and numba's default (``__pycache__`` beside the module) is not writable there.
+The kernels load in a background thread the first time an exchange brings ``LOAD_AT`` sub-steps
+or more (``wanted``): numba's import and its cache cost about half a second, which a short
+run with few sub-steps per exchange (the demo, a servo scene) never wins back. Until they are
+in, the reference runs, bit-equal. The compiled cache goes to
+``NUMBA_CACHE_DIR`` when set, else to ``$XDG_CACHE_HOME/pam_bench/numba`` (``~/.cache``):
+a wheel or a colcon ``install/`` is read-only, and numba's default (``__pycache__`` beside
+the module) is not writable there.
 """
 
 from __future__ import annotations
@@ -30,11 +34,14 @@ from __future__ import annotations
 import math
 import os
 import pathlib
+import threading
+import time
+from typing import Any
 
-__all__ = ['available', 'enabled', 'use', 'cache_dir', 'zoh_run', 'solve_mckibben',
-           'replay_drive',
-           'MUSCLE_SLOTS', 'DRIVE_SLOTS', 'STATE_SLOTS', 'MODE_OFF', 'MODE_FORCE',
-           'MODE_POSITION', 'OK', 'BAD_POSITION', 'warm_up']
+__all__ = ['available', 'enabled', 'wanted', 'LOAD_AT', 'use', 'start_loading', 'cache_dir',
+           'zoh_run', 'solve_mckibben', 'replay_drive', 'MUSCLE_SLOTS', 'DRIVE_SLOTS',
+           'STATE_SLOTS', 'MODE_OFF', 'MODE_FORCE', 'MODE_POSITION', 'OK', 'BAD_POSITION',
+           'warm_up']
 
 
 def cache_dir() -> pathlib.Path:
@@ -48,39 +55,65 @@ def cache_dir() -> pathlib.Path:
 
 os.environ.setdefault('NUMBA_CACHE_DIR', str(cache_dir()))
 
-try:                                            # numba reads its cache folder at import
-    import numba
-    from numba import njit
-    setattr(numba.config, 'CACHE_DIR', os.environ['NUMBA_CACHE_DIR'])  # noqa: B010
-    _AVAILABLE = True
-except ImportError:                             # pragma: no cover - numba is a requirement
-    _AVAILABLE = False
-
-_ENABLED = _AVAILABLE and os.environ.get('PAM_BENCH_CORE', 'compiled') != 'python'
+_WANTED = os.environ.get('PAM_BENCH_CORE', 'compiled') != 'python'
+_READY = threading.Event()           # the kernels are compiled (or loaded from the cache)
+_FAILED: list[str] = []              # why they could not be
+_LOCK = threading.Lock()
+_LOADER: threading.Thread | None = None
 
 
 def available() -> bool:
-    """Whether numba imports here."""
-    return _AVAILABLE
+    """Whether the compiled kernels load here (waits for them)."""
+    _load()
+    return _READY.is_set()
 
 
 def enabled() -> bool:
-    """Whether the compiled core runs (else the pure-Python reference)."""
-    return _ENABLED
+    """Whether the compiled core runs now: wanted and loaded. Until the kernels have loaded
+    (``start_loading``: numba's import and its cache take about half a second) the reference
+    runs; the two are bit-equal, so a run does not depend on when the switch happens."""
+    return _WANTED and _READY.is_set()
 
 
 def use(core: str) -> None:
-    """Run the 'compiled' core or the 'python' reference from now on (tests compare them).
+    """Run the 'compiled' core (waiting for it to load) or the 'python' reference from now on
+    (tests compare them).
 
     Raises:
-        ValueError: an unknown core, or 'compiled' without numba.
+        ValueError: an unknown core, or 'compiled' where numba does not load.
     """
-    global _ENABLED
+    global _WANTED
     if core not in ('compiled', 'python'):
         raise ValueError(f"core {core!r}: 'compiled' or 'python'")
-    if core == 'compiled' and not _AVAILABLE:
-        raise ValueError('the compiled core needs numba')
-    _ENABLED = core == 'compiled'
+    if core == 'compiled':
+        _load()
+        if not _READY.is_set():
+            raise ValueError(f'the compiled core does not load: {_FAILED[0]}')
+    _WANTED = core == 'compiled'
+
+
+LOAD_AT = 32
+"""Sub-steps in one call that make the compiled core worth loading (module docstring)."""
+
+
+def wanted(n: int) -> bool:
+    """Whether to run a call of ``n`` sub-steps on the compiled core: yes once it is loaded;
+    a call of ``LOAD_AT`` or more starts loading it."""
+    if _READY.is_set():
+        return _WANTED
+    if n >= LOAD_AT:
+        start_loading()
+    return False
+
+
+def start_loading() -> None:
+    """Load the kernels in a background thread (a run starts on the reference meanwhile)."""
+    global _LOADER
+    with _LOCK:
+        if _LOADER is None and _WANTED:
+            _LOADER = threading.Thread(target=_load, name='pam_bench-compiled-core',
+                                       daemon=True)
+            _LOADER.start()
 
 
 # --- layouts of the arrays the kernels take ----------------------------------------------
@@ -102,12 +135,7 @@ MAX_ITERATIONS = 60
 IDEAL_FORCE_COMPLIANCE_M_PER_N = 1.0e-3
 
 
-def _jit(fn):
-    return njit(cache=True, nogil=True)(fn) if _AVAILABLE else fn
-
-
 # --- valve ---------------------------------------------------------------------------------
-@_jit
 def zoh_run(s0, s1, a00, a01, a10, a11, b0, b1, n, p_max, out, start):
     """``n`` equal ZOH sub-steps from the state (s0 Pa, s1 Pa/s) with the (already scaled)
     input terms b0, b1; the clamped gauge pressure of each into ``out[start:start + n]``.
@@ -119,12 +147,10 @@ def zoh_run(s0, s1, a00, a01, a10, a11, b0, b1, n, p_max, out, start):
 
 
 # --- muscle --------------------------------------------------------------------------------
-@_jit
 def _softplus(z):
     return (z if z > 0.0 else 0.0) + math.log1p(math.exp(-abs(z)))
 
 
-@_jit
 def _effective_pressure(p, mp):
     w, pth = mp[6], mp[5]
     p = p if p > 0.0 else 0.0
@@ -135,7 +161,6 @@ def _effective_pressure(p, mp):
     return e if e > 0.0 else 0.0
 
 
-@_jit
 def _backbone(e, x, mp):
     g0, gm, xm, n, gr = mp[0], mp[1], mp[2], mp[3], mp[4]
     if x <= xm:
@@ -158,7 +183,6 @@ def _backbone(e, x, mp):
     return f, k
 
 
-@_jit
 def _muscle_trial(e, x, mp, fk, ff0, fmu, z, zt, st):
     """(F, -dF/dx, friction) at (e(p), x); the friction elements' trial state into zt, st."""
     f_bb, k_bb = _backbone(e, x, mp)
@@ -196,13 +220,11 @@ def _muscle_trial(e, x, mp, fk, ff0, fmu, z, zt, st):
 
 
 # --- drive ---------------------------------------------------------------------------------
-@_jit
 def _play(f, dp):
     a = f / dp[6]
     return dp[4] * (1.0 if a > 1.0 else (-1.0 if a < -1.0 else a))
 
 
-@_jit
 def _prepare(d, dp, ds, mode, sp, prep):
     """The sub-step of length d into prep: (d, den, t0, t1, i0, i1, i_lim, ki, w_pos,
     has_w_pos)."""
@@ -245,7 +267,6 @@ def _prepare(d, dp, ds, mode, sp, prep):
         prep[7] = 0.0
 
 
-@_jit
 def _end(f, dp, ds, prep):
     """(phi_+, w_+, I_+, tau_+, saturated) of the prepared sub-step for the force f."""
     d, den, t0, t1, i0, i1, i_lim, ki = (prep[0], prep[1], prep[2], prep[3], prep[4],
@@ -275,7 +296,6 @@ def _end(f, dp, ds, prep):
     return ds[0] + d * w, w, i_new, tau, sat
 
 
-@_jit
 def _ideal_contraction(f, dp, ds, mode, sp):
     kb = dp[7]
     if mode == MODE_POSITION:
@@ -286,7 +306,6 @@ def _ideal_contraction(f, dp, ds, mode, sp):
     return min(max(x, dp[8]), dp[9])
 
 
-@_jit
 def _contraction_and_compliance(f, dp, ds, mode, sp, prep):
     kb = dp[7]
     if dp[19] == 0.0:                                     # the ideal holder
@@ -311,7 +330,6 @@ def _contraction_and_compliance(f, dp, ds, mode, sp, prep):
     return x, r * (d * dw + play) + 1.0 / kb
 
 
-@_jit
 def _commit(f, dp, ds, mode, sp, prep):
     kb = dp[7]
     r = dp[0]
@@ -342,7 +360,6 @@ def _commit(f, dp, ds, mode, sp, prep):
 
 
 # --- the coupled sub-steps -----------------------------------------------------------------
-@_jit
 def solve_mckibben(steps, pressures, f, mp, fk, ff0, fmu, z, st, dp, ds, mode, sp,
                    out_f, out_x):
     """Every sub-step of an exchange (``models.coupling.solve_substeps``) for a McKibben muscle
@@ -403,7 +420,6 @@ def solve_mckibben(steps, pressures, f, mp, fk, ff0, fmu, z, st, dp, ds, mode, s
     return k_last, ff_last, iters, OK
 
 
-@_jit
 def replay_drive(steps, forces, dp, ds, mode, sp):
     """Follow the sub-steps a coupled solve took (``LoadingServoModel.replay``): prepare and
     commit each with its end force; ``ds`` updated in place."""
@@ -414,25 +430,54 @@ def replay_drive(steps, forces, dp, ds, mode, sp):
         _commit(forces[idx], dp, ds, mode, sp, prep)
 
 
-def warm_up() -> float:
-    """Compile (or load from the cache) every kernel once; returns the seconds it took."""
-    import time
+_KERNELS = ('_softplus', '_effective_pressure', '_backbone', '_muscle_trial', '_play',
+            '_prepare', '_end', '_ideal_contraction', '_contraction_and_compliance',
+            '_commit', 'zoh_run', 'solve_mckibben', 'replay_drive')
+"""Compiled in this order: a kernel's callees are compiled before it."""
 
+
+def _load() -> None:
+    """Compile every kernel (from numba's cache when it holds them) and switch them in."""
+    with _LOCK:
+        if _READY.is_set() or _FAILED:
+            return
+        try:
+            import numba
+            setattr(numba.config, 'CACHE_DIR', os.environ['NUMBA_CACHE_DIR'])  # noqa: B010
+            g = globals()
+            for name in _KERNELS:
+                g[name] = numba.njit(cache=True, nogil=True)(g[name])
+            _run_each(g)
+        except Exception as exc:  # noqa: BLE001 - the reference runs instead, and says why
+            _FAILED.append(f'{type(exc).__name__}: {exc}')
+            return
+        _READY.set()
+
+
+def _run_each(g: dict[str, Any]) -> None:
+    """Call every top-level kernel once with the types a run uses (compiles or loads them)."""
     import numpy as np
+    out = np.zeros(2)
+    g['zoh_run'](0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 2, 1.0, out, 0)
+    mp = np.array([3e-3, 2e-4, 0.095, 1.4, 2.6e-4, 8e4, 4e4, 0.0, 350.0, 1e5, 5e5, 0.15, 1.0,
+                   8e-7])
+    dp = np.array([0.032, 0.15, 0.5, 88.0, 1e-3, 1e-4, 5.0, 2e6, -0.05, 0.16, 4.5, 5.0, 12.0,
+                   1.8, 25.0, 2e6, 1e7, 3e4, 2792.0, 1.0])
+    ds = np.zeros(len(STATE_SLOTS))
+    g['solve_mckibben'](np.full(2, 0.005), np.full(2, 1e5), 0.0, mp, np.array([1e5]),
+                        np.ones(1), np.full(1, 0.01), np.zeros(1), np.ones(1, np.uint8), dp,
+                        ds, MODE_POSITION, 0.0, np.zeros(2), np.zeros(2))
+    g['replay_drive'](np.full(2, 0.005), np.full(2, 10.0), dp, ds, MODE_FORCE, 10.0)
+
+
+def warm_up() -> float:
+    """Compile (or load from the cache) every kernel now; returns the seconds it took.
+
+    Raises:
+        RuntimeError: numba cannot compile them (the message says why).
+    """
     t0 = time.perf_counter()
-    if _AVAILABLE:
-        out = np.zeros(2)
-        zoh_run(0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 2, 1.0, out, 0)
-        mp = np.zeros(len(MUSCLE_SLOTS))
-        mp[:] = (3e-3, 2e-4, 0.095, 1.4, 2.6e-4, 8e4, 4e4, 0.0, 350.0, 1e5, 5e5, 0.15, 1.0,
-                 8e-7)
-        dp = np.zeros(len(DRIVE_SLOTS))
-        dp[:] = (0.032, 0.15, 0.5, 88.0, 1e-3, 1e-4, 5.0, 2e6, -0.05, 0.16, 4.5, 5.0, 12.0,
-                 1.8, 25.0, 2e6, 1e7, 3e4, 2792.0, 1.0)
-        ds = np.zeros(len(STATE_SLOTS))
-        fk = np.array([1e5])
-        solve_mckibben(np.full(2, 0.005), np.full(2, 1e5), 0.0, mp, fk, np.ones(1),
-                       np.full(1, 0.01), np.zeros(1), np.ones(1, np.uint8), dp, ds,
-                       MODE_POSITION, 0.0, np.zeros(2), np.zeros(2))
-        replay_drive(np.full(2, 0.005), np.full(2, 10.0), dp, ds, MODE_FORCE, 10.0)
+    _load()
+    if _FAILED:
+        raise RuntimeError(f'the compiled core does not load: {_FAILED[0]}')
     return time.perf_counter() - t0

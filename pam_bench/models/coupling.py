@@ -150,8 +150,8 @@ def solve_substeps(muscle: BenchMuscle, holder: Holder, steps_s: list[float],
     """
     if len(steps_s) != len(pressures_pa) or not len(steps_s):
         raise ModelError(f'{len(pressures_pa)} pressures for {len(steps_s)} sub-steps')
-    if compiled.enabled() and type(muscle) is MuscleModel and \
-            type(holder) is LoadingServoModel:
+    if type(muscle) is MuscleModel and type(holder) is LoadingServoModel and \
+            compiled.wanted(len(steps_s)):
         return _solve_compiled(muscle, holder, steps_s, pressures_pa, force_n)
     forces, xs = [], []
     k = ff = 0.0

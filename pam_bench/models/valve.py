@@ -184,7 +184,7 @@ class ValveModel:
         key = (self.p.order, round(self.natural_frequency(chamber_volume_m3), 9))
         s0, s1 = float(self.state[0]), float(self.state[1])
         p_max = self.p.pressure_max_pa
-        if compiled.enabled():
+        if compiled.wanted(len(steps_s)):
             return self._samples_compiled(steps_s, target, a, b, key, s0, s1)
         out = []
         cur = None

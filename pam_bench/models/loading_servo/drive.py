@@ -322,7 +322,7 @@ class LoadingServoModel:
         if not all(map(math.isfinite, forces_n)):
             bad = next(f for f in forces_n if not math.isfinite(f))
             raise ModelError(f'muscle force {bad!r} is not finite')
-        if compiled.enabled() and len(steps_s) > 1:
+        if compiled.wanted(len(steps_s)):
             steps = np.asarray(steps_s, dtype=float)
             if not (np.isfinite(steps).all() and (steps > 0.0).all()):
                 bad = steps[~(np.isfinite(steps) & (steps > 0.0))][0]
