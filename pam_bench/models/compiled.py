@@ -94,13 +94,16 @@ def use(core: str) -> None:
 
 LOAD_AT = 32
 """Sub-steps in one call that make the compiled core worth loading (module docstring)."""
+FEW = 4
+"""Below this many sub-steps a call runs on the reference: packing the arrays costs more than
+the few sub-steps (a 1 ms servo exchange has one)."""
 
 
 def wanted(n: int) -> bool:
     """Whether to run a call of ``n`` sub-steps on the compiled core: yes once it is loaded;
     a call of ``LOAD_AT`` or more starts loading it."""
     if _READY.is_set():
-        return _WANTED
+        return _WANTED and n >= FEW
     if n >= LOAD_AT:
         start_loading()
     return False
