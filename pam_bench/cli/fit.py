@@ -7,6 +7,7 @@ import json
 import pathlib
 from typing import Any
 
+from pam_bench.cli.cluster_args import add_cluster_args, cluster_of
 from pam_bench.cli.errors import UsageError
 
 __all__ = ['register']
@@ -42,7 +43,11 @@ def register(sub: Any) -> None:
                    help="bags: replay the readings on the time-stepped bench with 004's drive "
                    '(stepped) or on the quasi-static bench with an ideal drive (static, about '
                    "four times faster; for a drive that is not 004's)")
+    p.add_argument('--each', action='store_true', help='bags: calibrate each bag on its own '
+                   '(one job per bag on the cluster; --out is then a folder, one overlay per '
+                   'bag)')
     p.add_argument('--json', action='store_true')
+    add_cluster_args(p)
     p.set_defaults(func=_cmd_calibrate)
 
 
@@ -86,37 +91,22 @@ def _calibrate_bags(args: argparse.Namespace) -> int:
     import yaml
 
     from pam_bench.analysis.bagread import read_bags
-    from pam_bench.verify.calibrate_bags import (
-        PATH_WIDTH_M,
-        calibrate_bags,
-        observations_from_bags,
-        overlay_of,
-    )
+    from pam_bench.cluster.layer import connect, map_on
+    from pam_bench.verify.calibrate_bags import calibrate_bags, observations_from_bags, overlay_of
+    if args.each:
+        return _calibrate_each(args)
     data = read_bags(args.bags)
     obs = observations_from_bags(data)
     print(f'fitting the muscle and valve to {len(obs.readings)} readings and '
-          f'{len(obs.records)} step records ...', flush=True)
-    res = calibrate_bags(obs, max_nfev=args.max_evaluations, replay=args.replay)
+          f'{len(obs.records)} step records (the Jacobian on the cluster) ...', flush=True)
+    with connect(**cluster_of(args)) as client:
+        res = calibrate_bags(obs, max_nfev=args.max_evaluations, replay=args.replay,
+                             workers=map_on(client))
     if args.json:
         print(json.dumps({k: v for k, v in res.items() if k not in ('valve', 'muscle')},
                          indent=2))
     else:
-        print('RMS error per protocol (N for forces, mm for contractions), before -> after:')
-        for k, after in res['rms_after'].items():
-            print(f"  {k:14s} {res['rms_before'][k]:9.3f} -> {after:9.3f}")
-        print(f"fit: {res['evaluations']} evaluations in {res['fit_s']:.1f} s")
-        if res['left_out']:
-            print(f"left out (friction loop wider than {PATH_WIDTH_M * 1e3:.0f} mm, the drive's "
-                  'transient places them): ' + ', '.join(
-                      f'{k} {u:g} V {h:g} N' for k, u, h in dict.fromkeys(res['left_out'])))
-        for n in res['names']:
-            flag = '  (not fixed by these recordings)' if n in res['flags'] else ''
-            print(f"  {n:28s} {res['values'][n]:12.5g} +- {res['stderr'][n]:.2g}{flag}")
-        corr, names = res['correlation'], res['names']
-        pairs = [(names[i], names[j], corr[i][j]) for i in range(len(names))
-                 for j in range(i + 1, len(names)) if abs(corr[i][j]) > 0.9]
-        for a, b, c in pairs:
-            print(f'  correlated: {a} and {b} ({c:+.2f})')
+        _print_fit(res)
     if args.out:
         overlay = overlay_of(res['valve'], res['muscle'])
         pathlib.Path(args.out).write_text(
@@ -124,6 +114,56 @@ def _calibrate_bags(args: argparse.Namespace) -> int:
             'recordings\n' + yaml.safe_dump(overlay, sort_keys=False), encoding='utf-8')
         print(f'overlay written to {args.out} (pam-bench run SCENE --params {args.out})')
     return 0
+
+
+def _print_fit(res: dict[str, Any]) -> None:
+    from pam_bench.verify.calibrate_bags import PATH_WIDTH_M
+    print('RMS error per protocol (N for forces, mm for contractions), before -> after:')
+    for k, after in res['rms_after'].items():
+        print(f"  {k:14s} {res['rms_before'][k]:9.3f} -> {after:9.3f}")
+    print(f"fit: {res['evaluations']} evaluations in {res['fit_s']:.1f} s")
+    if res['left_out']:
+        print(f"left out (friction loop wider than {PATH_WIDTH_M * 1e3:.0f} mm, the drive's "
+              'transient places them): ' + ', '.join(
+                  f'{k} {u:g} V {h:g} N' for k, u, h in dict.fromkeys(res['left_out'])))
+    for n in res['names']:
+        print(f"  {n:28s} {res['report'][n]}")
+    corr, names = res['correlation'], res['names']
+    pairs = [(names[i], names[j], corr[i][j]) for i in range(len(names))
+             for j in range(i + 1, len(names)) if abs(corr[i][j]) > 0.9]
+    for a, b, c in pairs:
+        print(f'  correlated: {a} and {b} ({c:+.2f})')
+
+
+def _calibrate_each(args: argparse.Namespace) -> int:
+    """One calibration per bag on the cluster; a broken bag is one line, the rest complete."""
+    import yaml
+
+    from pam_bench.cluster.layer import run_jobs
+    from pam_bench.verify.calibrate_bags import calibrate_bag, overlay_of
+    out = pathlib.Path(args.out) if args.out else None
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+    jobs = [(b, args.max_evaluations, args.replay) for b in args.bags]
+    results = run_jobs(calibrate_bag, jobs, label='calibrate', **cluster_of(args))
+    failed = 0
+    for r in results:
+        bag = pathlib.Path(r.item[0])
+        if not r.ok:
+            failed += 1
+            print(f'{bag.name}: error: {r.error}')
+            continue
+        res = r.value
+        print(f'{bag.name}: ' + ', '.join(f'{k} {v:.3f}' for k, v in res['rms_after'].items())
+              + f" ({res['evaluations']} evaluations, {r.seconds:.0f} s)")
+        if out is not None:
+            path = out / f'{bag.name}.yaml'
+            path.write_text(f'# pam-bench calibrate {bag}: fitted to this bag\n'
+                            + yaml.safe_dump(overlay_of(res['valve'], res['muscle']),
+                                             sort_keys=False), encoding='utf-8')
+    print(f'{len(results) - failed} of {len(results)} bags calibrated'
+          + (f'; overlays in {out}' if out is not None else ''))
+    return 1 if failed else 0
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:
@@ -147,9 +187,9 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         _figure_table(res['figures'])
         print(f"fit: {res['evaluations']} evaluations in {res['fit_s']:.1f} s, cost "
               f"{res['cost']:.3g}")
-        for n in res['names']:
-            flag = '  (not fixed by the figures)' if n in res['flags'] else ''
-            print(f"  {n:28s} {res['values'][n]:12.5g} +- {res['stderr'][n]:.2g}{flag}")
+        from pam_bench.verify.calibrate import fit_report
+        for n, line in fit_report(res, 'not fixed by the figures').items():
+            print(f'  {n:28s} {line}')
         if args.out:
             print(f'overlay written to {args.out} (pam-bench run SCENE --params {args.out})')
     return 0 if all(r['ok'] for r in res['figures']) else 1

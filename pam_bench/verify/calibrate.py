@@ -33,7 +33,7 @@ from pam_bench.models.errors import ModelError
 from pam_bench.models.muscle import MuscleParams
 from pam_bench.verify.figures_004 import figure_rows, measure_004
 
-__all__ = ['FREE', 'residuals_004', 'calibrate_004', 'fit_summary']
+__all__ = ['fit_report', 'FREE', 'residuals_004', 'calibrate_004', 'fit_summary']
 
 FREE: tuple[tuple[str, float, float], ...] = (
     ('gain_n_per_pa', 2.0e-3, 4.0e-3),
@@ -106,9 +106,30 @@ def fit_summary(names: list[str], theta: np.ndarray, sol: Any, span: np.ndarray,
     at_bound = (sol.x <= 1e-6) | (sol.x >= 1 - 1e-6)
     flags = [n for n, v, e, b in zip(names, theta, stderr, at_bound, strict=True)
              if b or not np.isfinite(e) or e > rel_flag * abs(v)]
-    return {'names': names, 'values': dict(zip(names, map(float, theta), strict=True)),
-            'stderr': dict(zip(names, map(float, stderr), strict=True)),
-            'correlation': np.nan_to_num(corr).round(3).tolist(), 'flags': flags}
+    bound_names = [n for n, b in zip(names, at_bound, strict=True) if b]
+    out = {'names': names, 'values': dict(zip(names, map(float, theta), strict=True)),
+           'stderr': dict(zip(names, map(float, stderr), strict=True)),
+           'correlation': np.clip(np.nan_to_num(corr), -1.0, 1.0).round(3).tolist(),
+           'flags': flags, 'at_bound': bound_names}
+    out['report'] = fit_report(out)
+    return out
+
+
+def fit_report(summary: dict[str, Any], unfixed: str = 'not fixed by these recordings'
+               ) -> dict[str, str]:
+    """One line per parameter: its value with its standard error; a value at a bound of the
+    fit says so instead, and one the data do not fix gives no standard error (an error of
+    1e-11 from residuals near zero would claim what the data do not show)."""
+    out = {}
+    for n in summary['names']:
+        v, e = summary['values'][n], summary['stderr'][n]
+        if n in summary.get('at_bound', []):
+            out[n] = f'{v:12.5g}  (at its bound: the recordings push it there)'
+        elif n in summary['flags']:
+            out[n] = f'{v:12.5g}  ({unfixed})'
+        else:
+            out[n] = f'{v:12.5g} +- {e:.2g}'
+    return out
 
 
 def calibrate_004(base: MuscleParams | None = None, max_nfev: int = 60) -> dict[str, Any]:

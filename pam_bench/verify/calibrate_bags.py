@@ -56,13 +56,14 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares
 
 from pam_bench.analysis.bagread import BagData
+from pam_bench.models import compiled
 from pam_bench.models.constants import SUB_STEP_S
 from pam_bench.models.errors import ModelError
 from pam_bench.models.loading_servo import LoadingServoParams, LoadMode
@@ -71,11 +72,11 @@ from pam_bench.models.sensors import LoadCellParams
 from pam_bench.models.valve import ValveParams
 from pam_bench.twin.bench import SingleMuscleBench
 from pam_bench.twin.quasistatic import QuasiStaticBench
-from pam_bench.verify.calibrate import fit_summary
+from pam_bench.verify.calibrate import fit_report, fit_summary
 
 __all__ = ['FREE_BAGS', 'Observations', 'observations_from_bags', 'observations_from_twin',
            'predict', 'calibrate_bags', 'overlay_of', 'FORCE_SCALE_N', 'CONTRACTION_SCALE_M',
-           'PATH_WIDTH_M', 'path_sensitive']
+           'PATH_WIDTH_M', 'path_sensitive', 'calibrate_bag']
 
 FORCE_SCALE_N = 20.0            # 1 % of the load cell's range
 CONTRACTION_SCALE_M = 0.5e-3
@@ -222,8 +223,18 @@ def predict(obs: Observations, valve: ValveParams, muscle: MuscleParams,
     """
     if replay not in REPLAYS:
         raise ModelError(f'unknown replay {replay!r}: one of {", ".join(REPLAYS)}')
+    _compiled_core()
     return (_replay_stepped if replay == 'stepped' else _replay_static)(obs, valve, muscle,
                                                                        servo)
+
+
+def _compiled_core() -> None:
+    """A replay is thousands of long exchanges: load the compiled core now (in each process
+    that evaluates; the reference runs where it does not load)."""
+    try:
+        compiled.warm_up()
+    except RuntimeError:
+        pass
 
 
 def path_sensitive(obs: Observations, valve: ValveParams, muscle: MuscleParams,
@@ -302,13 +313,17 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
                    muscle: MuscleParams | None = None,
                    servo: LoadingServoParams | None = None,
                    max_nfev: int = 60, only: Sequence[str] | None = None,
-                   replay: str = 'stepped') -> dict[str, Any]:
+                   replay: str = 'stepped',
+                   workers: Callable[[Callable[[Any], Any], Any], Any] | None = None
+                   ) -> dict[str, Any]:
     """Fit ``FREE_BAGS`` (or the names in ``only``) to the observations from ``valve`` /
     ``muscle`` (default: the bench's defaults), the readings replayed ``replay`` ('stepped'
     or 'static', module docstring). Returns the fitted models (``valve``,
     ``muscle``), ``values``, ``stderr``, ``correlation``, ``flags``, ``rms_before`` /
     ``rms_after`` per protocol kind, ``left_out`` (the readings ``path_sensitive`` leaves out:
-    kind, u V, held value), ``cost``, ``evaluations`` and ``fit_s``.
+    kind, u V, held value), ``cost``, ``evaluations`` and ``fit_s``. ``workers``: a map-like
+    callable the finite-difference Jacobian's columns are evaluated through (scipy's
+    ``least_squares(workers=...)``; ``cluster.layer.map_on`` puts them on the cluster).
 
     Raises:
         ModelError: the observations hold nothing to fit.
@@ -338,7 +353,7 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
 
     t0 = time.perf_counter()
     sol = least_squares(res, z0, bounds=(0.0, 1.0), diff_step=1e-3, max_nfev=max_nfev,
-                        x_scale=1.0)
+                        x_scale=1.0, **({'workers': workers} if workers is not None else {}))
     fit_s = time.perf_counter() - t0
     theta = lower + sol.x * span
     names = [n for _, n, _, _ in free]
@@ -348,12 +363,26 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
                                         * np.eye(len(names)))) * PRIOR_WEIGHT ** 2
     summary['flags'] = [n for n, share in zip(names, prior_share, strict=True)
                         if n in summary['flags'] or share > PRIOR_SHARE_FLAG]
+    summary['report'] = fit_report(summary)
     v, m = _models(theta, valve, muscle, free)
     return {**summary, 'valve': v, 'muscle': m,
             'rms_before': _rms_of(obs, pred0, left_out),
             'rms_after': rms_by_kind(obs, v, m, servo, left_out, replay),
             'left_out': [obs.readings[i][:3] for i in left_out], 'cost': float(sol.cost),
             'evaluations': int(sol.nfev), 'fit_s': fit_s}
+
+
+def calibrate_bag(job: tuple[str, int, str]) -> dict[str, Any]:
+    """One job of ``pam-bench calibrate --each``: (bag folder, largest number of
+    evaluations, replay) -> ``calibrate_bags``' result for that bag alone.
+
+    Raises:
+        BagError: the bag cannot be read.
+    """
+    from pam_bench.analysis.bagread import read_bags
+    bag, max_nfev, replay = job
+    return calibrate_bags(observations_from_bags(read_bags([bag])), max_nfev=max_nfev,
+                          replay=replay)
 
 
 def overlay_of(valve: ValveParams, muscle: MuscleParams) -> dict[str, Any]:
