@@ -8,12 +8,10 @@ from __future__ import annotations
 
 import csv
 import json
-import os
 import pathlib
 import shutil
 import tempfile
 import time
-from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -45,18 +43,30 @@ def _fit_one(r: StepRecord) -> dict[str, Any]:
             'rms_error_N': fit.rms_error_n, 'delay_samples': fit.delay_samples}
 
 
-def _fit_records(records: list[StepRecord], workers: int | None = None) -> list[dict[str, Any]]:
-    """Fit every record; many records are shared out over the CPU cores (order kept)."""
-    workers = workers or min(os.cpu_count() or 1, 8)
-    if workers < 2 or len(records) < 40:
+def _fit_chunk(records: list[StepRecord]) -> list[dict[str, Any]]:
+    return [_fit_one(r) for r in records]
+
+
+def _fit_records(records: list[StepRecord], client: Any = None) -> list[dict[str, Any]]:
+    """Fit every record; many records are shared out over the execution layer's workers in
+    chunks (``cluster.layer``; order kept), a few are fitted here."""
+    if len(records) < 40:
         return [_fit_one(r) for r in records]
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        return list(pool.map(_fit_one, records, chunksize=max(1, len(records) // (4 * workers))))
+    from pam_bench.cluster.layer import run_jobs
+    n = max(1, len(records) // 16)
+    chunks = [records[i:i + n] for i in range(0, len(records), n)]
+    out: list[dict[str, Any]] = []
+    for r in run_jobs(_fit_chunk, chunks, client, label='step fits', quiet=True):
+        if not r.ok:
+            raise ExtractError(f'step fits failed: {r.error}')
+        out += r.value
+    return out
 
 
-def step_summary(records: list[StepRecord]) -> dict[str, Any]:
-    """Fits of every step response and their polynomials over x (``coefficient_polynomials``)."""
-    fits = _fit_records(records)
+def step_summary(records: list[StepRecord], client: Any = None) -> dict[str, Any]:
+    """Fits of every step response and their polynomials over x (``coefficient_polynomials``);
+    ``client``: the cluster the fits run on (default: a local one when there are many)."""
+    fits = _fit_records(records, client)
     return {'fits': fits, 'polynomials': coefficient_polynomials(fits)}
 
 

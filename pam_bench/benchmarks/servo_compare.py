@@ -36,8 +36,7 @@ from pam_bench.control.torque_servo import (  # noqa: E402
 )
 from pam_bench.twin.servo_bench import ServoRun, run_servo, tracking_metrics  # noqa: E402
 
-__all__ = ['STUDY', 'servo_scenes', 'compare_servo', 'scene_servo_setup', 'one_run',
-           'worker_domain']
+__all__ = ['STUDY', 'servo_scenes', 'compare_servo', 'scene_servo_setup', 'one_run']
 
 
 def servo_scenes() -> list[str]:
@@ -68,7 +67,9 @@ def _ros_run(scene: Scene, controller: ServoMode, duration_s: float | None,
     sc = dataclasses.replace(scene, parameters=params,
                              duration_s=duration_s or scene.duration_s)
     out = tmp / f'{scene.name}_{controller.value}'
-    res = run_scene(sc, str(out), quiet=True, one_process=one_process)
+    from pam_bench.cluster.layer import worker_domain
+    res = run_scene(sc, str(out), quiet=True, one_process=one_process,
+                    domain_id=worker_domain())
     if res.code != 0:
         raise RuntimeError(f'scene {scene.name} ({controller.value}) failed: exit {res.code}')
     return servo_run_of_bag(out, 2 if 'valve_2' in scene.nodes else 1), res.wall_s, res.sim_s
@@ -85,47 +86,52 @@ def servo_run_of_bag(bag: pathlib.Path, muscles: int) -> ServoRun:
 
 
 def compare_servo(out_dir: pathlib.Path, engine: str = 'numpy', scenes: list[str] | None = None,
-                  duration_s: float | None = None, one_process: bool = False, jobs: int = 1,
-                  domains: list[int] | None = None) -> list[dict[str, Any]]:
+                  duration_s: float | None = None, one_process: bool = True,
+                  cluster: dict[str, Any] | None = None) -> list[dict[str, Any]]:
     """Run every scene x controller; write out_dir/metrics.json and one PNG per scene.
 
     ``engine``: 'numpy' (the twin) or 'ros' (the nodes; composed in one process with
-    ``one_process``, which gives the same bags faster). ``jobs`` > 1 runs that many at once in
-    worker processes, each on a ROS domain of its own (``domains``, default ``worker_domain``
-    of this process's domain): a composed run keeps one core busy, so two jobs on two cores
-    take about half the time.
+    ``one_process``, which gives the same bags faster). The runs are jobs of the execution
+    layer (``cluster.layer``; ``cluster``: ``connect``'s keywords), each ROS run on its worker's
+    own domain. A run that fails is reported and left out of the metrics; the others complete.
     """
-    label = 'ros, one process' if engine == 'ros' and one_process else engine
+    from pam_bench.cluster.layer import run_jobs
+    label = 'ros, composed' if engine == 'ros' and one_process else engine
     out_dir.mkdir(parents=True, exist_ok=True)
     names = scenes or servo_scenes()
     tasks = [(name, ctl) for name in names for ctl in ServoMode]
     results: dict[tuple[str, ServoMode], tuple[ServoRun, float, float]] = {}
     with tempfile.TemporaryDirectory(prefix='pam_bench_servo_') as tmp:
-        if jobs <= 1:
-            for name, ctl in tasks:
-                print(f'{name}: {ctl.value} ({label}) ...', flush=True)
-                results[name, ctl] = one_run(engine, name, ctl, duration_s, tmp, one_process)
-        else:
-            from pam_bench.bringup.runner import ros_env
-            base = int(ros_env()['ROS_DOMAIN_ID'])
-            doms = domains or [worker_domain(base, i) for i in range(jobs)]
-            if len(set(doms)) < jobs:
-                raise ValueError(f'{jobs} jobs need {jobs} different ROS domains, got {doms}')
-            _run_parallel(tasks, results, (engine, duration_s, tmp, one_process), doms, label)
+        jobs = [(engine, name, ctl, duration_s, tmp, one_process) for name, ctl in tasks]
+        for r in run_jobs(_one_job, jobs, label=f'servo-compare ({label})',
+                          ros=engine == 'ros', **(cluster or {})):
+            if r.ok:
+                results[r.item[1], r.item[2]] = r.value
+            else:
+                print(f'{r.item[1]}: {r.item[2].value}: error: {r.error}', flush=True)
     rows: list[dict[str, Any]] = []
     for name in names:
         setup = scene_servo_setup(load_scene(name))
         runs = {}
         for ctl in ServoMode:
+            if (name, ctl) not in results:
+                continue
             run, wall, sim = results[name, ctl]
             runs[ctl] = run
             rows.append({'scene': name, 'controller': ctl.value, 'engine': label,
                          **tracking_metrics(run), 'sim_s': sim, 'wall_s': wall,
                          'real_time_factor': sim / wall if wall else 0.0,
                          **forward_model_rms(run, setup)})
-        _plot(name, runs, out_dir)
+        if runs:
+            _plot(name, runs, out_dir)
     (out_dir / 'metrics.json').write_text(json.dumps(rows, indent=2) + '\n', encoding='utf-8')
     return rows
+
+
+def _one_job(job: tuple[str, str, ServoMode, float | None, str, bool]
+             ) -> tuple[ServoRun, float, float]:
+    engine, name, ctl, duration_s, tmp, one_process = job
+    return one_run(engine, name, ctl, duration_s, tmp, one_process)
 
 
 def one_run(engine: str, name: str, ctl: ServoMode, duration_s: float | None, tmp: str,
@@ -140,48 +146,6 @@ def one_run(engine: str, name: str, ctl: ServoMode, duration_s: float | None, tm
     run = run_servo(ctl, setup['signal'], sim, setup['angle_rad'], scene.exchange_step_s,
                     setup['inverse'], setup['muscles'], setup['params'])
     return run, time.perf_counter() - t0, sim
-
-
-def worker_domain(base: int, index: int) -> int:
-    """The ROS domain of the ``index``-th worker of a run whose own domain is ``base``: the
-    next ones, wrapped inside 0..101 (the IDs ROS 2 recommends)."""
-    return (base + index) % 102
-
-
-def _worker_init(counter: Any, domains: list[int]) -> None:
-    """A worker process takes the next index and the ROS domain that goes with it."""
-    with counter.get_lock():
-        index = counter.value
-        counter.value += 1
-    os.environ['ROS_DOMAIN_ID'] = str(domains[index])
-    os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
-
-
-def _run_parallel(tasks: list[tuple[str, ServoMode]],
-                  results: dict[tuple[str, ServoMode], tuple[ServoRun, float, float]],
-                  how: tuple[str, float | None, str, bool], domains: list[int],
-                  label: str) -> None:
-    """``one_run`` of every task (``how``: engine, duration, folder, one process) in one
-    spawned worker per domain; results keyed by task."""
-    import concurrent.futures
-    import multiprocessing
-
-    ctx = multiprocessing.get_context('spawn')
-    counter = ctx.Value('i', 0)
-    with concurrent.futures.ProcessPoolExecutor(len(domains), mp_context=ctx,
-                                                initializer=_worker_init,
-                                                initargs=(counter, domains)) as pool:
-        futures = {pool.submit(one_run, how[0], name, ctl, how[1], how[2], how[3]):
-                   (name, ctl) for name, ctl in tasks}
-        try:
-            for fut in concurrent.futures.as_completed(futures):
-                name, ctl = futures[fut]
-                results[name, ctl] = fut.result()
-                print(f'{name}: {ctl.value} ({label}) done '
-                      f'({len(results)} of {len(tasks)})', flush=True)
-        except BaseException:
-            pool.shutdown(wait=True, cancel_futures=True)
-            raise
 
 
 def forward_model_rms(run: ServoRun, setup: dict[str, Any], settle_s: float = 1.0
@@ -227,7 +191,7 @@ def measure(quick: bool, out: pathlib.Path, scenes: list[str] | None) -> dict[st
     jobs = os.cpu_count() or 1
     t0 = time.perf_counter()
     rows = compare_servo(out / 'servo_compare', 'ros', ['servo_sin_t'] if quick else None,
-                         2.0 if quick else None, one_process=True, jobs=jobs)
+                         2.0 if quick else None, one_process=True)
     return {'servo_compare': {'wall_s': time.perf_counter() - t0, 'jobs': jobs, 'runs': len(rows),
             'sim_s': sum(r['sim_s'] for r in rows), 'rows': rows}}
 

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import pathlib
 from typing import Any
+
+from pam_bench.cli.cluster_args import add_cluster_args, cluster_of
 
 __all__ = ['register']
 
@@ -27,9 +28,7 @@ def register(sub: Any) -> None:
     p.add_argument('--processes', action='store_true',
                    help='with --engine ros: every node in its own process (same bags, slower)')
     p.add_argument('--one-process', action='store_true', help=argparse.SUPPRESS)  # the default
-    p.add_argument('--jobs', type=int, default=0,
-                   help='runs at once, each in a worker process on its own ROS domain (default: '
-                   'one per CPU, 1 with --processes)')
+    add_cluster_args(p)
     p.set_defaults(func=_cmd_servo_compare)
     p = sub.add_parser('bench', help='benchmarks -> BENCHMARKS.md and bench.json')
     p.add_argument('--quick', action='store_true', help='a few minutes: quick grids and scenes')
@@ -56,9 +55,8 @@ def _cmd_pingpong(args: argparse.Namespace) -> int:
 def _cmd_servo_compare(args: argparse.Namespace) -> int:
     from pam_bench.benchmarks.servo_compare import compare_servo
     out = pathlib.Path(args.out)
-    composed = not args.processes
-    jobs = args.jobs or (os.cpu_count() or 1 if args.engine == 'numpy' or composed else 1)
-    rows = compare_servo(out, args.engine, args.scene or None, args.duration, composed, jobs)
+    rows = compare_servo(out, args.engine, args.scene or None, args.duration,
+                         not args.processes, cluster_of(args))
     print(f"{'scene':26s} {'controller':20s} {'RMS':>8s} {'max':>8s} {'at reversal':>12s}")
     for r in rows:
         print(f"{r['scene']:26s} {r['controller']:20s} {r['rms_error']:8.3f} "

@@ -94,18 +94,23 @@ def connect(scheduler: str | None = None, workers: int | None = None,
 
 
 def worker_domain() -> int:
-    """The ROS domain of the Dask worker this runs in: a local cluster's workers are named
-    0 .. n-1; another worker's name (or address) is hashed, offset by ``PAM_BENCH_DOMAIN_BASE``
-    where a machine sets it. Outside a worker: this process's ``ROS_DOMAIN_ID``."""
+    """The ROS domain of the Dask worker this runs in, one per worker: the worker's slot (a
+    local cluster's workers are named 0 .. n-1; another's name or address is hashed) picks
+    ``PAM_BENCH_DOMAINS`` (a comma list) when set, else the slot-th safe domain after the
+    ``ROS_DOMAIN_ID`` the worker inherited (its client's). Outside a worker: ROS_DOMAIN_ID."""
+    own = int(os.environ.get('ROS_DOMAIN_ID', '') or 0)
     try:
         from distributed import get_worker
         w = get_worker()
     except (ImportError, ValueError):
-        return int(os.environ.get('ROS_DOMAIN_ID', '') or 1)
+        return own
     name = w.name
     slot = name if isinstance(name, int) else zlib.crc32(str(name or w.address).encode())
-    base = int(os.environ.get('PAM_BENCH_DOMAIN_BASE', '0'))
-    return SAFE_DOMAINS[(base + slot) % len(SAFE_DOMAINS)]
+    listed = [int(d) for d in os.environ.get('PAM_BENCH_DOMAINS', '').split(',') if d.strip()]
+    if listed:
+        return listed[slot % len(listed)]
+    start = SAFE_DOMAINS.index(own) + 1 if own in SAFE_DOMAINS else 0
+    return SAFE_DOMAINS[(start + slot) % len(SAFE_DOMAINS)]
 
 
 def _job(fn: Callable[[Any], Any], item: Any, ros: bool) -> tuple[bool, Any, str, float, str]:
