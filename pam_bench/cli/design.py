@@ -1,4 +1,5 @@
-"""Verbs that design a muscle: size (000's sizing graph, forward and inverse)."""
+"""Verbs that design: size (000's sizing graph, forward and inverse), sweep (settings over
+many runs)."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import pathlib
 import sys
 from typing import Any
 
+from pam_bench.cli.cluster_args import add_cluster_args, cluster_of
 from pam_bench.cli.errors import UsageError
 
 __all__ = ['register']
@@ -30,6 +32,13 @@ def register(sub: Any) -> None:
     p.add_argument('--pressure-mpa', type=float, required=True, help='gauge pressure P, MPa')
     p.add_argument('--json', action='store_true')
     p.set_defaults(func=_cmd_size)
+    p = sub.add_parser('sweep', help='run a scene over a grid, a list or random draws of its '
+                       'settings and seeds on the cluster -> results.csv and plots')
+    p.add_argument('sweep', help='sweep file (config/sweeps/NAME.yaml or a path)')
+    p.add_argument('--out', required=True, help='output folder (a rerun skips finished jobs)')
+    p.add_argument('--no-plots', action='store_true', help='results.csv only')
+    add_cluster_args(p)
+    p.set_defaults(func=_cmd_sweep)
 
 
 def _cmd_size(args: argparse.Namespace) -> int:
@@ -80,3 +89,22 @@ def _size_inverse(args: argparse.Namespace) -> int:
               f'(L0 {d.segment_length_m * 1e3:5.1f} mm, Phi0/L0 {d.phi0_over_l0:.3f}, '
               f'P L0^2/F {d.p_l0sq_over_f:.4g})  contraction ratio {d.contraction_ratio:.4f}')
     return 0 if found else 1
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from pam_bench.config.paths import config_dir
+    from pam_bench.sweep.results import RESULTS, plot_results, run_sweep
+    from pam_bench.sweep.spec import load_sweep
+    path = pathlib.Path(args.sweep)
+    if not path.suffix:
+        path = config_dir() / 'sweeps' / f'{args.sweep}.yaml'
+    sweep = load_sweep(path)
+    out = pathlib.Path(args.out)
+    rows = run_sweep(sweep, out, cluster_of(args))
+    failed = [r for r in rows if r['status'] != 'ok']
+    for r in failed:
+        print(f"job {r['job']} ({r['scene']}, seed {r['seed']}): {r['status']}")
+    names = [] if args.no_plots else plot_results(sweep, rows, out)
+    print(f'{len(rows) - len(failed)} of {len(rows)} jobs ok; wrote {out / RESULTS}'
+          + (f' and {len(names)} plots' if names else ''))
+    return 1 if failed else 0

@@ -22,6 +22,10 @@ import time
 from collections.abc import Sequence
 from typing import Any
 
+import numpy as np
+
+from pam_bench.analysis.bagread import BagData, Points
+from pam_bench.analysis.bagread import StepRecord as BagRecord
 from pam_bench.config.protocols import parse_overrides, protocol_schedule
 from pam_bench.config.scene import Scene
 from pam_bench.models.constants import SUB_STEP_S
@@ -38,7 +42,7 @@ from pam_bench.protocol.settings import COMMAND_STEP_S, RECORD_EXCHANGE_S, Runne
 from pam_bench.sim.lockstep import negotiate
 from pam_bench.twin.bench import SingleMuscleBench
 
-__all__ = ['TwinRun', 'run_readings', 'run_protocol', 'run_scene', 'TIMED_OUT']
+__all__ = ['TwinRun', 'run_readings', 'run_protocol', 'run_scene', 'TIMED_OUT', 'bag_data_of']
 
 TIMED_OUT = 6
 """Exit code of a twin run stopped at its ``max_sim_s``."""
@@ -154,3 +158,28 @@ def run_scene(scene: Scene, seed: int = 0, events: Sequence[tuple[float, str]] =
                         servo=st['loading_servo'].servo, load_cell=st['load_cell_1'].load_cell,
                         seed=st['load_cell_1'].seed, events=events,
                         straight_fibre=muscle.straight_fibre, runner=seq, start_index=start)
+
+
+def bag_data_of(run: TwinRun) -> BagData:
+    """A twin run's readings and step records as the extraction reads a bag's
+    (``analysis.bagread``): the same estimators then apply to both."""
+    by: dict[str, list[Point]] = {}
+    for pt in run.points:
+        by.setdefault(pt.reading.protocol, []).append(pt)
+    points = {}
+    for name, pts in by.items():
+        def col(f: Any, pts: list[Point] = pts) -> np.ndarray:
+            return np.array([f(p) for p in pts])
+        points[name] = Points(name, col(lambda p: p.t_s), col(lambda p: p.reading.series),
+                              col(lambda p: p.reading.step),
+                              col(lambda p: int(p.reading.direction)),
+                              col(lambda p: p.reading.series_value),
+                              col(lambda p: p.reading.set_value), col(lambda p: p.voltage_v),
+                              col(lambda p: p.measurement.force_n),
+                              col(lambda p: p.measurement.contraction_m),
+                              col(lambda p: p.measurement.pressure_pa))
+    records = [BagRecord(r.reading.series, r.reading.step, int(r.reading.direction),
+                         r.reading.load_value, float(r.reading.pre_voltage_v or 0.0),
+                         r.reading.voltage_v, r.reading.sample_period_s,
+                         np.asarray(r.samples, float)) for r in run.records]
+    return BagData(points, records)

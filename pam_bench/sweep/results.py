@@ -1,0 +1,140 @@
+"""Running a sweep on the execution layer, its ``results.csv`` and its plots.
+
+``results.csv`` has one row per job, in the sweep's job order: its id, scene, seed, the values
+it sets, its figures, its status (``ok`` or the one-line error) and its wall time. A rerun
+reads the file, skips every job already ``ok`` and writes the whole file again, so an
+interrupted sweep goes on where it stopped; apart from the time column the file does not
+depend on how many workers ran it, or where. Plots: each figure against the one varied
+setting (the seeds' mean and spread), or as a heat map over two (the seeds' mean).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import pathlib
+from typing import Any
+
+import numpy as np
+
+from pam_bench.sweep.jobs import run_job
+from pam_bench.sweep.spec import Job, Sweep
+
+__all__ = ['run_sweep', 'read_results', 'plot_results', 'RESULTS']
+
+RESULTS = 'results.csv'
+
+
+def _columns(sweep: Sweep) -> list[str]:
+    return ['job', 'scene', 'seed', *sweep.paths, *sweep.figures, 'status', 'seconds']
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, float):
+        return repr(v)
+    return str(v)
+
+
+def read_results(path: pathlib.Path) -> dict[str, dict[str, str]]:
+    """Job id -> its row (strings) of an earlier ``results.csv`` (empty when there is none)."""
+    if not path.exists():
+        return {}
+    with open(path, newline='', encoding='utf-8') as fh:
+        return {row['job']: row for row in csv.DictReader(fh)}
+
+
+def run_sweep(sweep: Sweep, out: pathlib.Path, cluster: dict[str, Any] | None = None
+              ) -> list[dict[str, Any]]:
+    """Run the jobs ``out/results.csv`` does not hold as done; write it whole; return the
+    rows (module docstring). A failed job is a row with its error; the others complete."""
+    from pam_bench.cluster.layer import run_jobs
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / RESULTS
+    cols = _columns(sweep)
+    old = read_results(path)
+    jobs = sweep.jobs()
+    todo = [j for j in jobs if old.get(j.id, {}).get('status') != 'ok' or
+            any(c not in old[j.id] for c in cols)]
+    done: dict[str, dict[str, Any]] = {}
+    if todo:
+        tasks = [(j, sweep.engine, sweep.figures, sweep.duration_s) for j in todo]
+        for r in run_jobs(run_job, tasks, label=f'sweep {sweep.name}',
+                          ros=sweep.engine == 'ros', **(cluster or {})):
+            job: Job = r.item[0]
+            figs = r.value if r.ok else {f: math.nan for f in sweep.figures}
+            done[job.id] = {**figs, 'status': 'ok' if r.ok else r.error.replace('\n', ' '),
+                            'seconds': round(r.seconds, 3)}
+    rows = []
+    for j in jobs:
+        row: dict[str, Any] = {'job': j.id, 'scene': j.scene, 'seed': j.seed, **dict(j.values)}
+        if j.id in done:
+            row.update(done[j.id])
+        else:
+            row.update({c: old[j.id][c] for c in (*sweep.figures, 'status', 'seconds')})
+        rows.append(row)
+    tmp = path.with_suffix('.csv.part')
+    with open(tmp, 'w', newline='', encoding='utf-8') as fh:
+        w = csv.writer(fh)
+        w.writerow(cols)
+        for row in rows:
+            w.writerow([_fmt(row.get(c, '')) for c in cols])
+    tmp.replace(path)
+    return rows
+
+
+def _num(v: Any) -> float:
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def plot_results(sweep: Sweep, rows: list[dict[str, Any]], out: pathlib.Path) -> list[str]:
+    """One PNG per figure (module docstring); returns the file names."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    paths = sweep.paths
+    names = []
+    for fig_key in sweep.figures:
+        fig, ax = plt.subplots(figsize=(6, 4))
+        if len(paths) == 1:
+            groups: dict[tuple[str, float], list[float]] = {}
+            for r in rows:
+                groups.setdefault((r['scene'], _num(r[paths[0]])), []).append(
+                    _num(r[fig_key]))
+            for scene in dict.fromkeys(r['scene'] for r in rows):
+                px = sorted(x for s, x in groups if s == scene)
+                py = [float(np.nanmean(groups[scene, x])) for x in px]
+                pe = [float(np.nanstd(groups[scene, x])) for x in px]
+                ax.errorbar(px, py, yerr=pe, marker='o', capsize=3, label=scene)
+            ax.set_xlabel(paths[0])
+            ax.legend(fontsize=7)
+        elif len(paths) >= 2:
+            xs = sorted({_num(r[paths[0]]) for r in rows})
+            ys = sorted({_num(r[paths[1]]) for r in rows})
+            grid = np.full((len(ys), len(xs)), np.nan)
+            acc: dict[tuple[int, int], list[float]] = {}
+            for r in rows:
+                key = (ys.index(_num(r[paths[1]])), xs.index(_num(r[paths[0]])))
+                acc.setdefault(key, []).append(_num(r[fig_key]))
+            for (i, j), v in acc.items():
+                grid[i, j] = np.nanmean(v) if np.isfinite(v).any() else np.nan
+            mesh = ax.imshow(grid, origin='lower', aspect='auto',
+                             extent=(-0.5, len(xs) - 0.5, -0.5, len(ys) - 0.5))
+            ax.set_xticks(range(len(xs)), [f'{x:.4g}' for x in xs], fontsize=7)
+            ax.set_yticks(range(len(ys)), [f'{y:.4g}' for y in ys], fontsize=7)
+            ax.set_xlabel(paths[0])
+            ax.set_ylabel(paths[1])
+            fig.colorbar(mesh, ax=ax)
+        else:
+            vals = [_num(r[fig_key]) for r in rows]
+            ax.plot([r['seed'] for r in rows], vals, 'o')
+            ax.set_xlabel('seed')
+        ax.set_title(fig_key, fontsize=9)
+        name = f"{fig_key.replace('.', '_')}.png"
+        fig.tight_layout()
+        fig.savefig(out / name, dpi=100)
+        plt.close(fig)
+        names.append(name)
+    return names
