@@ -23,6 +23,7 @@ setup(
         (f'share/{PACKAGE}', ['package.xml']),
         (f'share/{PACKAGE}/config', glob('config/*.yaml')),
         (f'share/{PACKAGE}/config/scenes', glob('config/scenes/*.yaml')),
+        (f'share/{PACKAGE}/config/sweeps', glob('config/sweeps/*.yaml')),
         (f'share/{PACKAGE}/msg_defs/msg', glob('msg_defs/msg/*.msg')),
         (f'share/{PACKAGE}/msg_defs/action', glob('msg_defs/action/*.action')),
     ],

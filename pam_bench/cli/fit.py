@@ -18,6 +18,10 @@ def register(sub: Any) -> None:
     p = sub.add_parser('extract', help='bags -> characteristics, gains, identified model')
     p.add_argument('bags', nargs='+', help='rosbag2 directories')
     p.add_argument('--out', required=True, help='output folder (replaced when complete)')
+    p.add_argument('--each', action='store_true', help='each bag on its own into '
+                   'OUT/<bag name>/ (one job per bag on the cluster), then one comparison '
+                   'across them in OUT (comparison.csv, .md, drift.png)')
+    add_cluster_args(p)
     p.set_defaults(func=_cmd_extract)
     p = sub.add_parser('truth', help="what the scene's parameters imply (summary.json keys)")
     p.add_argument('scene', help='scene name or scene file')
@@ -197,6 +201,15 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
 def _cmd_extract(args: argparse.Namespace) -> int:
     from pam_bench.analysis.extract import extract
+    if args.each:
+        from pam_bench.analysis.batch import extract_each
+        rows = extract_each(args.bags, args.out, cluster_of(args))
+        failed = [r for r in rows if r['error']]
+        for r in failed:
+            print(f"{r['bag']}: error: {r['error']}")
+        print(f'{len(rows) - len(failed)} of {len(rows)} bags extracted; wrote '
+              f'{args.out}/comparison.csv, comparison.md and drift.png')
+        return 1 if failed else 0
     summary = extract(args.bags, args.out)
     t = summary['timing_s']
     print(f'wrote {args.out}/summary.json, report.md and CSV files '

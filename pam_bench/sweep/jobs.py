@@ -64,6 +64,10 @@ def _protocol_result(scene: Any, job: Job, engine: str, figures: list[str]) -> d
             data = read_bags([str(bag)])
         out = {'run': {'sim_s': res.sim_s, 'exit_code': res.code}}
     out.update(gain_summary(data.points))
+    forces = [float(p.force_n.max()) for p in data.points.values() if len(p)]
+    strokes = [float(p.contraction_m.max()) for p in data.points.values() if len(p)]
+    out['readings'] = {'force_max_N': max(forces, default=math.nan),
+                       'contraction_max_mm': max(strokes, default=math.nan) * 1e3}
     if data.records:
         out['step_response'] = step_summary(data.records)
     if any(f.startswith('calibrate.') for f in figures):

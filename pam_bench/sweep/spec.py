@@ -12,7 +12,8 @@ A sweep (YAML) names:
 - ``figures``: what to collect, by dotted key: of the extraction's summary.json
   (``isometric.gain_N_per_V.max``, ``step_response.polynomials.b.coefficients_low_to_high.0``),
   of the servo's tracking (``servo.rms_error``), of a calibration of the run's readings
-  (``calibrate.values.gain_n_per_pa``, ``calibrate.stderr.gain_n_per_pa``) or of the run
+  (``calibrate.values.gain_n_per_pa``, ``calibrate.stderr.gain_n_per_pa``), of the run's
+  readings (``readings.force_max_N``, ``readings.contraction_max_mm``) or of the run
   (``run.sim_s``, ``run.exit_code``);
 - optional ``duration_s`` (a servo scene's sim time per job) and ``description``.
 
@@ -42,7 +43,7 @@ __all__ = ['Sweep', 'Job', 'load_sweep', 'FIGURE_ROOTS', 'ENGINES', 'SWEEP_KEYS'
 
 ENGINES = ('twin', 'ros')
 FIGURE_ROOTS = ('isometric', 'isotonic', 'isobaric', 'step_response', 'model_comparison',
-                'servo', 'calibrate', 'run')
+                'readings', 'servo', 'calibrate', 'run')
 """First words a figure may start with (module docstring)."""
 SWEEP_KEYS = ('description', 'scene', 'engine', 'seeds', 'grid', 'list', 'random', 'figures',
               'duration_s')
