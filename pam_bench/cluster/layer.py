@@ -89,7 +89,8 @@ def connect(scheduler: str | None = None, workers: int | None = None,
     n = workers or os.cpu_count() or 1
     with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host='127.0.0.1',
                       dashboard_address='127.0.0.1:0', silence_logs=logging.ERROR,
-                      worker_dashboard_address='127.0.0.1:0') as cluster, Client(cluster) as client:
+                      worker_dashboard_address='127.0.0.1:0') as cluster, \
+            Client(cluster) as client:
         yield client
 
 
