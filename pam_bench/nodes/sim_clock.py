@@ -75,15 +75,9 @@ class SimClock(BenchNode):
         ``PAM_BENCH_EXECUTOR=single``. Under an rclpy executor pass ``lean=False``."""
         super().__init__(name, **kwargs)
         s: ClockSettings = self.settings
-        self.step_s = s.exchange_step_s
+        self.step_s = s.exchange_step_s               # read by the composed runner
         self.participants = set(s.participants)
         self.duration_s = s.duration_s
-        self.realtime = s.realtime
-        self.grace_s = s.grace_s
-        self.progress_s = s.progress_period_s
-        self.nudge_s = s.nudge_s
-        self.summary_file = s.summary_file
-        self.timeout_s = s.stall_timeout_s
         self.h_ns = round(self.step_s * 1e9)
         self.k = 0
         self.tick_ns = 0
@@ -126,7 +120,7 @@ class SimClock(BenchNode):
         """What the timers do, called by ``lean_spin`` at every wake-up (>= every 50 ms)."""
         now = time.monotonic()
         if self.ready_at is not None:
-            if self.state == ClockState.GRACE and now - self.ready_at >= self.grace_s:
+            if self.state == ClockState.GRACE and now - self.ready_at >= self.settings.grace_s:
                 self.t_run0 = now
                 self.state = ClockState.RUNNING
                 self._advance()
@@ -150,11 +144,11 @@ class SimClock(BenchNode):
                     self.ready_at = now
                     return
                 self.timer.cancel()
-                self.timer = self.create_timer(self.grace_s if self.grace_s > 0 else 1e-3,
-                                               self._start)
+                grace = self.settings.grace_s
+                self.timer = self.create_timer(grace if grace > 0 else 1e-3, self._start)
             else:
                 self._publish()     # repeat t_0 until all are up
-                if now - self.t_wall0 > self.timeout_s:
+                if now - self.t_wall0 > self.settings.stall_timeout_s:
                     self._finish(f'participants never ready: '
                                  f'{sorted(self.participants - self.acks)}', 2)
             return
@@ -164,9 +158,9 @@ class SimClock(BenchNode):
     def _check_progress(self, now: float) -> None:
         """Nudge, then give up on, a tick that is not acknowledged."""
         waited = now - self.last_tick_wall
-        if waited > self.timeout_s:
+        if waited > self.settings.stall_timeout_s:
             self._stall()
-        elif waited > (self.nudges + 1) * self.nudge_s:
+        elif waited > (self.nudges + 1) * self.settings.nudge_s:
             # again every nudge_s: under load a reader can match later than one nudge, and the
             # outputs sent again with it are lost as the first ones were
             self.nudges += 1
@@ -176,7 +170,7 @@ class SimClock(BenchNode):
         """A participant did not acknowledge in time: publish why, end the run."""
         reason = (f'lock-step stalled at t = {self.tick_ns * 1e-9:.3f} s: no '
                   f'acknowledgement from {", ".join(sorted(self.participants - self.acks))}'
-                  f' within {self.timeout_s:g} s (node dead or hung)')
+                  f' within {self.settings.stall_timeout_s:g} s (node dead or hung)')
         status = ProtocolStatus(state=ProtocolStatus.STATE_ABORTED, phase='aborted',
                                 reason=reason)
         status.header.stamp = time_of(self.tick_ns)
@@ -201,7 +195,7 @@ class SimClock(BenchNode):
         step = negotiate(self.h_ns, (self.next_step_ns,),
                          round(self.duration_s * 1e9) - self.tick_ns
                          if self.duration_s > 0.0 else None)
-        if self.realtime:
+        if self.settings.realtime:
             lag = (self.tick_ns + step) * 1e-9 - (time.monotonic() - self.t_run0)
             if lag > 0:
                 time.sleep(lag)
@@ -249,7 +243,8 @@ class SimClock(BenchNode):
 
     def _progress(self) -> None:
         now = time.monotonic()
-        if self.progress_s <= 0 or now - self.last_progress < self.progress_s:
+        period = self.settings.progress_period_s
+        if period <= 0 or now - self.last_progress < period:
             return
         self.last_progress = now
         t = self.tick_ns * 1e-9
@@ -270,8 +265,8 @@ class SimClock(BenchNode):
         self.state = ClockState.DONE
         self.exit_code = code
         self.summary = RunSummary(code, self.k, sim_s, wall, reason)
-        if self.summary_file:
-            with open(self.summary_file, 'w', encoding='utf-8') as fh:
+        if self.settings.summary_file:
+            with open(self.settings.summary_file, 'w', encoding='utf-8') as fh:
                 fh.write(self.summary.to_json())
         print(self.summary.line(), flush=True)
         raise SystemExit(code)

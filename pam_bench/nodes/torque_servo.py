@@ -60,15 +60,7 @@ class TorqueServoNode(BenchNode):
         mode, model_file = s.controller, s.inverse_model_file
         self.signal = Signal(SignalKind(s.signal), s.amplitude, s.omega_rad_s, s.offset,
                              s.period_s)
-        self.control_period_s = s.control_period_s
-        self.stale_timeout_s = s.stale_timeout_s
-        self.realtime_priority = s.realtime_priority
-        self.wall_loop = s.wall_loop
-        self.startup_timeout_s = s.startup_timeout_s
-        self.await_recorder = s.await_recorder
-        self.latch_faults = s.latch_faults
         self.latched = ''
-        self.duration_s = s.duration_s
         params = s.servo
         inverse = InverseModel.load(model_file) if model_file else None
         self.ctl = TorqueServoController(params, ServoMode(mode), inverse, self.muscles)
@@ -101,13 +93,13 @@ class TorqueServoNode(BenchNode):
                     functools.partial(self._measured, tp), SENSOR)
             self._last_tick_ns: int | None = None
             self._next_progress_ns = 0
-            self.start_wall_ticks(self.control_period_s)
+            self.start_wall_ticks(self.settings.control_period_s)
 
     def spin_mode(self) -> Spin:
         """In lock-step the node has subscriptions only: it spins on them (a fraction of
         rclpy's executor per message); on a wall clock its loop runs on a monotonic deadline,
         or on rclpy's timer and executor with ``wall_loop: timer`` (to compare)."""
-        if not self.lockstep and self.wall_loop == 'timer':
+        if not self.lockstep and self.settings.wall_loop == 'timer':
             return Spin.EXECUTOR
         return super().spin_mode()
 
@@ -141,10 +133,10 @@ class TorqueServoNode(BenchNode):
         t_ns = self.now_ns() if t_ns is None else t_ns
         self.count_tick()
         waiting = len(self.stamps) < len(self.cell_topics) + 1    # not every device is up yet
-        if self.t0_ns is None and self.await_recorder and \
+        if self.t0_ns is None and self.settings.await_recorder and \
                 self.state_pub.get_subscription_count() == 0:       # nor the recorder
             waiting = not self.waited_too_long(t_ns, ['a recorder on torque_servo/state'],
-                                               self.startup_timeout_s)
+                                               self.settings.startup_timeout_s)
         if waiting:
             stamp = time_of(t_ns)
             for pub in self.valve_pubs:
@@ -152,21 +144,21 @@ class TorqueServoNode(BenchNode):
                 msg.header.stamp = stamp
                 pub.publish(msg)
             self.waited_too_long(t_ns, [tp for tp in [*self.cell_topics, self.enc_topic]
-                                        if tp not in self.stamps], self.startup_timeout_s)
+                                        if tp not in self.stamps], self.settings.startup_timeout_s)
             return
-        if self.t0_ns is not None and self.duration_s > 0.0 and \
-                t_ns - self.t0_ns >= round(self.duration_s * 1e9):
+        if self.t0_ns is not None and self.settings.duration_s > 0.0 and \
+                t_ns - self.t0_ns >= round(self.settings.duration_s * 1e9):
             self.exit_code = 0
         if self.t0_ns is not None and t_ns >= self._next_progress_ns:
             self._next_progress_ns = t_ns + 2_000_000_000
             print(f'[wall] torque_servo: {(t_ns - self.t0_ns) * 1e-9:.0f} s of '
-                  f'{self.duration_s:.0f} s', flush=True)
+                  f'{self.settings.duration_s:.0f} s', flush=True)
         dt = 0.0 if self._last_tick_ns is None else (t_ns - self._last_tick_ns) * 1e-9
         self._last_tick_ns = t_ns
         stale = ''
         for tp in [*self.cell_topics, self.enc_topic]:
             age = t_ns * 1e-9 - self.stamps.get(tp, -math.inf)
-            if age > self.stale_timeout_s:
+            if age > self.settings.stale_timeout_s:
                 stale = f'measured topic {tp} stale ({age:.3f} s old): valves vented'
                 break
         self._tick(t_ns, dt, stale)
@@ -201,7 +193,7 @@ class TorqueServoNode(BenchNode):
         t = (t_ns - self.t0_ns) * 1e-9
         if not fault and not self.finite(self.angle_rad, *self.forces):
             fault = 'measured force or angle not finite: valves vented'
-        if fault and self.latch_faults and not self.lockstep:
+        if fault and self.settings.latch_faults and not self.lockstep:
             self.latched = self.latched or fault
         if not fault and self.latched:
             fault = f'{self.latched} (latched: call {topics.SERVO_RESET} to resume)'
