@@ -1,12 +1,16 @@
 """Repair a bag whose recorder was killed: keep every complete record, write a valid bag.
 
-The recorder writes MCAP chunks (schemas, channels, messages) and flushes the file every
-``flush_period_s``; only its close writes the summary, the footer and metadata.yaml. After a
-SIGKILL the file ends in the middle of a chunk or after the last flushed one. ``repair_bag``
-reads the records in order until the first incomplete one, writes them into a new bag (same
-topics, types, log times and payloads) and puts it in place of the old one, which is kept as
-``NAME.broken``. What the recorder held in memory since its last flush is lost: the report
-says how much of the file was unreadable and how many messages each topic kept.
+The recorder (``analysis.splitwriter``) writes MCAP chunks (schemas, channels, messages) into
+the file it is filling, in ``NAME/.part_N/``, and flushes it every ``flush_period_s``; files
+it closed lie beside it, listed in ``.closed_parts.json``. Only a close writes a file's
+summary and footer, and the bag's metadata.yaml. After a SIGKILL the open file ends in the
+middle of a chunk or after the last flushed one. ``repair_bag`` reads that file's records in
+order until the first incomplete one, writes them into a new file (same topics, types, log
+times and payloads) in the bag, and writes the metadata.yaml of every file; the torn file is
+kept in ``NAME.broken/``. A bag of one file written by an older recorder (``NAME/NAME.mcap``
+without metadata) is rebuilt the same way. What the recorder held in memory since its last
+flush is lost: the report says how much of the file was unreadable and how many messages each
+topic kept.
 """
 
 from __future__ import annotations
@@ -17,6 +21,13 @@ import shutil
 from typing import Any
 
 from pam_bench.analysis.errors import BagError
+from pam_bench.analysis.splitwriter import (
+    CLOSED,
+    PART_PREFIX,
+    part_name,
+    read_closed,
+    write_metadata,
+)
 from pam_bench.analysis.types import bench_typestore
 
 __all__ = ['RepairReport', 'repair_bag']
@@ -24,8 +35,8 @@ __all__ = ['RepairReport', 'repair_bag']
 
 @dataclasses.dataclass(frozen=True)
 class RepairReport:
-    """Outcome: whether a repair was needed, messages kept per topic, bytes of the old file
-    that were unreadable (a torn chunk), and where the old file went."""
+    """Outcome: whether a repair was needed, messages kept per topic (all files), bytes of the
+    torn file that were unreadable, and where the torn file went."""
 
     needed: bool
     kept: dict[str, int]
@@ -55,39 +66,33 @@ def _records(data: bytes) -> tuple[list, int]:
     return out, good
 
 
-def repair_bag(path: str | pathlib.Path) -> RepairReport:
-    """Rebuild ``path`` (a rosbag2 MCAP folder) from its readable records.
+def _valid(path: pathlib.Path) -> dict[str, int] | None:
+    """Messages per topic of a bag that opens, else None."""
+    if not (path / 'metadata.yaml').exists():
+        return None
+    try:
+        from rosbags.rosbag2 import Reader
+        with Reader(path) as reader:
+            counts: dict[str, int] = {}
+            for c in reader.connections:
+                counts[c.topic] = counts.get(c.topic, 0) + c.msgcount
+            return counts
+    except Exception:  # noqa: BLE001 - unreadable despite its metadata: repair it
+        return None
 
-    Raises:
-        BagError: not a bag folder, or nothing readable in it.
-    """
-    from mcap.records import Channel, Message, Schema
-    from rosbags.rosbag2 import StoragePlugin, Writer
-    path = pathlib.Path(path)
-    files = sorted(path.glob('*.mcap')) if path.is_dir() else []
-    if not files:
-        raise BagError(f'{path}: no .mcap file to repair')
-    if (path / 'metadata.yaml').exists():
-        try:
-            from rosbags.rosbag2 import Reader
-            with Reader(path) as reader:
-                counts = {c.topic: c.msgcount for c in reader.connections}
-            return RepairReport(False, counts, 0, None)
-        except Exception:  # noqa: BLE001 - unreadable despite its metadata: repair it
-            pass
-    data = files[0].read_bytes()
-    records, good = _records(data)
-    if not any(isinstance(r, Message) for r in records):
-        raise BagError(f'{path}: no complete message in {files[0].name}')
+
+def _rebuild(records: list, out: pathlib.Path, kept: dict[str, int]) -> dict[str, Any]:
+    """Write ``records`` as a one-file bag in ``out``; count them in ``kept``; return the
+    rosbag2 metadata of that file."""
+    import yaml
+    from mcap.records import Channel, Schema
+    from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
     store = bench_typestore()
-    broken = path.with_name(path.name + '.broken')
-    tmp = path.with_name(path.name + '.repairing')
-    shutil.rmtree(tmp, ignore_errors=True)
     schemas: dict[int, Schema] = {}
     channels: dict[int, Channel] = {}
     conns: dict[int, Any] = {}
-    kept: dict[str, int] = {}
-    writer = Writer(tmp, version=9, storage_plugin=StoragePlugin.MCAP)
+    writer = Writer(out, version=9, storage_plugin=StoragePlugin.MCAP)
+    writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
     writer.open()
     try:
         for rec in records:
@@ -110,15 +115,63 @@ def repair_bag(path: str | pathlib.Path) -> RepairReport:
                 kept[ch.topic] = kept.get(ch.topic, 0) + 1
     finally:
         writer.close()
+    meta = yaml.safe_load((out / 'metadata.yaml').read_text(encoding='utf-8'))
+    return dict(meta['rosbag2_bagfile_information'])
+
+
+def repair_bag(path: str | pathlib.Path) -> RepairReport:
+    """Rebuild the torn file of ``path`` (a rosbag2 MCAP folder, split or not) from its
+    readable records and write the bag's metadata.yaml.
+
+    Raises:
+        BagError: not a bag folder, or nothing readable in it.
+    """
+    from mcap.records import Message
+    path = pathlib.Path(path)
+    if not path.is_dir():
+        raise BagError(f'{path}: no .mcap file to repair')
+    counts = _valid(path)
+    if counts is not None:
+        return RepairReport(False, counts, 0, None)
+    closed, custom = read_closed(path)
+    closed_names = {f['path'] for p in closed for f in p['files']}
+    torn = sorted(path.glob(f'{PART_PREFIX}*/*.mcap'),
+                  key=lambda f: int(f.parent.name[len(PART_PREFIX):]))
+    torn += [f for f in sorted(path.glob('*.mcap')) if f.name not in closed_names]
+    if not torn and not closed:
+        raise BagError(f'{path}: no .mcap file to repair')
+    kept: dict[str, int] = {}
+    for part in closed:
+        for t in part['topics_with_message_count']:
+            name = t['topic_metadata']['name']
+            kept[name] = kept.get(name, 0) + t['message_count']
+    broken = path.with_name(path.name + '.broken')
     shutil.rmtree(broken, ignore_errors=True)
-    path.rename(broken)
-    tmp.rename(path)
-    (path / f'{tmp.name}.mcap').rename(path / f'{path.name}.mcap')
-    _fix_metadata(path, tmp.name)
-    return RepairReport(True, kept, len(data) - good, broken)
-
-
-def _fix_metadata(path: pathlib.Path, old_stem: str) -> None:
-    """metadata.yaml names the .mcap file written under the temporary name."""
-    meta = path / 'metadata.yaml'
-    meta.write_text(meta.read_text().replace(f'{old_stem}.mcap', f'{path.name}.mcap'))
+    broken.mkdir()
+    parts = list(closed)
+    lost = 0
+    for i, f in enumerate(torn):
+        data = f.read_bytes()
+        records, good = _records(data)
+        lost += len(data) - good
+        keep = broken / (f'{f.parent.name}.mcap' if f.parent != path else f.name)
+        shutil.move(str(f), keep)
+        if f.parent != path:
+            shutil.rmtree(f.parent)
+        if not any(isinstance(r, Message) for r in records):
+            continue
+        tmp = path / '.repairing'
+        shutil.rmtree(tmp, ignore_errors=True)
+        meta = _rebuild(records, tmp, kept)
+        name = part_name(path, len(parts), single=not closed and len(torn) == 1 and i == 0)
+        (tmp / f'{tmp.name}.mcap').replace(path / name)
+        shutil.rmtree(tmp)
+        for entry in meta['files']:
+            entry['path'] = name
+        meta['relative_file_paths'] = [name]
+        parts.append(meta)
+    if not any(p['message_count'] for p in parts):
+        raise BagError(f'{path}: no complete message in {", ".join(f.name for f in torn)}')
+    write_metadata(path, parts, custom)
+    (path / CLOSED).unlink(missing_ok=True)
+    return RepairReport(True, kept, lost, broken)

@@ -48,6 +48,10 @@ def run_of_bag(path: str | pathlib.Path) -> dict[str, Any]:
 def bag_info(path: str | pathlib.Path) -> dict[str, Any]:
     """Run description, end state and per-topic message counts and durations of a bag.
 
+    Returns:
+        ``bag``, ``run``, ``end``, ``duration_s``, ``start_s``, ``topics`` (name -> type,
+        count), ``files`` ([(file name, bytes)]) and ``compression`` (of the chunks).
+
     Raises:
         BagError: not a readable bag.
     """
@@ -61,8 +65,24 @@ def bag_info(path: str | pathlib.Path) -> dict[str, Any]:
         start = reader.start_time * 1e-9 if reader.message_count else 0.0
     finally:
         reader.close()
+    meta = yaml.safe_load((path / 'metadata.yaml').read_text(encoding='utf-8'))
+    names = meta['rosbag2_bagfile_information']['relative_file_paths']
+    files = [(n, (path / n).stat().st_size) for n in names if (path / n).exists()]
     custom = _custom(path)
     run = yaml.safe_load(custom[RUN_KEY]) if RUN_KEY in custom else None
     end = yaml.safe_load(custom[END_KEY]) if END_KEY in custom else None
     return {'bag': str(path), 'run': run, 'end': end, 'duration_s': duration,
-            'start_s': start, 'topics': topics}
+            'start_s': start, 'topics': topics, 'files': files,
+            'compression': _compression(path / files[0][0]) if files else ''}
+
+
+def _compression(mcap_file: pathlib.Path) -> str:
+    """How the chunks of an MCAP file are compressed ('' for none; '?' when unknown)."""
+    from mcap.reader import make_reader
+    try:
+        with open(mcap_file, 'rb') as fh:
+            summary = make_reader(fh).get_summary()
+    except Exception:  # noqa: BLE001 - another storage, or no summary: say so, not fail
+        return '?'
+    kinds = {c.compression for c in summary.chunk_indexes} if summary else set()
+    return ', '.join(sorted(kinds))

@@ -78,7 +78,7 @@ def open_bag(path: pathlib.Path) -> Reader:
         raise BagError(f'{path}: not a rosbag2 directory (expected a folder with '
                        'metadata.yaml and the .mcap file)')
     if not (path / 'metadata.yaml').exists():
-        if any(path.glob('*.mcap')):
+        if any(path.glob('*.mcap')) or any(path.glob('.part_*/*.mcap')):
             raise BagError(f'{path}: never closed (its recorder was killed?): run '
                            f'pam-bench bag-repair {path}')
         raise BagError(f'{path}: no metadata.yaml, not a rosbag2 bag')

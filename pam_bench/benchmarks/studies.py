@@ -15,6 +15,7 @@ from pam_bench.benchmarks import (
     record_exchange,
     scenes,
     servo_compare,
+    soak,
     straight_fibre,
     wallclock,
 )
@@ -25,7 +26,8 @@ __all__ = ['STUDIES', 'study']
 STUDIES: tuple[Study, ...] = (
     figures_004.STUDY, lockstep.STUDY, layouts.STUDY, profile.STUDY, exchange_step.STUDY,
     record_exchange.STUDY, scenes.STUDY, numerics.STUDY, wallclock.STUDY, faults.STUDY,
-    straight_fibre.STUDY, calibrate.STUDY, calibrate_nodes.STUDY, servo_compare.STUDY)
+    straight_fibre.STUDY, calibrate.STUDY, calibrate_nodes.STUDY, servo_compare.STUDY,
+    soak.STUDY)
 """Every study; ``pam-bench bench --only KEY`` runs some."""
 
 

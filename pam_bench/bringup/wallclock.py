@@ -7,13 +7,15 @@ torque servo. The run ends when the sequencer or the servo exits (end of the pro
 ``duration_s`` of the servo) or on Ctrl-C; the other nodes are then stopped, the recorder last.
 The recorder records the topics a real bench has (no ``sim/`` ground truth, which would double
 what crosses DDS). Every node writes its publish counts and tick periods (``stats_file``),
-which come back in ``RunResult.stats`` with the recorder's delivery table.
+which come back in ``RunResult.stats`` with the recorder's delivery table, and are kept with
+the bag (``STATS_FILE``), interrupted runs included.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import os
+import pathlib
 import signal
 import subprocess
 import sys
@@ -39,7 +41,11 @@ from pam_bench.bringup.errors import LayoutError
 from pam_bench.config.nodes import controllers, devices
 from pam_bench.config.scene import Scene
 
-__all__ = ['run_wallclock']
+__all__ = ['run_wallclock', 'STATS_FILE']
+
+STATS_FILE = 'wall_stats.json'
+"""In the bag folder: every node's publish counts and tick periods, and the recorder's counts
+(rosbag2 readers ignore it)."""
 
 
 def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None, quiet: bool,
@@ -143,6 +149,9 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
                     stats[name] = json.load(fh)
             except (OSError, ValueError):
                 sys.stderr.write(f'warning: no statistics from {name}\n')
+        bag = pathlib.Path(settings['recorder'].out_dir) if 'recorder' in settings else None
+        if stats and bag is not None and bag.is_dir():
+            (bag / STATS_FILE).write_text(json.dumps(stats, indent=1), encoding='utf-8')
     wall = time.monotonic() - t0
     result = RunResult(code, 0, wall, wall, 1.0, f'wall clock, {wall:.1f} s', stats)
     if dead:

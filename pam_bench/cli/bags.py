@@ -61,6 +61,11 @@ def _cmd_info(args: argparse.Namespace) -> int:
         print(f"ended     {end.get('state')}" + (f": {end['reason']}" if end.get('reason')
                                                  else '') + f" at {end.get('end')}")
     print(f"duration  {info['duration_s']:.3f} s of log time")
+    size = sum(n for _, n in info['files'])
+    print(f"files     {len(info['files'])}, {size / 1e6:.1f} MB, chunks "
+          f"{info['compression'] or 'uncompressed'}" + (
+              f" ({info['files'][0][0]} ... {info['files'][-1][0]})"
+              if len(info['files']) > 1 else ''))
     for topic, t in sorted(info['topics'].items()):
         print(f"  {topic:34s} {t['count']:9d}  {t['type']}")
     return 0
@@ -90,7 +95,7 @@ def _cmd_bag_repair(args: argparse.Namespace) -> int:
         print(f'{args.bag} is a valid bag: nothing to repair')
         return 0
     print(f'{args.bag} rebuilt from its complete records ({rep.lost_bytes} bytes of a torn '
-          f'chunk unreadable); the old folder is {rep.broken_copy}')
+          f'chunk unreadable); the torn file is kept in {rep.broken_copy}')
     for topic, n in sorted(rep.kept.items()):
         print(f'  {topic:34s} {n:8d} messages kept')
     return 0

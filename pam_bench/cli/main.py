@@ -6,6 +6,7 @@ import argparse
 import os
 import signal
 import sys
+from typing import NoReturn
 
 from pam_bench.cli import bags, bench, design, fit, run
 from pam_bench.cli.errors import exit_code
@@ -20,9 +21,16 @@ def _raise_interrupt(signum: int, frame: object) -> None:
     raise KeyboardInterrupt
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose mistakes are one line (the usage is one ``-h`` away)."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f'{self.prog}: error: {message} (see {self.prog} -h)\n')
+
+
 def parser() -> argparse.ArgumentParser:
     """The whole command line."""
-    ap = argparse.ArgumentParser(prog='pam-bench', description='pam_bench: a pneumatic-muscle '
+    ap = _Parser(prog='pam-bench', description='pam_bench: a pneumatic-muscle '
                                  'test bench as ROS 2 nodes, and its offline analysis.')
     sub = ap.add_subparsers(dest='cmd', required=True)
     for group in GROUPS:

@@ -6,6 +6,7 @@ import argparse
 import json
 import pathlib
 import shutil
+import sys
 from typing import Any
 
 from pam_bench.cli.errors import UsageError
@@ -43,12 +44,14 @@ def register(sub: Any) -> None:
                    '(lock-step, separate processes; README, "Two hosts")')
     p.add_argument('--device-processes', action='store_true', help='with --wallclock: each '
                    'device in its own process instead of the emulator')
+    add_bag_options(p)
     p.set_defaults(func=_cmd_run)
     p = sub.add_parser('record', help='record topics of a running graph on the wall clock '
                        '(like ros2 bag record), until Ctrl-C')
     p.add_argument('topics', nargs='*', help='topic names (types are discovered)')
     p.add_argument('--all', action='store_true', help='every topic that appears')
     p.add_argument('--out', required=True, help='bag directory to create')
+    add_bag_options(p)
     p.set_defaults(func=_cmd_record)
     p = sub.add_parser('emulate', help="run only a scene's simulated devices on the wall "
                        'clock, until Ctrl-C (a bench for your own controllers)')
@@ -67,6 +70,57 @@ def register(sub: Any) -> None:
     p.add_argument('--node', action='append', help='only this node (repeatable)')
     p.add_argument('--json', action='store_true')
     p.set_defaults(func=_cmd_params)
+
+
+def add_bag_options(p: argparse.ArgumentParser) -> None:
+    """The recorder's file options, as rosbag2's."""
+    p.add_argument('--max-bag-size', metavar='SIZE', type=parse_size, help='start a new file of '
+                   'the bag past this size: bytes, or 500M, 2G, ... (default 900M; 0: never)')
+    p.add_argument('--max-bag-duration', metavar='DURATION', type=parse_duration,
+                   help='start a new file of the bag once it spans this long: seconds, or 90s, '
+                   '30m, 1h, ... (default: never)')
+    p.add_argument('--no-compress', action='store_true', help='write the MCAP chunks '
+                   'uncompressed (default zstd)')
+
+
+_SIZES = {'': 1, 'b': 1, 'k': 10**3, 'kb': 10**3, 'm': 10**6, 'mb': 10**6, 'g': 10**9,
+          'gb': 10**9, 'ki': 2**10, 'kib': 2**10, 'mi': 2**20, 'mib': 2**20, 'gi': 2**30,
+          'gib': 2**30}
+_DURATIONS = {'': 1.0, 's': 1.0, 'm': 60.0, 'min': 60.0, 'h': 3600.0}
+
+
+def _number_unit(text: str, units: dict[str, Any], what: str, example: str) -> float:
+    import math
+    import re
+    m = re.fullmatch(r'\s*([0-9.]+(?:[eE][+-]?[0-9]+)?)\s*([A-Za-z]*)\s*', text)
+    unit = m.group(2).lower() if m else ''
+    try:
+        value = float(m.group(1)) if m else math.nan
+    except ValueError:
+        value = math.nan
+    if not m or unit not in units or not math.isfinite(value) or value < 0:
+        raise argparse.ArgumentTypeError(f'{text!r} is not a {what} (write e.g. {example})')
+    return value * units[unit]
+
+
+def parse_size(text: str) -> int:
+    """``--max-bag-size``: ``1000000``, ``500M``, ``1.5G``, ``512MiB`` -> bytes (0: never)."""
+    return round(_number_unit(text, _SIZES, 'size', '500M, 2G or 1000000'))
+
+
+def parse_duration(text: str) -> float:
+    """``--max-bag-duration``: ``600``, ``90s``, ``30m``, ``1h`` -> seconds (0: never)."""
+    return _number_unit(text, _DURATIONS, 'duration', '90s, 30m or 1h')
+
+
+def apply_bag_options(scene: Any, args: argparse.Namespace) -> None:
+    """The recorder settings of ``--max-bag-size``, ``--max-bag-duration``, ``--no-compress``."""
+    if args.max_bag_size is not None:
+        scene.set('recorder.max_bag_size_bytes', args.max_bag_size)
+    if args.max_bag_duration is not None:
+        scene.set('recorder.max_bag_duration_s', args.max_bag_duration)
+    if args.no_compress:
+        scene.set('recorder.compress', False)
 
 
 def parse_value(text: str) -> Any:
@@ -143,6 +197,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         if not eq:
             raise UsageError(f'--set {item!r}: write PATH=VALUE')
         scene.set(path.strip(), parse_value(value))
+    apply_bag_options(scene, args)
     out = pathlib.Path(args.out or f'bags/{scene.name}')
     if args.resume and pathlib.Path(args.resume).resolve() == out.resolve():
         raise UsageError('--resume needs a new --out (the old bag is kept)')
@@ -175,13 +230,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
                         netns=tuple(args.netns.split(':', 1)) if args.netns else None)
         code = res.code
     except KeyboardInterrupt:
-        code = 130
+        print(f'interrupted: nodes stopped, bag closed in {out}', file=sys.stderr)
+        return 130
     if code == 130:
-        import sys
+        if args.wallclock and res.stats:
+            print_wall_stats(res.stats)
         print(f'interrupted: nodes stopped, bag closed in {out}', file=sys.stderr)
         return 130
     if res.code != 0:
-        import sys
         print(f'error: scene {scene.name} failed (exit code {res.code})', file=sys.stderr)
         return res.code
     if args.wallclock:
@@ -203,7 +259,9 @@ def print_wall_stats(stats: dict[str, Any]) -> None:
             print(f'{name:14s} period mean {per["mean_s"] * 1e3:.3f} ms, p50 '
                   f'{per["p50_s"] * 1e3:.3f}, p99 {per["p99_s"] * 1e3:.3f}, max '
                   f'{per["max_s"] * 1e3:.3f} ms (at {per["max_at_s"]:.1f} s), late '
-                  f'{per["late_share"] * 100:.2f} %')
+                  f'{per["late_share"] * 100:.2f} %, rate {1.0 / per["mean_s"]:.1f} Hz'
+                  + (f', {st["dropped_ticks"]} ticks dropped' if st.get('dropped_ticks')
+                     else ''))
     if 'recorder' in stats:
         print(format_delivery(delivery_table(
             [v for k, v in stats.items() if k != 'recorder'], stats['recorder'])))
@@ -216,7 +274,8 @@ def _cmd_record(args: argparse.Namespace) -> int:
     out = pathlib.Path(args.out)
     if out.exists():
         raise UsageError(f'{out} exists')
-    return record(str(out), args.topics, args.all)
+    return record(str(out), args.topics, args.all, compress=not args.no_compress,
+                  max_bytes=args.max_bag_size, max_duration_s=args.max_bag_duration)
 
 
 def _cmd_emulate(args: argparse.Namespace) -> int:

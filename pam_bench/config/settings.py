@@ -195,6 +195,12 @@ class RecorderSettings(NodeSettings):
                               'discovered) besides step_topics and event_topics', item=str)
     discovery_period_s: float = field(0.5, 's', 'wall clock: look for new topics and '
                                       "publishers' QoS this often", 0.05, 60.0)
+    compress: bool = field(True, '-', 'zstd-compress the MCAP chunks (rosbag2 storage mode)')
+    max_bag_size_bytes: int = field(900_000_000, 'B', 'start a new file of the bag past this '
+                                    'size (0: never); the default keeps each under 1 GB',
+                                    0, 1e15)
+    max_bag_duration_s: float = field(0.0, 's', 'start a new file of the bag once one spans '
+                                      'this much log time (0: never)', 0.0, 1e9)
 
 
 @dataclasses.dataclass

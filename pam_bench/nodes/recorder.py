@@ -33,10 +33,10 @@ from typing import Any
 import yaml
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
-from rosbags.rosbag2 import StoragePlugin, Writer
 from rosgraph_msgs.msg import Clock
 
 from pam_bench.analysis.baginfo import END_KEY, RUN_KEY
+from pam_bench.analysis.splitwriter import SplitWriter
 from pam_bench.analysis.types import bench_typestore
 from pam_bench.config.settings import RecorderSettings
 from pam_bench.nodes import cdr
@@ -89,24 +89,22 @@ class Recorder(BenchNode):
         self.discovery_period_s = s.discovery_period_s
         self.store = bench_typestore()
         path = pathlib.Path(out)
-        if path.exists():
-            raise FileExistsError(f'bag directory {path} exists; remove it or pick another')
         path.parent.mkdir(parents=True, exist_ok=True)
-        writer = Writer(path, version=9, storage_plugin=StoragePlugin.MCAP)
+        writer = SplitWriter(path, compress=s.compress, max_bytes=int(s.max_bag_size_bytes),
+                             max_duration_ns=round(s.max_bag_duration_s * 1e9))
         writer.open()
         if self.run_yaml:
             writer.set_custom_data(RUN_KEY, self.run_yaml)
-        self.writer: Writer | None = writer
+        self.writer: SplitWriter | None = writer
         self.count = 0
         self.end_ns: int | None = None
-        self.connections = {}
+        self.connections: dict[str, str] = {}       # topic -> message type
         self._trim: dict[str, str] = {}
         step_topics = [e for e in step_topics if e]
         event_topics = [e for e in event_topics if e]
         for entry in list(step_topics) + list(event_topics) if self.lockstep else []:
             topic, msgtype = self._split(entry)
-            self.connections[topic] = self.writer.add_connection(topic, msgtype,
-                                                                 typestore=self.store)
+            self._connect(topic, msgtype)
         self.step_order = []
         self.written: dict[str, int] = {}
         self.sequence: dict[str, list[int]] = {}   # topic -> [first, last, count] seen
@@ -135,6 +133,11 @@ class Recorder(BenchNode):
                              functools.partial(self._write_any, topic), KEEP_ALL, raw=True)
         self.start_lockstep()
 
+    def _connect(self, topic: str, msgtype: str) -> None:
+        assert self.writer is not None
+        self.writer.add_connection(topic, msgtype, typestore=self.store)
+        self.connections[topic] = msgtype
+
     # --- wall clock ---------------------------------------------------------------------
     def _subscribe(self, topic: str, msgtype: str, best_effort: bool) -> None:
         """(Re)subscribe ``topic`` raw, reliable or best effort, keeping up to 1000."""
@@ -142,9 +145,7 @@ class Recorder(BenchNode):
         if old is not None:
             self.destroy_subscription(old[0])
         if topic not in self.connections:
-            assert self.writer is not None
-            self.connections[topic] = self.writer.add_connection(topic, msgtype,
-                                                                 typestore=self.store)
+            self._connect(topic, msgtype)
         qos = QoSProfile(depth=1000, history=HistoryPolicy.KEEP_LAST,
                          durability=DurabilityPolicy.VOLATILE,
                          reliability=ReliabilityPolicy.BEST_EFFORT if best_effort
@@ -161,7 +162,7 @@ class Recorder(BenchNode):
         if self.writer is None:
             return
         t = (info or {}).get('received_timestamp') or time.time_ns()
-        self.writer.write(self.connections[topic], int(t), bytes(data))
+        self.writer.write(topic, int(t), bytes(data))
         self.count += 1
         self.written[topic] += 1
         seq = (info or {}).get('publication_sequence_number')
@@ -205,10 +206,8 @@ class Recorder(BenchNode):
     def flush(self) -> None:
         """Write the pending chunk and flush the file: a SIGKILL loses at most what came
         since (``pam-bench bag-repair`` rebuilds the rest)."""
-        storage = getattr(self.writer, 'storage', None)
-        if storage is not None and hasattr(storage, 'close_chunk') and storage.chunk.bio.tell():
-            storage.close_chunk()
-            storage.bio.flush()
+        if self.writer is not None:
+            self.writer.flush()
 
     def wall_stats(self) -> dict[str, Any]:
         """Written counts and the publication sequence numbers seen, per topic."""
@@ -226,7 +225,7 @@ class Recorder(BenchNode):
 
     def _write(self, topic: str, t_ns: int, data: bytes) -> None:
         if self.writer is not None and (self.end_ns is None or t_ns <= self.end_ns):
-            self.writer.write(self.connections[topic], t_ns, bytes(data))
+            self.writer.write(topic, t_ns, bytes(data))
             self.count += 1
 
     def _write_any(self, topic: str, data: Any) -> None:
@@ -253,7 +252,7 @@ class Recorder(BenchNode):
             rule = self._trim[topic] = _trim_rule(type(msg))
         if rule is _NEVER or (rule is not _ALWAYS and len(getattr(msg, rule)) > 0):
             return raw
-        msgdef = self.store.get_msgdef(self.connections[topic].msgtype)
+        msgdef = self.store.get_msgdef(self.connections[topic])
         end, _ = msgdef.getsize_cdr_to_ros1(memoryview(raw)[4:], 0, None, 0, self.store)
         pad = -end % 4
         return raw[:2] + bytes((0, pad)) + raw[4:4 + end] + bytes(pad)
@@ -302,10 +301,12 @@ class Recorder(BenchNode):
         super().destroy_node()
 
 
-def record(out_dir: str, topic_names: list[str], record_all: bool) -> int:
+def record(out_dir: str, topic_names: list[str], record_all: bool, compress: bool = True,
+           max_bytes: int | None = None, max_duration_s: float | None = None) -> int:
     """``pam-bench record``: record ``topic_names`` (or every topic, ``record_all``) on the
-    wall clock into ``out_dir`` until Ctrl-C or SIGTERM; the bag is closed valid. Returns the
-    exit code."""
+    wall clock into ``out_dir`` until Ctrl-C or SIGTERM; the bag is closed valid. ``compress``,
+    ``max_bytes`` and ``max_duration_s`` are the recorder's settings of the same meaning (None:
+    their defaults). Returns the exit code."""
     import rclpy
     from rclpy.parameter import Parameter
 
@@ -316,7 +317,11 @@ def record(out_dir: str, topic_names: list[str], record_all: bool) -> int:
     try:
         node = Recorder('recorder', parameter_overrides=[
             Parameter('lockstep', value=False), Parameter('out_dir', value=out_dir),
-            Parameter('record_all', value=record_all),
+            Parameter('record_all', value=record_all), Parameter('compress', value=compress),
+            *([Parameter('max_bag_size_bytes', value=int(max_bytes))]
+              if max_bytes is not None else []),
+            *([Parameter('max_bag_duration_s', value=float(max_duration_s))]
+              if max_duration_s is not None else []),
             # an empty list of strings is [''] to ROS (nodes.params.ros_value)
             Parameter('topic_names', value=list(topic_names) or ['']),
             Parameter('event_topics', value=['/diagnostics:diagnostic_msgs/msg/'

@@ -27,6 +27,7 @@ class Stats(NodeCore):
         self._counted_pubs: list[Any] = []
         self._start_outputs: list[Output] | None = None
         self.periods: PeriodStats | None = None     # set by the loop that ticks the node
+        self.dropped_ticks = 0                      # ticks its loop skipped, too far behind
 
     def count_periods(self, period_s: float) -> None:
         """Keep the statistics of a loop ticking every ``period_s``."""
@@ -61,6 +62,7 @@ class Stats(NodeCore):
         per = self.periods.stats() if self.periods is not None else None
         if per is not None:
             out['periods'] = per
+            out['dropped_ticks'] = self.dropped_ticks
         return out
 
     def write_stats(self) -> None:

@@ -34,7 +34,7 @@ def test_sigkilled_recorder_bag_is_repaired(tmp_path: pathlib.Path, ros_domain: 
         rec = _start(['record', 'load_cell_1/force', 'valve_1/pressure', '--out', str(bag)])
         end = time.monotonic() + 20.0
         while time.monotonic() < end:        # until a flush (1 s) has written some data
-            mcap = list(bag.glob('*.mcap'))
+            mcap = list(bag.glob('.part_0/*.mcap'))
             if mcap and mcap[0].stat().st_size > 200_000:
                 break
             time.sleep(0.1)
@@ -55,7 +55,8 @@ def test_sigkilled_recorder_bag_is_repaired(tmp_path: pathlib.Path, ros_domain: 
     stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in forces]
     assert stamps == sorted(stamps)
     from mcap.reader import make_reader
-    with open(next(bag.glob('*.mcap')), 'rb') as fh:
+    assert [f.name for f in bag.glob('*.mcap')] == ['bag.mcap']
+    with open(bag / 'bag.mcap', 'rb') as fh:
         summary = make_reader(fh).get_summary()
     assert summary is not None and sum(summary.statistics.channel_message_counts.values()) == \
         sum(report.kept.values())

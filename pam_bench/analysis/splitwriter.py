@@ -1,0 +1,232 @@
+"""A rosbag2 writer like rosbag2's own: zstd-compressed MCAP chunks, split by size and duration.
+
+A bag folder holds its files ``NAME_0.mcap``, ``NAME_1.mcap``, ... (one, ``NAME.mcap``, when
+it never split) and one ``metadata.yaml`` that lists every file with its start, duration and
+message count, as rosbag2 writes it; any rosbag2 reader (rosbags, ``mcap`` + ``mcap_ros2``,
+``@mcap/core``) opens it. Each file is a complete bag of rosbags' ``Writer`` while it is
+written in ``NAME/.part_N/``; closed (the next one starts when the current file passes
+``max_bytes`` or spans ``max_duration_ns`` of log time), it moves into the folder. Chunks are
+compressed with zstd (rosbags' ``CompressionMode.STORAGE``) unless ``compress`` is off.
+
+A recorder killed with SIGKILL leaves the closed files whole and the last one torn in its part
+folder, without metadata.yaml; ``analysis.bag_repair`` rebuilds the torn file from its complete
+chunks (at most ``flush``'s period is lost) and writes the metadata of all.
+"""
+
+from __future__ import annotations
+
+import json
+import pathlib
+import shutil
+from typing import Any
+
+import yaml
+
+__all__ = ['SplitWriter', 'part_name', 'write_metadata', 'read_closed', 'PART_PREFIX',
+           'CLOSED']
+
+PART_PREFIX = '.part_'
+CLOSED = '.closed_parts.json'
+"""While a bag is written: the metadata of its closed files (``bag_repair`` reads it)."""
+
+
+_Loader = getattr(yaml, 'CSafeLoader', yaml.SafeLoader)
+_Dumper = getattr(yaml, 'CSafeDumper', yaml.SafeDumper)
+
+
+def _dump(path: pathlib.Path, data: Any) -> None:
+    tmp = path.with_suffix('.tmp')
+    tmp.write_text(json.dumps(data), encoding='utf-8')
+    tmp.replace(path)
+
+
+def read_closed(folder: pathlib.Path) -> tuple[list[dict[str, Any]], dict[str, str]]:
+    """The closed parts' metadata and the custom data of a bag still being written (or
+    killed while it was), from ``CLOSED``."""
+    path = folder / CLOSED
+    if not path.exists():
+        return [], {}
+    try:
+        data = json.loads(path.read_text(encoding='utf-8'))
+    except ValueError:        # killed while writing it: its .tmp is the torn one, this is whole
+        data = {}
+    return list(data.get('parts') or []), dict(data.get('custom') or {})
+
+
+def part_name(folder: pathlib.Path, index: int, single: bool) -> str:
+    """The file name of part ``index`` of the bag in ``folder``."""
+    return f'{folder.name}.mcap' if single else f'{folder.name}_{index}.mcap'
+
+
+def _meta_of(meta_path: pathlib.Path) -> dict[str, Any]:
+    data = yaml.load(meta_path.read_text(encoding='utf-8'), Loader=_Loader)
+    return dict(data['rosbag2_bagfile_information'])
+
+
+def write_metadata(folder: pathlib.Path, parts: list[dict[str, Any]],
+                   custom: dict[str, str]) -> None:
+    """One metadata.yaml for the parts (each a part's own rosbag2 metadata, its file renamed
+    as it lies in ``folder``): files, topics and counts summed, custom data over all."""
+    first = parts[0]
+    topics: dict[str, dict[str, Any]] = {}
+    for p in parts:
+        for t in p['topics_with_message_count']:
+            name = t['topic_metadata']['name']
+            if name in topics:
+                topics[name]['message_count'] += t['message_count']
+            else:
+                topics[name] = {'topic_metadata': dict(t['topic_metadata']),
+                                'message_count': t['message_count']}
+    starts = [p['starting_time']['nanoseconds_since_epoch'] for p in parts if p['message_count']]
+    ends = [p['starting_time']['nanoseconds_since_epoch'] + p['duration']['nanoseconds']
+            for p in parts if p['message_count']]
+    start = min(starts) if starts else 0
+    files = [f for p in parts for f in p['files']]
+    info = {'version': first['version'], 'storage_identifier': first['storage_identifier'],
+            'relative_file_paths': [f['path'] for f in files],
+            'duration': {'nanoseconds': (max(ends) - start) if ends else 0},
+            'starting_time': {'nanoseconds_since_epoch': start},
+            'message_count': sum(p['message_count'] for p in parts),
+            'topics_with_message_count': list(topics.values()),
+            'compression_format': first.get('compression_format', ''),
+            'compression_mode': first.get('compression_mode', ''),
+            'files': files, 'custom_data': custom or None,
+            'ros_distro': first.get('ros_distro', 'rosbags')}
+    tmp = folder / 'metadata.yaml.tmp'
+    tmp.write_text(yaml.dump({'rosbag2_bagfile_information': info}, Dumper=_Dumper,
+                             default_flow_style=False, sort_keys=False), encoding='utf-8')
+    tmp.replace(folder / 'metadata.yaml')
+
+
+class SplitWriter:
+    """A rosbag2 MCAP bag written in parts (module docstring).
+
+    Args:
+        path: the bag folder to create.
+        compress: zstd-compress the MCAP chunks.
+        max_bytes: start a new file past this size (0: never).
+        max_duration_ns: start a new file once one spans this much log time (0: never).
+    """
+
+    CHECK_EVERY = 256
+    """Writes between two checks of the file's size."""
+
+    def __init__(self, path: pathlib.Path, compress: bool = True, max_bytes: int = 0,
+                 max_duration_ns: int = 0) -> None:
+        self.path = pathlib.Path(path)
+        if self.path.exists():
+            raise FileExistsError(f'bag directory {self.path} exists; remove it or pick another')
+        self.compress = compress
+        self.max_bytes = max_bytes
+        self.max_duration_ns = max_duration_ns
+        self.custom: dict[str, str] = {}
+        self.parts: list[dict[str, Any]] = []        # closed parts' metadata
+        self._conns: dict[str, tuple[str, dict[str, Any]]] = {}   # topic -> (type, kwargs)
+        self._current: dict[str, Any] = {}           # topic -> this part's connection
+        self._writer: Any = None
+        self._index = 0
+        self._start_ns: int | None = None
+        self._since_check = 0
+        self.bytes_closed = 0                        # bytes of the closed files
+
+    # --- the rosbags Writer's surface the recorder uses ------------------------------------
+    def open(self) -> None:
+        """Create the folder and the first part."""
+        self.path.mkdir(parents=True)
+        self._open_part()
+        _dump(self.path / CLOSED, {'parts': self.parts, 'custom': self.custom})
+
+    def add_connection(self, topic: str, msgtype: str, **kwargs: Any) -> str:
+        """Register ``topic`` (every part gets it); returns the key ``write`` takes."""
+        self._conns[topic] = (msgtype, kwargs)
+        self._current[topic] = self._writer.add_connection(topic, msgtype, **kwargs)
+        return topic
+
+    def set_custom_data(self, key: str, value: str) -> None:
+        """Custom data of the bag (every part's metadata and the bag's)."""
+        self.custom[key] = value
+        if self._writer is not None:
+            self._writer.set_custom_data(key, value)
+            _dump(self.path / CLOSED, {'parts': self.parts, 'custom': self.custom})
+
+    def write(self, topic: str, timestamp: int, data: bytes) -> None:
+        """Write one message; start a new part first where the current one is full."""
+        if self._start_ns is None:
+            self._start_ns = timestamp
+        elif self.max_duration_ns and timestamp - self._start_ns >= self.max_duration_ns:
+            self._next_part()
+            self._start_ns = timestamp
+        self._writer.write(self._current[topic], timestamp, data)
+        if self.max_bytes:
+            self._since_check += 1
+            if self._since_check >= self.CHECK_EVERY:
+                self._since_check = 0
+                if self.size_of_current() >= self.max_bytes:
+                    self._next_part()
+                    self._start_ns = None
+
+    def flush(self) -> None:
+        """Write the pending chunk and flush the file (a SIGKILL loses at most what came
+        since)."""
+        storage = getattr(self._writer, 'storage', None)
+        if storage is not None and hasattr(storage, 'close_chunk') and storage.chunk.bio.tell():
+            storage.close_chunk()
+            storage.bio.flush()
+
+    def close(self) -> None:
+        """Close the last part and write the bag's metadata.yaml."""
+        if self._writer is None:
+            return
+        self._close_part(single=self._index == 0)
+        write_metadata(self.path, self.parts, self.custom)
+        (self.path / CLOSED).unlink(missing_ok=True)
+
+    # --- parts ---------------------------------------------------------------------------
+    @property
+    def files(self) -> list[str]:
+        """The files closed so far."""
+        return [f['path'] for p in self.parts for f in p['files']]
+
+    def size_of_current(self) -> int:
+        """Bytes of the current part: its file on disk and the chunk pending in memory
+        (uncompressed, an upper bound of what it adds)."""
+        storage = getattr(self._writer, 'storage', None)
+        if storage is None:
+            return 0
+        return int(storage.bio.tell()) + int(storage.chunk.bio.tell())
+
+    def _part_dir(self, index: int) -> pathlib.Path:
+        return self.path / f'{PART_PREFIX}{index}'
+
+    def _open_part(self) -> None:
+        from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
+        w = Writer(self._part_dir(self._index), version=9, storage_plugin=StoragePlugin.MCAP)
+        if self.compress:
+            w.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+        w.open()
+        for key, value in self.custom.items():
+            w.set_custom_data(key, value)
+        self._current = {t: w.add_connection(t, msgtype, **kw)
+                         for t, (msgtype, kw) in self._conns.items()}
+        self._writer = w
+
+    def _close_part(self, single: bool) -> None:
+        part = self._part_dir(self._index)
+        self._writer.close()
+        self._writer = None
+        meta = _meta_of(part / 'metadata.yaml')
+        name = part_name(self.path, self._index, single)
+        src = part / f'{part.name}.mcap'
+        self.bytes_closed += src.stat().st_size
+        src.replace(self.path / name)
+        for f in meta['files']:
+            f['path'] = name
+        meta['relative_file_paths'] = [name]
+        self.parts.append(meta)
+        shutil.rmtree(part)
+        _dump(self.path / CLOSED, {'parts': self.parts, 'custom': self.custom})
+
+    def _next_part(self) -> None:
+        self._close_part(single=False)
+        self._index += 1
+        self._open_part()

@@ -1,0 +1,188 @@
+"""The split, compressed bag writer: its files, its metadata, every reader, and repair after a
+kill at any point."""
+
+from __future__ import annotations
+
+import pathlib
+import shutil
+
+import pytest
+from ruamel.yaml import YAML
+
+from pam_bench.analysis.bag_repair import repair_bag
+from pam_bench.analysis.splitwriter import SplitWriter
+from pam_bench.analysis.types import bench_typestore
+from test.helpers import bag_payloads
+
+FORCE = '/load_cell_1/force'
+STATUS = '/protocol/status'
+
+
+def _force(store: object, t_ns: int, value: float) -> bytes:
+    T = store.types  # type: ignore[attr-defined]
+    Time, Header = T['builtin_interfaces/msg/Time'], T['std_msgs/msg/Header']
+    Vector3, Wrench = T['geometry_msgs/msg/Vector3'], T['geometry_msgs/msg/Wrench']
+    WrenchStamped = T['geometry_msgs/msg/WrenchStamped']
+    msg = WrenchStamped(
+        header=Header(stamp=Time(sec=t_ns // 10**9, nanosec=t_ns % 10**9), frame_id='cell'),
+        wrench=Wrench(force=Vector3(x=0.0, y=0.0, z=value),
+                      torque=Vector3(x=0.0, y=0.0, z=0.0)))
+    return bytes(store.serialize_cdr(msg, 'geometry_msgs/msg/WrenchStamped'))  # type: ignore
+
+
+def _write(path: pathlib.Path, n: int, close: bool = True, **kwargs: object
+           ) -> tuple[SplitWriter, dict[str, list[tuple[int, bytes]]]]:
+    """``n`` force messages at 1 kHz plus a status string every 100; what was written."""
+    store = bench_typestore()
+    w = SplitWriter(path, **kwargs)  # type: ignore[arg-type]
+    w.open()
+    w.set_custom_data('pam_bench.run', 'scene: demo\n')
+    w.add_connection(FORCE, 'geometry_msgs/msg/WrenchStamped', typestore=store)
+    w.add_connection(STATUS, 'std_msgs/msg/String', typestore=store)
+    String = store.types['std_msgs/msg/String']
+    sent: dict[str, list[tuple[int, bytes]]] = {FORCE: [], STATUS: []}
+    for i in range(n):
+        t = 10**9 + i * 10**6
+        raw = _force(store, t, float(i % 97))
+        w.write(FORCE, t, raw)
+        sent[FORCE].append((t, raw))
+        if i % 100 == 0:
+            s = bytes(store.serialize_cdr(String(data=f'step {i}'), 'std_msgs/msg/String'))
+            w.write(STATUS, t, s)
+            sent[STATUS].append((t, s))
+    if close:
+        w.close()
+    return w, sent
+
+
+def _meta(path: pathlib.Path) -> dict:
+    meta = YAML(typ='safe').load((path / 'metadata.yaml').read_text())
+    return dict(meta['rosbag2_bagfile_information'])
+
+
+@pytest.mark.parametrize('kwargs, n_files', [
+    ({}, 1),
+    ({'compress': False}, 1),
+    ({'max_duration_ns': 2 * 10**9}, 3),               # 5 s of messages in 2 s files
+    ({'max_bytes': 150_000, 'compress': False}, None),  # several, by size
+])
+def test_every_message_comes_back_from_every_file(tmp_path: pathlib.Path, kwargs: dict,
+                                                  n_files: int | None) -> None:
+    bag = tmp_path / 'bag'
+    _, sent = _write(bag, 5000, **kwargs)
+    meta = _meta(bag)
+    files = sorted(f.name for f in bag.glob('*.mcap'))
+    assert sorted(meta['relative_file_paths']) == files
+    if n_files is not None:
+        assert len(files) == n_files
+    else:
+        assert len(files) >= 3
+    assert files == (['bag.mcap'] if len(files) == 1 else
+                     sorted(f'bag_{i}.mcap' for i in range(len(files))))
+    assert meta['message_count'] == 5000 + 50
+    from mcap.reader import make_reader
+    for name in files:          # compressed in the MCAP chunks (rosbag2's storage mode)
+        with open(bag / name, 'rb') as fh:
+            summary = make_reader(fh).get_summary()
+        assert summary is not None
+        assert {c.compression for c in summary.chunk_indexes} == (
+            {''} if kwargs.get('compress') is False else {'zstd'})
+    assert not list(bag.glob('.part_*')) and not (bag / '.closed_parts.json').exists()
+    assert bag_payloads(bag) == sent                               # rosbags
+    assert meta['custom_data'] == {'pam_bench.run': 'scene: demo\n'}
+    if 'max_bytes' in kwargs:     # every file but the last stopped near the size asked
+        sizes = [(bag / f).stat().st_size for f in meta['relative_file_paths']]
+        assert all(s < 150_000 * 1.5 for s in sizes[:-1]), sizes
+
+
+def test_compression_shrinks_the_file(tmp_path: pathlib.Path) -> None:
+    _write(tmp_path / 'z', 5000)
+    _write(tmp_path / 'raw', 5000, compress=False)
+    z = (tmp_path / 'z' / 'z.mcap').stat().st_size
+    raw = (tmp_path / 'raw' / 'raw.mcap').stat().st_size
+    assert z < 0.5 * raw, (z, raw)
+
+
+def test_mcap_ros2_decodes_a_split_compressed_bag(tmp_path: pathlib.Path) -> None:
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+    bag = tmp_path / 'bag'
+    _write(bag, 5000, max_duration_ns=2 * 10**9)
+    forces = []
+    for name in _meta(bag)['relative_file_paths']:
+        with open(bag / name, 'rb') as fh:
+            reader = make_reader(fh, decoder_factories=[DecoderFactory()])
+            for _, channel, message, ros in reader.iter_decoded_messages():
+                if channel.topic == FORCE:
+                    forces.append((message.log_time, ros.wrench.force.z))
+    assert [t for t, _ in forces] == [10**9 + i * 10**6 for i in range(5000)]
+    assert [f for _, f in forces] == [float(i % 97) for i in range(5000)]
+
+
+@pytest.mark.parametrize('files_closed', [0, 2])
+def test_a_killed_writer_is_repaired_to_its_last_flush(tmp_path: pathlib.Path,
+                                                       files_closed: int) -> None:
+    """A SIGKILL as the writer holds an open file: the copy of the folder taken then is what
+    the disk has. Repair keeps the closed files and what the open one flushed."""
+    bag = tmp_path / 'bag'
+    w, sent = _write(bag, 5000, close=False, max_duration_ns=2 * 10**9)
+    if files_closed == 0:
+        shutil.rmtree(bag)
+        w, sent = _write(bag, 1500, close=False)
+    w.flush()
+    flushed = {k: [m for m in v] for k, v in sent.items()}
+    killed = tmp_path / 'killed'
+    shutil.copytree(bag, killed)           # the disk at the kill: nothing after the flush
+    report = repair_bag(killed)
+    assert report.needed and report.broken_copy is not None
+    files = sorted(f.name for f in killed.glob('*.mcap'))
+    assert len(files) == files_closed + 1
+    assert bag_payloads(killed) == flushed
+    assert report.kept == {k: len(v) for k, v in flushed.items()}
+    assert _meta(killed)['custom_data'] == {'pam_bench.run': 'scene: demo\n'}
+    assert not repair_bag(killed).needed
+    w.close()
+
+
+def test_a_torn_chunk_loses_only_that_chunk(tmp_path: pathlib.Path) -> None:
+    bag = tmp_path / 'bag'
+    w, sent = _write(bag, 1000, close=False)
+    w.flush()
+    part = next(bag.glob('.part_0/*.mcap'))
+    size = part.stat().st_size
+    store = bench_typestore()
+    for i in range(1000, 1500):                   # a chunk written then torn by the kill
+        t = 10**9 + i * 10**6
+        w.write(FORCE, t, _force(store, t, 1.0))
+    w.flush()
+    killed = tmp_path / 'killed'
+    shutil.copytree(bag, killed)
+    torn = next(killed.glob('.part_0/*.mcap'))
+    with open(torn, 'r+b') as fh:
+        fh.truncate(size + 100)           # inside the chunk (its message index follows)
+    report = repair_bag(killed)
+    assert report.lost_bytes > 0
+    assert bag_payloads(killed) == sent
+    w.close()
+
+
+JS = pathlib.Path(__file__).resolve().parents[1] / 'js'
+
+
+def test_mcap_core_decodes_a_split_compressed_bag(tmp_path: pathlib.Path) -> None:
+    """The JavaScript reader of Foxglove's stack (``@mcap/core`` with zstd from
+    ``@mcap/support``, ``@foxglove/rosmsg2-serialization``) reads every file."""
+    import json
+    import subprocess
+    bag = tmp_path / 'bag'
+    _write(bag, 3000, max_duration_ns=10**9)
+    files = [str(bag / f) for f in _meta(bag)['relative_file_paths']]
+    out = subprocess.run(['node', str(JS / 'read_mcap.mjs'), *files], capture_output=True,
+                         text=True, check=True, timeout=60).stdout
+    rows = [json.loads(line) for line in out.splitlines()]
+    forces = [(int(r['log_time']), r['message']['wrench']['force']['z']) for r in rows
+              if r['topic'] == FORCE]
+    assert len(files) == 3
+    assert forces == [(10**9 + i * 10**6, float(i % 97)) for i in range(3000)]
+    assert [r['message']['data'] for r in rows if r['topic'] == STATUS] == \
+        [f'step {i}' for i in range(0, 3000, 100)]
