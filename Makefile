@@ -17,7 +17,8 @@ setup:
 demo: setup
 	$(VENV)/bin/pam-bench run demo --out bags/demo --overwrite
 
-test: setup
+test:
+	@bash tools/bootstrap.sh --with-js
 	$(PY) -m ruff check pam_bench test
 	$(PY) -m mypy
 	$(PY) -m pytest -q -n 2 -m 'not wallclock' test

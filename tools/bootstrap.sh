@@ -64,9 +64,9 @@ fi
 # 5. The compiled physics core, compiled once into its cache (models/compiled.py says where).
 "$VPY" -c 'from pam_bench.models.compiled import warm_up; warm_up()' \
   || { log "the compiled core does not compile"; exit 1; }
-# 6. The headless JavaScript clients the tests run (test/js: @mcap/core, Foxglove ws-protocol).
+# 6. With --with-js (make test): the headless JavaScript clients the tests run (test/js).
 want=$(hash_of test/js/package.json test/js/package-lock.json)
-if [ "$(cat test/js/node_modules/.stamp 2>/dev/null)" != "$want" ]; then
+if [ "${1:-}" = "--with-js" ] && [ "$(cat test/js/node_modules/.stamp 2>/dev/null)" != "$want" ]; then
   command -v npm > /dev/null || { log "npm is missing: install Node.js 20 and npm"; exit 1; }
   log "installing test/js (npm ci)"
   (cd test/js && npm ci --no-audit --no-fund --loglevel=error)

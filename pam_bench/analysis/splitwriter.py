@@ -8,6 +8,10 @@ written in ``NAME/.part_N/``; closed (the next one starts when the current file 
 ``max_bytes`` or spans ``max_duration_ns`` of log time), it moves into the folder. Chunks are
 compressed with zstd (rosbags' ``CompressionMode.STORAGE``) unless ``compress`` is off.
 
+A disk that fills is met before it is full: every ``CHECK_EVERY`` writes the free space is
+read, and below ``min_free_bytes`` ``write`` raises ``DiskFull`` without writing, so the bag
+can still be closed valid with what it holds (its summary and metadata need a little room).
+
 A recorder killed with SIGKILL leaves the closed files whole and the last one torn in its part
 folder, without metadata.yaml; ``analysis.bag_repair`` rebuilds the torn file from its complete
 chunks (at most ``flush``'s period is lost) and writes the metadata of all.
@@ -15,15 +19,17 @@ chunks (at most ``flush``'s period is lost) and writes the metadata of all.
 
 from __future__ import annotations
 
+import errno
 import json
+import os
 import pathlib
 import shutil
 from typing import Any
 
 import yaml
 
-__all__ = ['SplitWriter', 'part_name', 'write_metadata', 'read_closed', 'PART_PREFIX',
-           'CLOSED']
+__all__ = ['SplitWriter', 'DiskFull', 'part_name', 'write_metadata', 'read_closed',
+           'PART_PREFIX', 'CLOSED']
 
 PART_PREFIX = '.part_'
 CLOSED = '.closed_parts.json'
@@ -32,6 +38,16 @@ CLOSED = '.closed_parts.json'
 
 _Loader = getattr(yaml, 'CSafeLoader', yaml.SafeLoader)
 _Dumper = getattr(yaml, 'CSafeDumper', yaml.SafeDumper)
+
+
+class DiskFull(OSError):
+    """The disk holding the bag has less free space than the writer keeps in reserve."""
+
+
+def free_bytes(path: pathlib.Path) -> int:
+    """Bytes free for an ordinary user on the file system of ``path``."""
+    st = os.statvfs(path)
+    return int(st.f_bavail * st.f_frsize)
 
 
 def _dump(path: pathlib.Path, data: Any) -> None:
@@ -106,19 +122,21 @@ class SplitWriter:
         compress: zstd-compress the MCAP chunks.
         max_bytes: start a new file past this size (0: never).
         max_duration_ns: start a new file once one spans this much log time (0: never).
+        min_free_bytes: raise ``DiskFull`` rather than write when the disk has less free.
     """
 
     CHECK_EVERY = 256
     """Writes between two checks of the file's size."""
 
     def __init__(self, path: pathlib.Path, compress: bool = True, max_bytes: int = 0,
-                 max_duration_ns: int = 0) -> None:
+                 max_duration_ns: int = 0, min_free_bytes: int = 0) -> None:
         self.path = pathlib.Path(path)
         if self.path.exists():
             raise FileExistsError(f'bag directory {self.path} exists; remove it or pick another')
         self.compress = compress
         self.max_bytes = max_bytes
         self.max_duration_ns = max_duration_ns
+        self.min_free_bytes = min_free_bytes
         self.custom: dict[str, str] = {}
         self.parts: list[dict[str, Any]] = []        # closed parts' metadata
         self._conns: dict[str, tuple[str, dict[str, Any]]] = {}   # topic -> (type, kwargs)
@@ -131,7 +149,16 @@ class SplitWriter:
 
     # --- the rosbags Writer's surface the recorder uses ------------------------------------
     def open(self) -> None:
-        """Create the folder and the first part."""
+        """Create the folder and the first part.
+
+        Raises:
+            DiskFull: the disk has less than ``min_free_bytes`` free already.
+        """
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        free = free_bytes(self.path.parent)
+        if self.min_free_bytes and free < self.min_free_bytes:
+            raise DiskFull(errno.ENOSPC, f'{free / 1e6:.0f} MB left on the disk of {self.path} '
+                           f'(the recorder keeps {self.min_free_bytes / 1e6:.0f} MB free)')
         self.path.mkdir(parents=True)
         self._open_part()
         _dump(self.path / CLOSED, {'parts': self.parts, 'custom': self.custom})
@@ -156,14 +183,19 @@ class SplitWriter:
         elif self.max_duration_ns and timestamp - self._start_ns >= self.max_duration_ns:
             self._next_part()
             self._start_ns = timestamp
+        self._since_check += 1
+        if self._since_check >= self.CHECK_EVERY:
+            self._since_check = 0
+            if self.min_free_bytes:
+                free = free_bytes(self.path)
+                if free < self.min_free_bytes:
+                    raise DiskFull(errno.ENOSPC, f'{free / 1e6:.0f} MB left on the disk of '
+                                   f'{self.path} (the recorder keeps '
+                                   f'{self.min_free_bytes / 1e6:.0f} MB free)')
+            if self.max_bytes and self.size_of_current() >= self.max_bytes:
+                self._next_part()
+                self._start_ns = None
         self._writer.write(self._current[topic], timestamp, data)
-        if self.max_bytes:
-            self._since_check += 1
-            if self._since_check >= self.CHECK_EVERY:
-                self._since_check = 0
-                if self.size_of_current() >= self.max_bytes:
-                    self._next_part()
-                    self._start_ns = None
 
     def flush(self) -> None:
         """Write the pending chunk and flush the file (a SIGKILL loses at most what came

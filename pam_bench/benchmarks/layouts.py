@@ -33,8 +33,8 @@ def measure(quick: bool, out: pathlib.Path, scenes: list[str] | None) -> dict[st
             row = scene_run(name, out, one_process=one)
             row['layout'] = 'one process' if one else 'separate processes'
             if name.startswith('servo'):
-                from pam_bench.benchmarks.servo_compare import servo_run_of_bag
                 from pam_bench.twin.servo_bench import tracking_metrics
+                from pam_bench.twin.servo_setup import servo_run_of_bag
                 run = servo_run_of_bag(out / f'{name}{"_one" if one else ""}', 2)
                 row['torque_rms_error_nm'] = tracking_metrics(run)['rms_error']
             row['round_trips_per_exchange'] = pp / row['lockstep_rate_steps_per_s'] \

@@ -24,39 +24,21 @@ matplotlib.use('Agg')
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from pam_bench.analysis.servo_bag import read_servo_states  # noqa: E402
 from pam_bench.benchmarks.study import Study  # noqa: E402
 from pam_bench.benchmarks.tables import Row, commit_of, table  # noqa: E402
 from pam_bench.config.scene import Scene, load_scene, scene_names  # noqa: E402
-from pam_bench.control.inverse import InverseModel  # noqa: E402
 from pam_bench.control.torque_servo import (  # noqa: E402
     ServoMode,
-    Signal,
-    SignalKind,
 )
 from pam_bench.twin.servo_bench import ServoRun, run_servo, tracking_metrics  # noqa: E402
+from pam_bench.twin.servo_setup import scene_servo_setup, servo_run_of_bag  # noqa: E402
 
-__all__ = ['STUDY', 'servo_scenes', 'compare_servo', 'scene_servo_setup', 'one_run']
+__all__ = ['STUDY', 'servo_scenes', 'compare_servo', 'one_run']
 
 
 def servo_scenes() -> list[str]:
     """Scenes that run the torque servo node."""
     return [n for n in scene_names() if 'torque_servo' in load_scene(n).nodes]
-
-
-def scene_servo_setup(scene: Scene) -> dict[str, Any]:
-    """The servo's settings in a scene: signal, angle, muscles, params, inverse model (the
-    scene's typed settings, ``config.settings``: the node reads the same)."""
-    st = scene.settings()
-    ts, ls = st['torque_servo'], st['loading_servo']
-    sig = Signal(SignalKind(ts.signal), ts.amplitude, ts.omega_rad_s, ts.offset, ts.period_s)
-    if ts.muscles == 2:
-        angle = ls.hold_angle_rad
-    else:   # single muscle: the drive holds x = r theta
-        angle = ls.initial_setpoint / (ts.servo.pitch_diameter_m / 2.0)
-    model = ts.inverse_model_file
-    return {'signal': sig, 'angle_rad': angle, 'muscles': ts.muscles, 'params': ts.servo,
-            'inverse': InverseModel.load(model) if model else None}
 
 
 def _ros_run(scene: Scene, controller: ServoMode, duration_s: float | None,
@@ -73,16 +55,6 @@ def _ros_run(scene: Scene, controller: ServoMode, duration_s: float | None,
     if res.code != 0:
         raise RuntimeError(f'scene {scene.name} ({controller.value}) failed: exit {res.code}')
     return servo_run_of_bag(out, 2 if 'valve_2' in scene.nodes else 1), res.wall_s, res.sim_s
-
-
-def servo_run_of_bag(bag: pathlib.Path, muscles: int) -> ServoRun:
-    """The servo's time series recorded in ``bag`` (``torque_servo/state``), time from 0."""
-    s = read_servo_states(bag)
-    t = s['t_s'] - s['t_s'][0]
-    return ServoRun(t, s['torque_setpoint'], s['torque_measured'],
-                    np.gradient(s['torque_setpoint'], t), s['force_setpoint'][:, :muscles],
-                    s['force_measured'][:, :muscles], s['voltage'][:, :muscles],
-                    s['u_feedforward'][:, :muscles], 'N m' if muscles == 2 else 'N')
 
 
 def compare_servo(out_dir: pathlib.Path, engine: str = 'numpy', scenes: list[str] | None = None,

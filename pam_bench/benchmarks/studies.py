@@ -17,6 +17,7 @@ from pam_bench.benchmarks import (
     servo_compare,
     soak,
     straight_fibre,
+    sweep_scaling,
     wallclock,
 )
 from pam_bench.benchmarks.study import Study
@@ -27,7 +28,7 @@ STUDIES: tuple[Study, ...] = (
     figures_004.STUDY, lockstep.STUDY, layouts.STUDY, profile.STUDY, exchange_step.STUDY,
     record_exchange.STUDY, scenes.STUDY, numerics.STUDY, wallclock.STUDY, faults.STUDY,
     straight_fibre.STUDY, calibrate.STUDY, calibrate_nodes.STUDY, servo_compare.STUDY,
-    soak.STUDY)
+    soak.STUDY, sweep_scaling.STUDY)
 """Every study; ``pam-bench bench --only KEY`` runs some."""
 
 

@@ -23,17 +23,19 @@ from pam_bench.benchmarks.study import Study
 from pam_bench.benchmarks.tables import Row, commit_of, table
 from pam_bench.bringup.runner import RunResult, run_scene
 from pam_bench.config.scene import Scene, load_scene
+from pam_bench.config.settings import LiveViewSettings
 from pam_bench.verify.wallclock import compare_readings
 
 __all__ = ['STUDY', 'measure_wallclock', 'SERVO_SETUPS', 'wallclock_section', 'wallclock_results']
 
-SERVO_SETUPS: tuple[tuple[str, dict[str, Any], bool], ...] = (
-    ('rclpy timer + executor', {'wall_loop': 'timer', 'realtime_priority': 0}, False),
-    ('deadline loop, ordinary priority', {'realtime_priority': 0}, False),
-    ('deadline loop, SCHED_FIFO 50 (default)', {}, False),
-    ('default, every device its own process', {}, True),
+SERVO_SETUPS: tuple[tuple[str, dict[str, Any], bool, bool], ...] = (
+    ('rclpy timer + executor', {'wall_loop': 'timer', 'realtime_priority': 0}, False, False),
+    ('deadline loop, ordinary priority', {'realtime_priority': 0}, False, False),
+    ('deadline loop, SCHED_FIFO 50 (default)', {}, False, False),
+    ('default, every device its own process', {}, True, False),
+    ('default, with the live view (--live)', {}, False, True),
 )
-"""(label, torque_servo parameters, device_processes) of each servo row."""
+"""(label, torque_servo parameters, device_processes, live view) of each servo row."""
 
 
 def _lost(res: RunResult) -> tuple[int, int]:
@@ -69,18 +71,19 @@ def _readings(name: str, out: pathlib.Path) -> dict[str, Any]:
 
 
 def _servo(out: pathlib.Path) -> list[dict[str, Any]]:
-    from pam_bench.benchmarks.servo_compare import servo_run_of_bag
     from pam_bench.twin.servo_bench import tracking_metrics
+    from pam_bench.twin.servo_setup import servo_run_of_bag
     scene = load_scene('servo_sin_t')
     print('  servo_sin_t: lock-step reference ...', flush=True)
     run_scene(scene, str(out / 'servo_lock'), one_process=True, quiet=True)
     ref = servo_run_of_bag(out / 'servo_lock', 2)
     rows = []
-    for i, (label, params, separate) in enumerate(SERVO_SETUPS):
+    for i, (label, params, separate, live) in enumerate(SERVO_SETUPS):
         print(f'  servo_sin_t on the wall clock: {label} ...', flush=True)
         bag = out / f'servo_wall_{i}'
         res = run_scene(_with(scene, 'torque_servo', params), str(bag), wallclock=True,
-                        device_processes=separate, quiet=True)
+                        device_processes=separate, quiet=True,
+                        live=LiveViewSettings(port=0) if live else None)
         run = servo_run_of_bag(bag, 2)
         m = np.interp(ref.t_s, run.t_s, run.measured)
         keep = (ref.t_s >= 1.0) & (ref.t_s <= run.t_s[-1])
@@ -165,6 +168,12 @@ def wallclock_results(r: dict[str, Any], commit: str) -> list[Row]:
                      ' N m from the lock-step run)', commit))
         rows.append(('servo_sin_t on the wall clock: messages lost by the recorder', '0',
                      f"{default['lost']} of {default['written']}", commit))
+    live = next((s for s in w['servo'] if 'live view' in s['setup']), None)
+    if live:
+        p = live['periods']
+        rows.append(('servo_sin_t on the wall clock with --live: control period p99, late',
+                     '<= 1.5 ms, < 1 %', f"{p['p99_s'] * 1e3:.2f} ms, "
+                     f"{p['late_share'] * 100:.2f} %", commit))
     return rows
 
 

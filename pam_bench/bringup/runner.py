@@ -18,7 +18,9 @@ import yaml
 
 from pam_bench.bringup.common import RunResult, ros_env, write_params_file
 from pam_bench.bringup.errors import LayoutError
+from pam_bench.bringup.live import live_topics, live_view
 from pam_bench.config.scene import Scene, params_file
+from pam_bench.config.settings import LiveViewSettings
 
 __all__ = ['RunResult', 'ros_env', 'run_scene', 'write_params_file']
 
@@ -28,7 +30,8 @@ def run_scene(scene: Scene, out_dir: str, seed: int = 0, realtime: bool = False,
               quiet: bool = False, wallclock: bool = False,
               device_processes: bool = False, devices_only: bool = False,
               settings: dict[str, Any] | None = None,
-              netns: tuple[str, str] | None = None) -> RunResult:
+              netns: tuple[str, str] | None = None,
+              live: LiveViewSettings | None = None) -> RunResult:
     """Run ``scene``, recording into ``out_dir``; return the clock's summary. A lock-step run is
     composed in this process by default (``one_process``; False: one process per node, as
     beside drivers; ``netns`` implies it). With
@@ -36,7 +39,13 @@ def run_scene(scene: Scene, out_dir: str, seed: int = 0, realtime: bool = False,
     point a lab's own controllers or ``check-drivers`` at. ``settings`` (node -> settings: the
     ones a bag recorded, ``--replay``) replace the scene's. ``netns`` (device namespace,
     other namespace) runs the simulated devices and the other nodes in two network
-    namespaces, as on two hosts, with DDS discovery on their subnet (separate processes)."""
+    namespaces, as on two hosts, with DDS discovery on their subnet (separate processes).
+    ``live`` serves the recorded topics to Foxglove during the run (``bringup.live``; its
+    ``topics`` filled from the recorder's when empty).
+
+    Raises:
+        LiveViewError: the live view cannot start (its port is taken).
+    """
     settings = copy.deepcopy(settings) if settings else scene.settings(out_dir, seed, realtime)
     if netns or wallclock:
         one_process = False
@@ -56,11 +65,18 @@ def run_scene(scene: Scene, out_dir: str, seed: int = 0, realtime: bool = False,
     if scene.faults and not wallclock:
         raise LayoutError(f'scene {scene.name} injects faults: they run on the wall clock '
                          '(--wallclock)')
-    if wallclock:
-        from pam_bench.bringup.wallclock import run_wallclock
-        return run_wallclock(scene, settings, domain_id, quiet, device_processes, devices_only)
-    if one_process:
-        from pam_bench.bringup.composed import run_composed
-        return run_composed(scene, settings, domain_id, quiet)
-    from pam_bench.bringup.processes import run_processes
-    return run_processes(scene, settings, domain_id, quiet, netns)
+    if live is not None:
+        if netns:
+            raise LayoutError('the live view runs on this host: drop --netns or --live')
+        if not live.topics:
+            live = dataclasses.replace(live, topics=live_topics(settings))
+    with live_view(live, domain_id, quiet):
+        if wallclock:
+            from pam_bench.bringup.wallclock import run_wallclock
+            return run_wallclock(scene, settings, domain_id, quiet, device_processes,
+                                 devices_only)
+        if one_process:
+            from pam_bench.bringup.composed import run_composed
+            return run_composed(scene, settings, domain_id, quiet)
+        from pam_bench.bringup.processes import run_processes
+        return run_processes(scene, settings, domain_id, quiet, netns)

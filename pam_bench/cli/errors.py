@@ -14,6 +14,7 @@ from pam_bench.analysis.errors import BagError, ExtractError
 from pam_bench.benchmarks.errors import UsageError as StudyUsageError
 from pam_bench.bringup.errors import LayoutError
 from pam_bench.config.errors import ConfigError
+from pam_bench.live.errors import LiveViewError
 from pam_bench.models.errors import ModelError
 
 __all__ = ['UsageError', 'USER_ERRORS', 'exit_code']
@@ -25,7 +26,7 @@ class UsageError(ValueError):
 
 USER_ERRORS = (UsageError, StudyUsageError, LayoutError, ConfigError, ModelError, BagError,
                ExtractError, FileNotFoundError, FileExistsError, NotADirectoryError,
-               IsADirectoryError, PermissionError)
+               IsADirectoryError, PermissionError, LiveViewError)
 """What a user's input can cause: one line and exit code 2, never a traceback."""
 
 

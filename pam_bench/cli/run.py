@@ -45,6 +45,8 @@ def register(sub: Any) -> None:
     p.add_argument('--device-processes', action='store_true', help='with --wallclock: each '
                    'device in its own process instead of the emulator')
     add_bag_options(p)
+    add_live_options(p, '--live', 'serve the recorded topics to Foxglove during the run on '
+                     'ws://127.0.0.1:PORT (default 8765; README, "Watching a run")')
     p.set_defaults(func=_cmd_run)
     p = sub.add_parser('record', help='record topics of a running graph on the wall clock '
                        '(like ros2 bag record), until Ctrl-C')
@@ -53,6 +55,12 @@ def register(sub: Any) -> None:
     p.add_argument('--out', required=True, help='bag directory to create')
     add_bag_options(p)
     p.set_defaults(func=_cmd_record)
+    p = sub.add_parser('live', help='serve the topics of a running bench to Foxglove (join a '
+                       'running graph), until Ctrl-C')
+    p.add_argument('scene', nargs='?', default='demo', help="scene whose recorder's topics to "
+                   'serve (default demo)')
+    add_live_options(p, '--port', 'TCP port of the server (default 8765)')
+    p.set_defaults(func=_cmd_live)
     p = sub.add_parser('emulate', help="run only a scene's simulated devices on the wall "
                        'clock, until Ctrl-C (a bench for your own controllers)')
     p.add_argument('scene', nargs='?', default='demo')
@@ -70,6 +78,43 @@ def register(sub: Any) -> None:
     p.add_argument('--node', action='append', help='only this node (repeatable)')
     p.add_argument('--json', action='store_true')
     p.set_defaults(func=_cmd_params)
+
+
+def _port(text: str) -> int:
+    try:
+        port = int(text)
+    except ValueError:
+        port = -1
+    if not 0 <= port <= 65535:
+        raise argparse.ArgumentTypeError(f'{text!r} is not a TCP port (0..65535)')
+    return port
+
+
+def _rate(text: str) -> float:
+    try:
+        rate = float(text)
+    except ValueError:
+        rate = -1.0
+    if not 0.0 <= rate < float('inf'):
+        raise argparse.ArgumentTypeError(f'{text!r} is not a rate in Hz (0: no cap)')
+    return rate
+
+
+def add_live_options(p: argparse.ArgumentParser, flag: str, text: str) -> None:
+    """The live view's options (``config.settings.LiveViewSettings``)."""
+    p.add_argument(flag, nargs='?', const=8765, default=None, type=_port, metavar='PORT',
+                   help=text)
+    p.add_argument('--live-host', metavar='HOST', help='address the live view binds (default '
+                   '127.0.0.1, this machine only; 0.0.0.0 opens it to the network)')
+    p.add_argument('--live-rate', metavar='HZ', type=_rate, help='send each 1 kHz topic at most '
+                   'this often (default 50; 0: every message); points and status always whole')
+
+
+def live_settings(args: argparse.Namespace, port: int | None) -> Any:
+    """The live view's settings of the command line."""
+    from pam_bench.bringup.live import with_port
+    from pam_bench.config.settings import LiveViewSettings
+    return with_port(LiveViewSettings(), port, args.live_host, args.live_rate, [])
 
 
 def add_bag_options(p: argparse.ArgumentParser) -> None:
@@ -227,7 +272,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         res = run_scene(scene, str(out), seed=args.seed, realtime=args.realtime,
                         one_process=not args.processes, wallclock=args.wallclock,
                         device_processes=args.device_processes, settings=settings,
-                        netns=tuple(args.netns.split(':', 1)) if args.netns else None)
+                        netns=tuple(args.netns.split(':', 1)) if args.netns else None,
+                        live=live_settings(args, args.live) if args.live is not None else None)
         code = res.code
     except KeyboardInterrupt:
         print(f'interrupted: nodes stopped, bag closed in {out}', file=sys.stderr)
@@ -276,6 +322,22 @@ def _cmd_record(args: argparse.Namespace) -> int:
         raise UsageError(f'{out} exists')
     return record(str(out), args.topics, args.all, compress=not args.no_compress,
                   max_bytes=args.max_bag_size, max_duration_s=args.max_bag_duration)
+
+
+def _cmd_live(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    from pam_bench.bringup.live import live_topics, live_view
+    scene = load_with_sets(args.scene, [])
+    live = live_settings(args, args.port)
+    live = dataclasses.replace(live, topics=live_topics(scene.settings('', 0, False)))
+    try:
+        with live_view(live) as proc:
+            assert proc is not None
+            proc.wait()
+    except KeyboardInterrupt:
+        return 0
+    return 0
 
 
 def _cmd_emulate(args: argparse.Namespace) -> int:

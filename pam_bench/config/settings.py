@@ -25,7 +25,7 @@ from pam_bench.protocol.settings import RunnerSettings
 __all__ = ['NodeSettings', 'DeviceSettings', 'ControllerSettings', 'ClockSettings',
            'ValveSettings', 'MuscleSettings', 'LoadCellSettings', 'EncoderSettings',
            'LoadingServoSettings', 'SequencerSettings', 'TorqueServoSettings',
-           'RecorderSettings']
+           'RecorderSettings', 'LiveViewSettings', 'LIVE_FULL_RATE_TOPICS']
 
 
 @dataclasses.dataclass
@@ -201,6 +201,30 @@ class RecorderSettings(NodeSettings):
                                     0, 1e15)
     max_bag_duration_s: float = field(0.0, 's', 'start a new file of the bag once one spans '
                                       'this much log time (0: never)', 0.0, 1e9)
+    min_free_bytes: int = field(64_000_000, 'B', 'stop recording and close the bag valid when '
+                                'its disk has less than this free (0: write until it fails)',
+                                0, 1e15)
+
+
+LIVE_FULL_RATE_TOPICS = ['/protocol/point', '/protocol/status', '/protocol/step_response',
+                         '/diagnostics']
+
+
+@dataclasses.dataclass
+class LiveViewSettings:
+    """live_view: the bench's topics served to Foxglove (``live.server``)."""
+
+    host: str = field('127.0.0.1', '-', 'address the server binds (127.0.0.1: this machine '
+                      'only; 0.0.0.0: every interface)')
+    port: int = field(8765, '-', 'TCP port of the server (0: any free one)', 0, 65535)
+    max_rate_hz: float = field(50.0, 'Hz', 'send each topic at most this often (0: every '
+                               'message), but full_rate_topics', 0.0, 100000.0)
+    full_rate_topics: list = field(list(LIVE_FULL_RATE_TOPICS), '-', 'topics always sent whole '
+                                   "(the characteristic's points, the status)", item=str)
+    topics: list = field([], '-', 'topic:type served (the recorder topics of the scene, '
+                         'without /clock and /sim/)', item=str)
+    niceness: int = field(10, '-', "scheduling niceness added to the view's process: on a "
+                          "busy machine the bench's own nodes get the CPU first", 0, 19)
 
 
 @dataclasses.dataclass

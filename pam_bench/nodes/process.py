@@ -269,14 +269,18 @@ def _node_name(cls: type, args: list[str] | None) -> str:
 
 
 def start_node(cls: Callable[[], Node], name: str) -> Any:
-    """Build a node and refuse undeclared parameters; on a bad parameter print one line
-    (``fail_line``) and return None."""
+    """Build a node and refuse undeclared parameters; on a bad parameter, or a file or disk it
+    cannot use (a recorder's bag), print one line (``fail_line``) and return None."""
     import sys
     try:
         node = cls()
         reject_undeclared(node)
     except (ModelError, ParameterException) as exc:
         print(fail_line(name, exc), file=sys.stderr, flush=True)
+        return None
+    except OSError as exc:              # a file or disk it needs: a recorder's bag folder
+        text = exc.strerror if exc.strerror and not exc.filename else str(exc)
+        print(f'{name}: error: {text}', file=sys.stderr, flush=True)
         return None
     return node
 

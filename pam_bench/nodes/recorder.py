@@ -27,16 +27,18 @@ import datetime
 import functools
 import json
 import pathlib
+import sys
 import time
 from typing import Any
 
 import yaml
+from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
 from rosgraph_msgs.msg import Clock
 
 from pam_bench.analysis.baginfo import END_KEY, RUN_KEY
-from pam_bench.analysis.splitwriter import SplitWriter
+from pam_bench.analysis.splitwriter import DiskFull, SplitWriter
 from pam_bench.analysis.types import bench_typestore
 from pam_bench.config.settings import RecorderSettings
 from pam_bench.nodes import cdr
@@ -44,6 +46,7 @@ from pam_bench.nodes.base import BenchNode
 from pam_bench.nodes.intra import bus_subscription
 from pam_bench.nodes.messages import message_class, stamp_of_cdr, stamp_of_msg, time_of
 from pam_bench.nodes.process import run_node
+from pam_bench.sim.lockstep import StopRequest
 
 __all__ = ['Recorder', 'main']
 
@@ -91,12 +94,14 @@ class Recorder(BenchNode):
         path = pathlib.Path(out)
         path.parent.mkdir(parents=True, exist_ok=True)
         writer = SplitWriter(path, compress=s.compress, max_bytes=int(s.max_bag_size_bytes),
-                             max_duration_ns=round(s.max_bag_duration_s * 1e9))
+                             max_duration_ns=round(s.max_bag_duration_s * 1e9),
+                             min_free_bytes=int(s.min_free_bytes))
         writer.open()
         if self.run_yaml:
             writer.set_custom_data(RUN_KEY, self.run_yaml)
         self.writer: SplitWriter | None = writer
         self.count = 0
+        self.exit_code = 0
         self.end_ns: int | None = None
         self.connections: dict[str, str] = {}       # topic -> message type
         self._trim: dict[str, str] = {}
@@ -162,7 +167,11 @@ class Recorder(BenchNode):
         if self.writer is None:
             return
         t = (info or {}).get('received_timestamp') or time.time_ns()
-        self.writer.write(topic, int(t), bytes(data))
+        try:
+            self.writer.write(topic, int(t), bytes(data))
+        except DiskFull as exc:
+            self._disk_full(exc)
+            return
         self.count += 1
         self.written[topic] += 1
         seq = (info or {}).get('publication_sequence_number')
@@ -174,7 +183,10 @@ class Recorder(BenchNode):
                 s[0], s[1], s[2] = min(s[0], seq), max(s[1], seq), s[2] + 1
 
     def lean_poll(self) -> None:
-        """Wall clock: discovery (new topics, publishers' QoS) and the periodic flush."""
+        """Wall clock: discovery (new topics, publishers' QoS) and the periodic flush; after
+        a full disk, the exit (code 2)."""
+        if self.exit_code:
+            raise SystemExit(self.exit_code)
         if self.lockstep or self.writer is None:
             return
         now = time.monotonic()
@@ -225,8 +237,26 @@ class Recorder(BenchNode):
 
     def _write(self, topic: str, t_ns: int, data: bytes) -> None:
         if self.writer is not None and (self.end_ns is None or t_ns <= self.end_ns):
-            self.writer.write(topic, t_ns, bytes(data))
+            try:
+                self.writer.write(topic, t_ns, bytes(data))
+            except DiskFull as exc:
+                self._disk_full(exc)
+                return
             self.count += 1
+
+    def _disk_full(self, exc: DiskFull) -> None:
+        """The disk is (nearly) full: one line, the bag closed valid with what it holds, and
+        the run ended (lock-step: a stop request to the clock; wall clock: exit code 2, and
+        the runner stops the controllers, which vent)."""
+        reason = f'disk full: {exc.strerror}; the bag is closed with the {self.count} ' \
+            'messages it holds'
+        print(f'recorder: error: {reason}', file=sys.stderr, flush=True)
+        self.diagnose(DiagnosticStatus.ERROR, reason)
+        self.close()
+        if self.lockstep:
+            self.stop_request = StopRequest(2, f'recorder: {reason}')
+        else:
+            self.exit_code = 2
 
     def _write_any(self, topic: str, data: Any) -> None:
         """Write CDR bytes (from DDS) or a message object (from the intra-process bus)."""

@@ -29,12 +29,21 @@ class Measurement:
 
 @dataclasses.dataclass(frozen=True)
 class Point:
-    """A reading taken: the schedule entry, the sim time (s) and the measurement."""
+    """A reading taken: the schedule entry, the sim time (s) and the measurement (force and
+    contraction averaged over the reading's window, ``protocol.window``).
+
+    Attributes:
+        window_n: force samples averaged.
+        outliers: (input, stamp s, value) of each sample of the window left out for being
+            outside the input's band.
+    """
 
     reading: Reading
     t_s: float
     voltage_v: float
     measurement: Measurement
+    window_n: int = 1
+    outliers: tuple[tuple[str, float, float], ...] = ()
 
 
 @dataclasses.dataclass(frozen=True)

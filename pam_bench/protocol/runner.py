@@ -106,6 +106,9 @@ class Runner:
         self.core: Sequencer | None = None
         self.meas = Measurement(0.0, 0.0, 0.0)
         self.samples: list[tuple[float, float]] = []     # load-cell (stamp s, N) since a tick
+        self.x_samples: list[tuple[float, float]] = []   # encoder (stamp s, m) since a tick
+        self.bands = {r.input: (r.low, r.high) for r in self.suspenders.rules
+                      if r.input in ('force', 'contraction')}
         self.stamps: dict[str, float] = {}               # input -> stamp of its latest value
         self.start_pending = False
         self.step_request = EventStepRequest(settings.command_step_s)
@@ -119,6 +122,7 @@ class Runner:
         """Run ``core`` next: it starts at the next tick once the inputs are there
         (``start`` starts it at once)."""
         self.core = core
+        core.bands = dict(self.bands)
         self.start_pending = True
         self._end_s = None
         self._last_phase = None
@@ -156,6 +160,7 @@ class Runner:
             self.samples.append((stamp_s, value))
         elif name == 'contraction':
             self.meas = Measurement(m.force_n, value, m.pressure_pa)
+            self.x_samples.append((stamp_s, value))
         else:
             self.meas = Measurement(m.force_n, m.contraction_m, value)
         return ''
@@ -215,12 +220,12 @@ class Runner:
         if self.start_pending and core is not None and not self.lockstep:
             waiting = self.waiting_for(gate)
             if waiting:
-                self.samples = []
+                self.samples, self.x_samples = [], []
                 return Tick(VENTED, notes=notes, waiting=waiting)
         if self.start_pending and core is not None:
             self.start(t_s)
         if core is None:
-            self.samples = []
+            self.samples, self.x_samples = [], []
             return Tick(VENTED, notes=notes)
         exit_code = None
         if self._end_s is not None and t_s >= self._end_s:
@@ -228,8 +233,11 @@ class Runner:
         if core.running and not self.lockstep:
             self._stale_check(t_s, notes)
         samples, self.samples = self.samples, []
+        x_samples, self.x_samples = self.x_samples, []
         self._suspend_check(t_s, notes)
-        cmd = core.tick(t_s, self.meas, samples)
+        cmd = core.tick(t_s, self.meas, samples, x_samples)
+        if cmd.point is not None and cmd.point.outliers:
+            self._outliers(cmd.point, notes)
         due = core.phase != self._last_phase or t_s - self._last_status_t >= \
             self.settings.status_period_s
         if due:
@@ -260,6 +268,25 @@ class Runner:
                                f'({age:.3f} s old)')
                 notes.append(Note(ERROR, self.core.reason))
                 return
+
+    def _outliers(self, point: Point, notes: list[Note]) -> None:
+        """Write up the samples a reading's window left out (outside the suspenders' band);
+        with ``reading_outliers: suspend`` the run is suspended until the suspenders hold."""
+        r = point.reading
+        units = {'force': 'N', 'contraction': 'm'}
+        shown = ', '.join(f'{name} {v:.4g} {units[name]} at {t:.3f} s'
+                          for name, t, v in point.outliers[:3])
+        more = len(point.outliers) - 3
+        text = (f'reading {r.protocol} series {r.series} step {r.step}: '
+                f'{len(point.outliers)} sample(s) of its {r.window_s * 1e3:.0f} ms window '
+                f'outside the band, left out of the mean ({shown}'
+                + (f', and {more} more' if more > 0 else '') + ')')
+        notes.append(Note(WARN, text))
+        core = self.core
+        if self.settings.reading_outliers == 'suspend' and core is not None and core.running:
+            core.pause(f'suspended: {text}', vent=self.pause_vent)
+            self.suspenders.hold()
+            notes.append(Note(WARN, f'protocol suspended: {text}'))
 
     def _suspend_check(self, t_s: float, notes: list[Note]) -> None:
         """Let the suspenders pause or resume a running protocol."""

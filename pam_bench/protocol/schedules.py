@@ -19,6 +19,7 @@ import numpy as np
 from pam_bench.models.errors import ParameterError
 from pam_bench.models.loading_servo import LoadMode
 from pam_bench.models.params import check_known, hint
+from pam_bench.protocol.window import READING_WINDOW_S
 
 __all__ = ['Direction', 'Reading', 'sweep', 'schedule_from_config', 'resume_index',
            'with_approach', 'APPROACH_DWELL_S',
@@ -52,6 +53,7 @@ class Reading:
     sample_period_s: float = 0.0         # of the record, s
     lead_s: float = 0.0                  # extra wait before the dwell (protocol change)
     recorded: bool = True                # False: an approach step (``with_approach``)
+    window_s: float = 0.0                # average the samples of this last window (0: one)
 
 
 def sweep(start: float, stop: float, step: float) -> np.ndarray:
@@ -108,7 +110,7 @@ def _step_response(name: str, get: Any, dwell: float) -> list[Reading]:
     return out
 
 
-_COMMON = ('kind', 'dwell_s', 'settle_s')
+_COMMON = ('kind', 'dwell_s', 'settle_s', 'reading_window_s')
 PROTOCOL_KEYS: dict[str, tuple[str, ...]] = {
     'ramp': _COMMON + ('load_mode', 'load_value', 'voltage_v', 'ramp_rate_v_per_s',
                        'reading_every_s'),
@@ -148,7 +150,9 @@ def schedule_from_config(name: str, cfg: Mapping[str, Any],
     ``reading_every_s``), ``isometric`` / ``isotonic`` (series of a held x or F, u swept up then
     down), ``isobaric`` (series of a held u, F swept up then down), ``step_response`` (per
     position: settle at u0, step to u0 + n du, record the force), ``campaign`` (the protocols
-    named in ``protocols``, one after the other; needs ``table``).
+    named in ``protocols``, one after the other; needs ``table``). Every kind takes
+    ``reading_window_s`` (default ``READING_WINDOW_S``): a reading averages the samples of that
+    last window of its dwell (``protocol.window``).
 
     Raises:
         ParameterError: a missing or malformed key, named.
@@ -162,13 +166,21 @@ def schedule_from_config(name: str, cfg: Mapping[str, Any],
     kind = get('kind')
     dwell = float(cfg.get('dwell_s', 3.0))
     settle = float(cfg.get('settle_s', dwell))
+    window = float(cfg.get('reading_window_s', READING_WINDOW_S))
+    if not 0.0 <= window <= dwell and kind != 'campaign':
+        raise ParameterError(f'protocol {name!r}: reading_window_s {window} must be in '
+                             f'[0, dwell_s = {dwell}]')
+
+    def windowed(readings: list[Reading]) -> list[Reading]:
+        return [dataclasses.replace(r, window_s=window) for r in readings]
+
     try:
         if kind == 'ramp':
-            return _ramp(name, get), settle
+            return windowed(_ramp(name, get)), settle
         if kind in ('isometric', 'isotonic', 'isobaric'):
-            return _isobaric_like(name, kind, cfg, get, dwell), settle
+            return windowed(_isobaric_like(name, kind, cfg, get, dwell)), settle
         if kind == 'step_response':
-            return _step_response(name, get, dwell), settle
+            return windowed(_step_response(name, get, dwell)), settle
         if kind == 'campaign':
             if table is None:
                 raise ParameterError(f'protocol {name!r}: a campaign needs the protocol table')

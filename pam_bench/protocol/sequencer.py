@@ -8,12 +8,14 @@ point (and, after a step, the force record collected by stamp).
 from __future__ import annotations
 
 import enum
+import math
 
 from pam_bench.models.errors import ParameterError
 from pam_bench.models.loading_servo import LoadMode
 from pam_bench.protocol.io import Commands, Measurement, Point, RecordWindow, StepRecord
 from pam_bench.protocol.schedules import Reading
 from pam_bench.protocol.settings import COMMAND_STEP_S, RECORD_EXCHANGE_S, Limits
+from pam_bench.protocol.window import SampleWindow
 
 __all__ = ['Phase', 'Measurement', 'Limits', 'Point', 'StepRecord', 'Commands', 'Sequencer',
            'COMMAND_STEP_S', 'RECORD_EXCHANGE_S']
@@ -54,12 +56,15 @@ class Sequencer:
     exchange steps of at most ``record_exchange_s`` (0: the whole record in one exchange).
     ``start_index`` resumes a run at that reading (``resume_index``, ``with_approach``): the
     settle phase then holds that reading's set values. A reading that is not ``recorded`` (an
-    approach step) is held and checked like any other but gives no point.
+    approach step) is held and checked like any other but gives no point. A reading's force
+    and contraction are the means of the samples of its last ``window_s`` inside ``bands``
+    (input -> (low, high); ``protocol.window``); the limits are checked on those means.
     """
 
     def __init__(self, name: str, readings: list[Reading], settle_s: float,
                  limits: Limits | None = None, record_exchange_s: float = 0.0,
-                 start_index: int = 0) -> None:
+                 start_index: int = 0,
+                 bands: dict[str, tuple[float, float]] | None = None) -> None:
         if not readings:
             raise ParameterError(f'protocol {name!r} has no readings')
         if not 0 <= start_index < len(readings):
@@ -86,6 +91,9 @@ class Sequencer:
         self._resume_request = False
         self._paused: tuple[str, bool, Phase, float] = ('', False, Phase.IDLE, 0.0)
         self._done_s = 0.0               # scheduled time of the readings already taken
+        self.bands = dict(bands or {})
+        keep = max((r.window_s for r in readings), default=0.0) + 0.1
+        self.windows = {'force': SampleWindow(keep), 'contraction': SampleWindow(keep)}
 
     @property
     def total_points(self) -> int:
@@ -212,10 +220,11 @@ class Sequencer:
         return ''
 
     def tick(self, t_s: float, meas: Measurement,
-             samples: list[tuple[float, float]] | None = None) -> Commands:
+             samples: list[tuple[float, float]] | None = None,
+             contraction_samples: list[tuple[float, float]] | None = None) -> Commands:
         """Advance to ``t_s`` given the latest measurement and the load-cell samples (stamp s,
-        force N) received since the last tick (None: the latest force, stamped ``t_s``);
-        return what to command.
+        force N) received since the last tick (None: the latest force, stamped ``t_s``), and
+        likewise the encoder's contraction samples (stamp s, m); return what to command.
 
         One tick runs the phases in order, each possibly handing over to the next at the same
         time: samples into the open records, a pause taken or ended (``pause``), SETTLE ->
@@ -224,6 +233,10 @@ class Sequencer:
         """
         if samples is None:
             samples = [(t_s, meas.force_n)]
+        if contraction_samples is None:
+            contraction_samples = [(t_s, meas.contraction_m)]
+        self.windows['force'].add(samples)
+        self.windows['contraction'].add(contraction_samples)
         if self.running and abs(meas.force_n) >= 0.999 * self.limits.force_range_n:
             self.stop(Phase.ABORTED, f'load cell out of range: {meas.force_n:.1f} N')
         record = self._collect(samples)
@@ -304,11 +317,23 @@ class Sequencer:
         return Commands(0.0, LoadMode.OFF, 0.0, point, record)          # vent, torque off
 
     def _take(self, r: Reading, t_s: float, meas: Measurement) -> Point | None:
+        n = 1
+        outliers: tuple[tuple[str, float, float], ...] = ()
+        if r.window_s > 0.0:
+            inf = (-math.inf, math.inf)
+            f = self.windows['force'].average(t_s, r.window_s, meas.force_n,
+                                              self.bands.get('force', inf))
+            x = self.windows['contraction'].average(t_s, r.window_s, meas.contraction_m,
+                                                    self.bands.get('contraction', inf))
+            meas = Measurement(f.value, x.value, meas.pressure_pa)
+            n = max(f.n, 1)
+            outliers = tuple(('force', t, v) for t, v in f.outliers) + \
+                tuple(('contraction', t, v) for t, v in x.outliers)
         problem = self._check(r, meas)
         if problem:
             self.stop(Phase.ABORTED, problem)
             return None
-        point = Point(r, t_s, r.voltage_v, meas) if r.recorded else None
+        point = Point(r, t_s, r.voltage_v, meas, n, outliers) if r.recorded else None
         self.points_done += r.recorded
         self.index += 1
         self.t_phase = t_s

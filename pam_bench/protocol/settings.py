@@ -11,7 +11,8 @@ import dataclasses
 from pam_bench.models.constants import LOAD_CELL_RANGE_N
 from pam_bench.models.params import field
 
-__all__ = ['Limits', 'RunnerSettings', 'COMMAND_STEP_S', 'RECORD_EXCHANGE_S', 'PAUSE_ACTIONS']
+__all__ = ['Limits', 'RunnerSettings', 'COMMAND_STEP_S', 'RECORD_EXCHANGE_S', 'PAUSE_ACTIONS',
+           'OUTLIER_ACTIONS']
 
 # exchange steps a lock-step sequencer asks for: at every new reading or phase (the loading
 # servo takes a new set value one exchange after it is sent), and at most during a 1 kHz record
@@ -20,6 +21,7 @@ __all__ = ['Limits', 'RunnerSettings', 'COMMAND_STEP_S', 'RECORD_EXCHANGE_S', 'P
 COMMAND_STEP_S = 0.001
 RECORD_EXCHANGE_S = 0.05
 PAUSE_ACTIONS = ('hold', 'vent')
+OUTLIER_ACTIONS = ('report', 'suspend')
 
 
 @dataclasses.dataclass
@@ -62,6 +64,10 @@ class RunnerSettings(Limits):
     suspenders_yaml: str = field('', '-', 'YAML list of suspenders: {input: force | contraction '
                                  '| pressure, low, high, stale_s, resume_after_s} '
                                  '(protocol.suspenders)')
+    reading_outliers: str = field('report', '-', "a sample of a reading's window outside a "
+                                  "suspender's band is left out of the mean and 'report'ed "
+                                  "with the reading (diagnostics), or 'suspend's the run",
+                                  choices=OUTLIER_ACTIONS)
     record_exchange_s: float = field(RECORD_EXCHANGE_S, 's', 'longest exchange step asked for '
                                      'during a step record (0: the whole record in one; the '
                                      'devices report every sample inside it)', 0.0, 10.0)

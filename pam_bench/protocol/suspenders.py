@@ -85,6 +85,12 @@ class Suspenders:
         aborting for them)."""
         return {r.input for r in self.rules if math.isfinite(r.stale_s)}
 
+    def hold(self) -> None:
+        """Hold the run suspended from now until every rule has held for its
+        ``resume_after_s`` (a reading whose window had samples outside the band)."""
+        self.suspended = True
+        self._good_since = None
+
     def update(self, t_s: float, values: Mapping[str, float], ages_s: Mapping[str, float]
                ) -> tuple[str, str]:
         """Check every rule at ``t_s``; returns (action, reason): ('suspend', why) when a rule

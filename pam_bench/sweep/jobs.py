@@ -84,9 +84,9 @@ def _servo_result(scene: Any, job: Job, engine: str, duration_s: float | None
                   ) -> dict[str, Any]:
     import dataclasses
 
-    from pam_bench.benchmarks.servo_compare import scene_servo_setup, servo_run_of_bag
     from pam_bench.control.torque_servo import ServoMode
     from pam_bench.twin.servo_bench import run_servo, tracking_metrics
+    from pam_bench.twin.servo_setup import scene_servo_setup, servo_run_of_bag
     sim = duration_s or scene.duration_s
     st = scene.settings(seed=job.seed)
     if engine == 'twin':

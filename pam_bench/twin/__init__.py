@@ -2,4 +2,4 @@
 
 from __future__ import annotations
 
-__all__ = ['bench', 'protocol_run', 'quasistatic', 'servo_bench']
+__all__ = ['bench', 'protocol_run', 'quasistatic', 'servo_bench', 'servo_setup']

@@ -186,3 +186,35 @@ def test_mcap_core_decodes_a_split_compressed_bag(tmp_path: pathlib.Path) -> Non
     assert forces == [(10**9 + i * 10**6, float(i % 97)) for i in range(3000)]
     assert [r['message']['data'] for r in rows if r['topic'] == STATUS] == \
         [f'step {i}' for i in range(0, 3000, 100)]
+
+
+def test_a_disk_already_full_refuses_to_start(tmp_path: pathlib.Path) -> None:
+    from pam_bench.analysis.splitwriter import DiskFull, free_bytes
+    w = SplitWriter(tmp_path / 'bag', min_free_bytes=free_bytes(tmp_path) + 10**12)
+    with pytest.raises(DiskFull, match='MB left on the disk'):
+        w.open()
+    assert not (tmp_path / 'bag').exists()
+
+
+def test_a_disk_filling_up_stops_the_writes_and_the_bag_closes_valid(
+        tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from pam_bench.analysis import splitwriter
+    free = [10**12]
+    monkeypatch.setattr(splitwriter, 'free_bytes', lambda path: free[0])
+    store = bench_typestore()
+    bag = tmp_path / 'bag'
+    w = SplitWriter(bag, min_free_bytes=64_000_000)
+    w.open()
+    w.add_connection(FORCE, 'geometry_msgs/msg/WrenchStamped', typestore=store)
+    written = []
+    with pytest.raises(splitwriter.DiskFull):
+        for i in range(10_000):
+            if i == 1000:
+                free[0] = 10_000_000            # 10 MB left: under the 64 MB kept free
+            t = 10**9 + i * 10**6
+            raw = _force(store, t, 1.0)
+            w.write(FORCE, t, raw)
+            written.append((t, raw))
+    w.close()
+    assert 1000 <= len(written) < 1000 + SplitWriter.CHECK_EVERY
+    assert bag_payloads(bag) == {FORCE: written}

@@ -8,6 +8,7 @@ import subprocess
 import sys
 from typing import Any
 
+import pytest
 from ruamel.yaml import YAML
 
 from pam_bench.analysis.extract import extract
@@ -42,3 +43,29 @@ def test_split_compressed_bag_extracts_as_one_plain_file(tmp_path: pathlib.Path,
     b = extract([str(plain)], str(tmp_path / 'b'), figures=False)
     assert _results(a) == _results(b)
     assert a['isometric'] and a['step_response']
+
+
+def test_a_disk_filling_up_ends_the_run_with_a_valid_bag_and_one_line(
+        tmp_path: pathlib.Path, ros_domain: int, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """Composed in this process, the recorder's disk reports 10 MB free after a while: the
+    recorder closes the bag with what it holds and the run ends with exit code 2."""
+    from pam_bench.analysis import splitwriter
+    from pam_bench.analysis.baginfo import bag_info
+    from pam_bench.bringup.runner import run_scene
+    from pam_bench.config.scene import load_scene
+    calls = [0]
+
+    def free(path: pathlib.Path) -> int:
+        calls[0] += 1
+        return 10**12 if calls[0] < 8 else 10_000_000
+
+    monkeypatch.setattr(splitwriter, 'free_bytes', free)
+    bag = tmp_path / 'bag'
+    res = run_scene(load_scene('demo'), str(bag), quiet=True)
+    err = capsys.readouterr().err
+    assert res.code == 2
+    lines = [ln for ln in err.splitlines() if 'disk full' in ln]
+    assert len(lines) == 1 and 'the bag is closed with the' in lines[0], err
+    info = bag_info(str(bag))                        # valid, with what it holds
+    assert 0 < info['topics']['/load_cell_1/force']['count'] < 1000

@@ -1,0 +1,172 @@
+"""Sweeps on 1 and 2 workers, an external scheduler, and a projection to 10 000 jobs.
+
+``config/sweeps/scaling.yaml`` (40 twin ``campaign_quick`` jobs) runs on a local cluster of
+1 worker, then of 2, then on an external ``dask scheduler`` with two ``dask worker``
+processes on 127.0.0.1; the three ``results.csv`` must be equal but for the ``seconds``
+column. The scheduler's own cost per task is measured with 2000 empty tasks on the 2-worker
+cluster, and the bytes a job returns with pickle. The projection of a sweep of N jobs on W
+workers: T = N c / W + N o, with c the mean job time and o the scheduler's cost per task;
+the scheduler, not the workers, is the limit once c / W < o, i.e. from W* = c / o workers.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import pathlib
+import pickle
+import signal
+import socket
+import subprocess
+import sys
+import time
+from typing import Any
+
+from pam_bench.benchmarks.study import Study
+from pam_bench.benchmarks.tables import Row, commit_of, table
+
+__all__ = ['STUDY', 'measure_scaling', 'scaling_section', 'scaling_results', 'project']
+
+JOBS_PROJECTED = 10_000
+WORKERS_PROJECTED = (1, 8, 64)
+
+
+def _rows(path: pathlib.Path) -> list[dict[str, str]]:
+    with open(path, newline='', encoding='utf-8') as fh:
+        return [{k: v for k, v in r.items() if k != 'seconds'} for r in csv.DictReader(fh)]
+
+
+def _port() -> int:
+    with socket.socket() as s:
+        s.bind(('127.0.0.1', 0))
+        return int(s.getsockname()[1])
+
+
+def _external(sweep: Any, out: pathlib.Path) -> float:
+    """Run ``sweep`` on an external scheduler with two workers on 127.0.0.1; wall s."""
+    from distributed import Client
+
+    from pam_bench.sweep.results import run_sweep
+    dask = pathlib.Path(sys.executable).with_name('dask')
+    port = _port()
+    address = f'tcp://127.0.0.1:{port}'
+    env = dict(os.environ, PYTHONWARNINGS='ignore')
+    log = open(out / 'external.log', 'w', encoding='utf-8')
+    procs = [subprocess.Popen([str(dask), 'scheduler', '--host', '127.0.0.1', '--port',
+                               str(port), '--no-dashboard'], stdout=log, stderr=log, env=env,
+                              start_new_session=True)]
+    try:
+        for i in range(2):
+            procs.append(subprocess.Popen(
+                [str(dask), 'worker', address, '--host', '127.0.0.1', '--nthreads', '1',
+                 '--no-dashboard', '--name', f'w{i}'], stdout=log, stderr=log, env=env,
+                start_new_session=True))
+        with Client(address, timeout='30s') as c:
+            c.wait_for_workers(2, timeout=60)
+        t0 = time.perf_counter()
+        run_sweep(sweep, out / 'external', {'scheduler': address})
+        return time.perf_counter() - t0
+    finally:
+        for p in procs:
+            if p.poll() is None:
+                os.killpg(p.pid, signal.SIGTERM)
+        for p in procs:
+            try:
+                p.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                os.killpg(p.pid, signal.SIGKILL)
+        log.close()
+
+
+def _noop(x: int) -> int:
+    return x
+
+
+def _overhead_per_task(n: int = 2000) -> float:
+    """Scheduler cost per task (s): ``n`` empty tasks on a 2-worker local cluster."""
+    from distributed import wait
+
+    from pam_bench.cluster.layer import connect
+    with connect(workers=2) as client:
+        wait(client.map(_noop, range(50), pure=False))        # warm
+        t0 = time.perf_counter()
+        wait(client.map(_noop, range(n), pure=False))
+        return (time.perf_counter() - t0) / n
+
+
+def project(n_jobs: int, workers: int, job_s: float, overhead_s: float) -> float:
+    """Wall time (s) of ``n_jobs`` of ``job_s`` each on ``workers``, the scheduler paying
+    ``overhead_s`` per task (module docstring)."""
+    return n_jobs * job_s / workers + n_jobs * overhead_s
+
+
+def measure_scaling(out: pathlib.Path) -> dict[str, Any]:
+    """The study (module docstring)."""
+    from pam_bench.config.paths import config_dir
+    from pam_bench.sweep.jobs import run_job
+    from pam_bench.sweep.results import RESULTS, run_sweep
+    from pam_bench.sweep.spec import load_sweep
+    sweep = load_sweep(config_dir() / 'sweeps' / 'scaling.yaml')
+    out.mkdir(parents=True, exist_ok=True)
+    wall: dict[str, float] = {}
+    for w in (1, 2):
+        print(f'  sweep of {len(sweep.jobs())} jobs on {w} local worker(s) ...', flush=True)
+        t0 = time.perf_counter()
+        rows = run_sweep(sweep, out / f'local_{w}', {'workers': w})
+        wall[f'local_{w}'] = time.perf_counter() - t0
+    print('  the same on an external scheduler with 2 workers ...', flush=True)
+    wall['external_2'] = _external(sweep, out)
+    same = (_rows(out / 'local_1' / RESULTS) == _rows(out / 'local_2' / RESULTS)
+            == _rows(out / 'external' / RESULTS))
+    job_s = sum(float(r['seconds']) for r in rows) / len(rows)
+    job = sweep.jobs()[0]
+    returned = len(pickle.dumps(run_job((job, sweep.engine, sweep.figures, sweep.duration_s))))
+    print('  scheduler overhead per task ...', flush=True)
+    overhead = _overhead_per_task()
+    return {'jobs': len(rows), 'wall_s': wall, 'speedup_2': wall['local_1'] / wall['local_2'],
+            'identical': bool(same), 'failed': sum(r['status'] != 'ok' for r in rows),
+            'job_s': job_s, 'returned_bytes': returned, 'overhead_s': overhead,
+            'scheduler_limit_workers': job_s / overhead if overhead > 0 else float('inf'),
+            'projection': {str(w): project(JOBS_PROJECTED, w, job_s, overhead)
+                           for w in WORKERS_PROJECTED}}
+
+
+def scaling_section(r: dict[str, Any], plots: pathlib.Path) -> list[str]:
+    """The tables of the section."""
+    s = r['sweep_scaling']
+    lines = [f"{s['jobs']} twin `campaign_quick` jobs (`config/sweeps/scaling.yaml`), "
+             f"{s['failed']} failed; results.csv equal on all three (but `seconds`): "
+             f"{'yes' if s['identical'] else 'NO'}.", '']
+    lines += table(['cluster', 'wall s', 'jobs/s'],
+                   [(k.replace('_', ', ') + ' worker(s)', f'{v:.1f}', f"{s['jobs'] / v:.2f}")
+                    for k, v in s['wall_s'].items()])
+    lines += ['', f"2 workers against 1: {s['speedup_2']:.2f}x. Mean job {s['job_s']:.3f} s, "
+              f"{s['returned_bytes']} bytes returned per job, scheduler cost "
+              f"{s['overhead_s'] * 1e3:.2f} ms per task (2000 empty tasks).", '',
+              f'Projection for {JOBS_PROJECTED} such jobs, T = N c / W + N o:', '']
+    lines += table(['workers', 'projected wall', 'limited by'],
+                   [(w, f'{t / 60:.1f} min', 'scheduler' if int(w) >
+                     s['scheduler_limit_workers'] else 'workers')
+                    for w, t in s['projection'].items()])
+    lines += ['', f"The scheduler becomes the limit past about {s['scheduler_limit_workers']:.0f}"
+              ' workers for jobs this short; longer jobs (the ROS engine, calibration) move that '
+              'point up in proportion.']
+    return lines
+
+
+def scaling_results(r: dict[str, Any], commit: str) -> list[Row]:
+    """Key-result rows."""
+    s = r.get('sweep_scaling')
+    if not s:
+        return []
+    return [('sweep of 40 twin jobs: 2 workers against 1', '>= 1.8x',
+             f"{s['speedup_2']:.2f}x (results identical: {'yes' if s['identical'] else 'no'})",
+             commit)]
+
+
+STUDY = Study('sweep_scaling', 'a 40-job sweep on 1 and 2 workers and an external scheduler; '
+              'projection to 10 000 jobs',
+              lambda quick, out, scenes: {'sweep_scaling': measure_scaling(out / 'scaling')},
+              (('sweep_scaling', scaling_section),),
+              lambda r: scaling_results(r, commit_of(r, 'sweep_scaling')))
+"""The execution layer's scaling (bench.json ``sweep_scaling``)."""

@@ -1,0 +1,73 @@
+"""The live view during a run, as a lab meets it: ``pam-bench run demo --wallclock --live``, a
+headless Foxglove client connected while it runs; what it gets equals the bag."""
+
+from __future__ import annotations
+
+import os
+import pathlib
+import re
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from test.helpers import bag_payloads
+from test.live.client import FoxgloveClient
+
+
+@pytest.mark.wallclock
+def test_a_client_during_a_run_gets_the_bags_messages(tmp_path: pathlib.Path,
+                                                      ros_domain: int) -> None:
+    bag = tmp_path / 'bag'
+    proc = subprocess.Popen([sys.executable, '-m', 'pam_bench.cli', 'run', 'demo', '--wallclock',
+                             '--out', str(bag), '--live', '0'], stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    client = None
+    lines = []
+    try:
+        assert proc.stdout is not None
+        for line in proc.stdout:
+            lines.append(line)
+            m = re.search(r'live view: serving \d+ topics on (ws://127\.0\.0\.1:\d+)', line)
+            if m:
+                client = FoxgloveClient(m.group(1)).start()
+                assert client.subscribed.wait(15), client.error
+                break
+        assert client is not None, ''.join(lines)
+        out, _ = proc.communicate(timeout=120)
+        lines.append(out)
+        time.sleep(0.5)
+    finally:
+        if client is not None:
+            client.stop()
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGINT)
+            proc.wait(timeout=30)
+    assert proc.returncode == 0, ''.join(lines)
+    assert client.error is None and client.subprotocol == 'foxglove.sdk.v1'
+    topics = {c['topic'] for c in client.channels.values()}
+    assert {'/load_cell_1/force', '/protocol/point', '/valve_1/pressure'} <= topics
+    assert not any(t.startswith('/sim/') or t == '/clock' for t in topics)
+    recorded = bag_payloads(bag)
+    got: dict[str, list[tuple[int, bytes]]] = {}
+    for topic, t_ns, data in client.messages:
+        got.setdefault(topic, []).append((t_ns, data))
+    from pam_bench.nodes.messages import stamp_of_cdr
+    for topic, msgs in got.items():
+        in_bag = {stamp_of_cdr(raw): raw for _, raw in recorded.get(topic, [])}
+        if not in_bag:          # an event sent only before the recorder started
+            continue
+        first, last = min(in_bag), max(in_bag)
+        during = [(t, d) for t, d in msgs if first <= t <= last]   # the view starts before
+        if topic in ('/load_cell_1/force', '/valve_1/pressure'):  # the recorder does
+            assert len(during) >= 0.9 * len(msgs) > 0, topic
+        for t_ns, data in during:         # stamped as the bag's message, the same bytes
+            assert in_bag.get(t_ns) == data, (topic, t_ns)
+    force = got['/load_cell_1/force']
+    span_s = (force[-1][0] - force[0][0]) * 1e-9
+    assert len(force) <= 50 * span_s + 2          # capped at 50 Hz
+    assert len(force) >= 25 * span_s              # and not starved
+    points = [raw for _, raw in recorded['/protocol/point']]
+    assert [d for _, d in got['/protocol/point']] == points      # every point, in order
