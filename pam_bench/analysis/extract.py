@@ -29,7 +29,7 @@ from pam_bench.analysis.report import report_markdown
 from pam_bench.analysis.smoothing import centred_polyfit
 from pam_bench.analysis.static import gain_summary, kind_of
 
-__all__ = ['extract', 'step_summary', 'coefficient_polynomials']
+__all__ = ['extract', 'step_summary', 'coefficient_polynomials', 'inverse_model_of']
 
 
 
@@ -113,6 +113,12 @@ def _largest(points: dict[str, Points], kind: str) -> Points | None:
     """The largest protocol of a kind (full and quick grids may both be present)."""
     found = [p for p in points.values() if kind_of(p) == kind]
     return max(found, key=len) if found else None
+
+
+def inverse_model_of(data: BagData, step: dict[str, Any] | None) -> dict[str, Any] | None:
+    """The inverse_model.yaml mapping of ``data`` with its step summary ``step``
+    (``inverse_export.inverse_model_dict`` over its largest isometric protocol), or None."""
+    return inverse_model_dict(step, _largest(data.points, 'isometric'))
 
 
 MIN_SERIES_FOR_LAWS = 2
@@ -234,8 +240,7 @@ def extract(bags: list[str], out_dir: str, figures: bool = True) -> dict[str, An
                                        for m in models]
         summary['model_comparison_by_branch'] = _branch_comparison(data.points, l0)
         summary['model_comparison_length_m'] = l0
-    inverse = inverse_model_dict(summary.get('step_response'),
-                                 _largest(data.points, 'isometric'))
+    inverse = inverse_model_of(data, summary.get('step_response'))
     t3 = time.perf_counter()
     summary['timing_s'] = {'read_and_static': t1 - t0, 'identification': t2 - t1,
                            'model_comparison': t3 - t2, 'records': len(data.records)}

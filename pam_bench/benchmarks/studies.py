@@ -5,6 +5,7 @@ from __future__ import annotations
 from pam_bench.benchmarks import (
     calibrate,
     calibrate_nodes,
+    dynamics,
     exchange_step,
     faults,
     figures_004,
@@ -28,7 +29,7 @@ STUDIES: tuple[Study, ...] = (
     figures_004.STUDY, lockstep.STUDY, layouts.STUDY, profile.STUDY, exchange_step.STUDY,
     record_exchange.STUDY, scenes.STUDY, numerics.STUDY, wallclock.STUDY, faults.STUDY,
     straight_fibre.STUDY, calibrate.STUDY, calibrate_nodes.STUDY, servo_compare.STUDY,
-    soak.STUDY, sweep_scaling.STUDY)
+    soak.STUDY, sweep_scaling.STUDY, dynamics.STUDY)
 """Every study; ``pam-bench bench --only KEY`` runs some."""
 
 

@@ -19,8 +19,8 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from pam_bench.config.settings import LiveViewSettings
-from pam_bench.live.errors import LiveViewError
 from pam_bench.live.server import LiveServer
+from pam_bench.nodes.core import Spin
 from pam_bench.nodes.messages import message_class, stamp_of_cdr
 from pam_bench.nodes.params import declare_settings
 
@@ -32,6 +32,12 @@ READY = 'live view: serving'
 
 class LiveView(Node):
     """The live view node (module docstring)."""
+
+    GRACEFUL_STOP = True      # Ctrl-C ends the loop between two messages
+
+    def spin_mode(self) -> Spin:
+        """Its own loop over its subscriptions (``nodes.process.lean_spin``)."""
+        return Spin.LEAN
 
     def __init__(self, name: str = 'live_view', **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
@@ -67,27 +73,10 @@ class LiveView(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    """Run the node until Ctrl-C or SIGTERM; a port in use is one line and exit code 2."""
-    import sys
-
-    import rclpy
-
-    from pam_bench.nodes.process import install_interrupt_handlers, lean_spin
-    install_interrupt_handlers()
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = LiveView()
-        lean_spin(node, graceful=True)
-    except LiveViewError as exc:
-        print(f'error: {exc}', file=sys.stderr, flush=True)
-        sys.exit(2)
-    except KeyboardInterrupt:
-        pass
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+    """Run the node until Ctrl-C or SIGTERM; a port in use is one line and exit code 2
+    (``nodes.process.run_node``)."""
+    from pam_bench.nodes.process import run_node
+    run_node(LiveView, args)
 
 
 if __name__ == '__main__':

@@ -15,9 +15,9 @@ full grids on the quasi-static bench, read by the extraction's own estimators):
 - hinges for the bounds: contraction >= 100 mm, force >= 900 N, servo torque >= 25.46 N m.
 
 The gain's minimum sits at x_m = 95 mm (004's place, held fixed). Each parameter's standard
-error and the correlations come from the Jacobian at the optimum, sqrt(diag((J^T J)^-1) s^2)
-with s^2 the residual variance; a parameter whose error exceeds its value, or that is at a
-bound, is flagged: the figures do not fix it.
+error and the correlations come from the Jacobian at the optimum, sqrt(diag((J^T J)^+) s^2)
+with s^2 the residual variance (``covariance``); a parameter whose error exceeds its value,
+or that is at a bound, is flagged: the figures do not fix it.
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from pam_bench.models.errors import ModelError
 from pam_bench.models.muscle import MuscleParams
 from pam_bench.verify.figures_004 import figure_rows, measure_004
 
-__all__ = ['fit_report', 'FREE', 'residuals_004', 'calibrate_004', 'fit_summary']
+__all__ = ['fit_report', 'FREE', 'residuals_004', 'calibrate_004', 'fit_summary', 'covariance']
 
 FREE: tuple[tuple[str, float, float], ...] = (
     ('gain_n_per_pa', 2.0e-3, 4.0e-3),
@@ -89,28 +89,53 @@ def residuals_004(measured: dict[str, Any]) -> np.ndarray:
     ])
 
 
+def covariance(jac: np.ndarray, s2: float) -> tuple[np.ndarray, np.ndarray]:
+    """Covariance and correlation of a least-squares estimate from its Jacobian.
+
+    cov = s^2 (J^T J)^+ built from the SVD J = U S V^T as s^2 V S^-2 V^T, singular values
+    below eps max(shape) S_max dropped (as scipy's ``curve_fit`` does). Built this way the
+    matrix is symmetric positive semi-definite, so every correlation
+    cov_ij / sqrt(cov_ii cov_jj) lies in [-1, 1] up to rounding; a direction the Jacobian
+    does not see gives a zero variance and zero correlations, not a huge one.
+
+    Args:
+        jac: (m, n) Jacobian of the residuals (the prior's rows included when the residuals
+            carry them, so the covariance is the posterior's).
+        s2: residual variance.
+
+    Returns:
+        (n, n) covariance and (n, n) correlation.
+    """
+    _, sv, vt = np.linalg.svd(jac, full_matrices=False)
+    keep = sv > np.finfo(float).eps * max(jac.shape) * (sv[0] if sv.size else 0.0)
+    sv, vt = sv[keep], vt[keep]
+    cov = (vt.T / sv ** 2) @ vt * s2
+    cov = 0.5 * (cov + cov.T)
+    sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    with np.errstate(all='ignore'):
+        corr = np.where(np.outer(sd, sd) > 0, cov / np.outer(sd, sd), 0.0)
+    np.fill_diagonal(corr, np.where(sd > 0, 1.0, 0.0))
+    return cov, np.clip(corr, -1.0, 1.0)      # the clip only trims rounding (test)
+
+
 def fit_summary(names: list[str], theta: np.ndarray, sol: Any, span: np.ndarray,
                 rel_flag: float) -> dict[str, Any]:
     """Values, standard errors, correlations and flags of a ``least_squares`` solution found
     in coordinates z = (theta - lower) / span (module docstring). The covariance is taken in z,
-    where the Jacobian's columns share one scale, and scaled back by span; a parameter is
-    flagged when its standard error exceeds ``rel_flag`` times its value, or it sits at a
-    bound (z = 0 or 1)."""
+    where the Jacobian's columns share one scale (``covariance``), and scaled back by span; a
+    parameter is flagged when its standard error exceeds ``rel_flag`` times its value, or it
+    sits at a bound (z = 0 or 1)."""
     dof = max(len(sol.fun) - len(names), 1)
     s2 = float(sol.fun @ sol.fun) / dof
-    cov_z = np.linalg.pinv(sol.jac.T @ sol.jac) * s2   # in z: the columns are of one scale
+    cov_z, corr = covariance(sol.jac, s2)
     stderr = np.sqrt(np.maximum(np.diag(cov_z), 0.0)) * span
-    sd_z = np.sqrt(np.maximum(np.diag(cov_z), 0.0))
-    with np.errstate(all='ignore'):
-        corr = cov_z / np.outer(sd_z, sd_z)
     at_bound = (sol.x <= 1e-6) | (sol.x >= 1 - 1e-6)
     flags = [n for n, v, e, b in zip(names, theta, stderr, at_bound, strict=True)
              if b or not np.isfinite(e) or e > rel_flag * abs(v)]
     bound_names = [n for n, b in zip(names, at_bound, strict=True) if b]
     out = {'names': names, 'values': dict(zip(names, map(float, theta), strict=True)),
            'stderr': dict(zip(names, map(float, stderr), strict=True)),
-           'correlation': np.clip(np.nan_to_num(corr), -1.0, 1.0).round(3).tolist(),
-           'flags': flags, 'at_bound': bound_names}
+           'correlation': corr.round(3).tolist(), 'flags': flags, 'at_bound': bound_names}
     out['report'] = fit_report(out)
     return out
 

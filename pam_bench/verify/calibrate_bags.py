@@ -29,10 +29,11 @@ start depends on the friction state the records before it left.
 Residuals are scaled to the bench's tolerances (issue 18): forces in units of 1 % of the load
 cell's 2000 N range (20 N), contractions in 0.5 mm. ``scipy.optimize.least_squares`` (trust
 region reflective) fits the parameters of ``FREE_BAGS`` inside their bounds (the declared
-ranges narrowed to the stable, physical part), normalised to [0, 1]. Standard errors and
-correlations come from the Jacobian at the optimum (``calibrate.fit_summary``); a parameter
-whose error exceeds 5 % of its value, or that sits at a bound, is flagged: the recordings do
-not fix it (e.g. the gain's rise past x_m when no reading goes beyond x_m). A weak prior holds
+ranges narrowed for the physical reasons of ``BOUND_REASONS``), normalised to [0, 1].
+Standard errors and correlations come from the Jacobian at the optimum
+(``calibrate.fit_summary``, the prior's rows included); a parameter whose error exceeds 5 % of
+its value, or that sits at a bound, is flagged: the recordings do not fix it (e.g. the gain's
+rise past x_m when no reading goes beyond x_m). A weak prior holds
 such a parameter at its starting value instead of letting the model's small errors carry it
 anywhere in its range: one residual ``PRIOR_WEIGHT`` (z - z_0) per parameter, so moving a
 parameter across its whole range costs as much as one reading a tolerance off; an identified
@@ -74,7 +75,8 @@ from pam_bench.twin.bench import SingleMuscleBench
 from pam_bench.twin.quasistatic import QuasiStaticBench
 from pam_bench.verify.calibrate import fit_report, fit_summary
 
-__all__ = ['FREE_BAGS', 'Observations', 'observations_from_bags', 'observations_from_twin',
+__all__ = ['FREE_BAGS', 'BOUND_REASONS', 'Observations', 'observations_from_bags',
+           'observations_from_twin',
            'predict', 'calibrate_bags', 'overlay_of', 'FORCE_SCALE_N', 'CONTRACTION_SCALE_M',
            'PATH_WIDTH_M', 'path_sensitive', 'calibrate_bag']
 
@@ -97,7 +99,7 @@ FREE_BAGS: tuple[tuple[str, str, float, float], ...] = (
     ('muscle', 'gain_exponent', 1.1, 4.0),
     ('muscle', 'gain_rise_n_per_pa_m', 0.0, 1.0e-3),
     ('muscle', 'threshold_pressure_pa', 2.0e4, 1.5e5),
-    ('muscle', 'threshold_width_pa', 1.0e4, 8.0e4),
+    ('muscle', 'threshold_width_pa', 0.0, 8.0e4),
     ('muscle', 'bladder_stiffness_n_per_m', 250.0, 1500.0),
     ('muscle', 'stretch_stiffness_n_per_m', 5.0e4, 1.0e6),
     ('muscle', 'friction_stiffness_scale', 0.2, 3.0),
@@ -105,7 +107,29 @@ FREE_BAGS: tuple[tuple[str, str, float, float], ...] = (
     ('valve', 'damping_ratio', 0.05, 1.2),
 )
 """(model, parameter, lower, upper); ``friction_stiffness_scale`` multiplies every friction
-element's stiffness (calibrate.FREE)."""
+element's stiffness (calibrate.FREE). Each interval lies inside the parameter's declared range
+(``MuscleParams``, ``ValveParams``; a test checks it) and is narrowed only for the reason
+``BOUND_REASONS`` gives."""
+
+BOUND_REASONS: dict[str, str] = {
+    'gain_n_per_pa': "100 to 600 N/V at 0.1 MPa/V, a muscle of 004's size (004: 284.3 N/V); "
+                     'the declared 0..1 N/Pa is any muscle',
+    'gain_min_n_per_pa': '5 to 50 N/V at 0.1 MPa/V (004: 17.4 N/V at 95 mm)',
+    'gain_min_contraction_m': "50 to 130 mm: inside the muscle's stroke (Key results: 131 mm "
+                              'at 6 V, 50 N)',
+    'gain_exponent': 'a curve that falls from g_0 to g_m at all (n > 1) and not as a step '
+                     '(n <= 4)',
+    'gain_rise_n_per_pa_m': 'from none to 100 N/V per metre past x_m',
+    'threshold_pressure_pa': '0.2 to 1.5 V of command at 0.1 MPa/V',
+    'threshold_width_pa': 'the declared lower end (0: a sharp threshold) up to a band 0.8 V '
+                          'wide',
+    'bladder_stiffness_n_per_m': 'the rubber tube alone, 0.25 to 1.5 N/mm',
+    'stretch_stiffness_n_per_m': 'the braid pulled past its rest length, 50 to 1000 N/mm',
+    'friction_stiffness_scale': 'the friction elements 5 times softer to 3 times stiffer',
+    'natural_frequency_rad_s': "a valve loop of 3.2 to 48 Hz (the bench's default: 5 Hz)",
+    'damping_ratio': 'from a ringing loop (0.05) to an over-damped one (1.2)',
+}
+"""The physical argument for each fit interval narrower than the declared range."""
 
 
 @dataclasses.dataclass

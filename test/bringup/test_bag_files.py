@@ -43,6 +43,17 @@ def test_split_compressed_bag_extracts_as_one_plain_file(tmp_path: pathlib.Path,
     b = extract([str(plain)], str(tmp_path / 'b'), figures=False)
     assert _results(a) == _results(b)
     assert a['isometric'] and a['step_response']
+    # every other reader of a bag: info, diff, --replay's run description, --resume
+    from pam_bench.analysis.baginfo import bag_info, run_of_bag
+    from pam_bench.bringup.resume import resume_reading
+    from pam_bench.cli import main
+    from pam_bench.config.scene import load_scene
+    assert bag_info(str(split))['end'] == bag_info(str(plain))['end']
+    assert run_of_bag(split)['scene'] == run_of_bag(plain)['scene'] == 'campaign_quick'
+    scene = load_scene('campaign_quick')
+    assert resume_reading(scene, split) == resume_reading(scene, plain)
+    assert main(['info', str(split)]) == 0
+    assert main(['diff', str(split), str(plain)]) == 0      # the same readings
 
 
 def test_a_disk_filling_up_ends_the_run_with_a_valid_bag_and_one_line(

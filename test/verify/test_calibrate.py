@@ -175,3 +175,64 @@ def test_calibrate_cli_names_the_readings_it_leaves_out(tmp_path: pathlib.Path,
     out = capsys.readouterr().out
     left = [line for line in out.splitlines() if line.startswith('left out')]
     assert len(left) == 1 and left[0].endswith(': isobaric 6 V 50 N'), out
+
+
+def test_every_fit_interval_lies_in_the_declared_range_and_says_why() -> None:
+    from pam_bench.models.params import param_infos
+    from pam_bench.models.valve import ValveParams
+    from pam_bench.verify.calibrate_bags import BOUND_REASONS, FREE_BAGS
+    infos = {(m, i.name): i for m, cls in (('muscle', MuscleParams), ('valve', ValveParams))
+             for i in param_infos(cls)}
+    for model, name, lo, hi in FREE_BAGS:
+        assert lo < hi and BOUND_REASONS[name], name
+        if name == 'friction_stiffness_scale':     # a factor on the declared stiffnesses
+            continue
+        info = infos[(model, name)]
+        assert info.low is not None and info.high is not None
+        assert info.low <= lo and hi <= info.high, name
+    assert set(BOUND_REASONS) == {n for _, n, _, _ in FREE_BAGS}
+    widths = {n: lo for _, n, lo, _ in FREE_BAGS}
+    assert widths['threshold_width_pa'] == 0.0      # a sharp threshold can be fitted
+
+
+@pytest.mark.parametrize('rho', [0.0, 0.6, -0.95, 0.999999])
+def test_covariance_matches_a_linear_problem_with_a_known_one(rho: float) -> None:
+    """y = A theta + e, e ~ N(0, s^2): cov(theta) = s^2 (A^T A)^-1 exactly. A is built so that
+    the correlation of the two estimates is -rho; a third column repeats the first (a
+    direction the data do not see), which gets zero variance and zero correlations."""
+    from pam_bench.verify.calibrate import covariance
+    a = np.array([[1.0, rho], [0.0, np.sqrt(1.0 - rho ** 2)], [1.0, 0.0], [0.0, 1.0]])
+    cov, corr = covariance(a, 2.0)
+    want = 2.0 * np.linalg.inv(a.T @ a)
+    np.testing.assert_allclose(cov, want, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(corr[0, 1], want[0, 1] / np.sqrt(want[0, 0] * want[1, 1]),
+                               rtol=1e-9, atol=1e-12)
+    assert np.all(np.abs(corr) <= 1.0)
+    degenerate = np.column_stack([a, a[:, 0]])
+    cov3, corr3 = covariance(degenerate, 2.0)
+    assert np.all(np.isfinite(cov3)) and np.all(np.abs(corr3) <= 1.0)
+    np.testing.assert_allclose(np.diag(cov3) >= 0, True)
+
+
+def test_correlations_of_ill_conditioned_jacobians_stay_in_range() -> None:
+    """Random near-singular Jacobians (columns nearly repeated, scales 1e-8 to 1e8): the
+    correlations come out in [-1, 1] before any clip would act."""
+    from pam_bench.verify.calibrate import covariance
+    rng = np.random.default_rng(7)
+    for _ in range(50):
+        j = rng.normal(size=(30, 6)) * 10.0 ** rng.uniform(-8, 8, size=6)
+        j[:, 5] = j[:, 4] * 1.000001 + 1e-9 * rng.normal(size=30)
+        cov, _ = covariance(j, 1.0)
+        sd = np.sqrt(np.diag(cov))
+        ok = sd > 0
+        raw = cov[np.ix_(ok, ok)] / np.outer(sd[ok], sd[ok])
+        assert np.all(np.abs(raw) <= 1.0 + 1e-9)
+
+
+def test_a_value_at_its_bound_is_reported_so_without_an_error() -> None:
+    from pam_bench.verify.calibrate import fit_report
+    summary = {'names': ['a', 'b'], 'values': {'a': 0.0, 'b': 2.0},
+               'stderr': {'a': 9.5e-12, 'b': 0.1}, 'flags': ['a'], 'at_bound': ['a']}
+    rep = fit_report(summary)
+    assert 'at its bound' in rep['a'] and '+-' not in rep['a']
+    assert rep['b'].split() == ['2', '+-', '0.1']
