@@ -9,7 +9,9 @@ the twin (``twin.protocol_run``) and read by the extraction's own estimators, so
 never judged with a model identified on another bench. Variants: the bench as it is; the braid
 friction off (``muscle_1.muscle.hysteresis``); the valve at a fixed volume
 (``valve_1.valve.volume_scaling``: its natural frequency no longer moves with the muscle's
-volume); both.
+volume); both; and a sharp or narrow contact band (``muscle_1.muscle.threshold_width_pa``),
+which makes the force nearly linear in the voltage above the threshold, the condition 004
+states for its muscle before its Eq. 2.
 
 The dynamic inverse (004 Eq. 5 as ``control.inverse`` codes it) is
 
@@ -47,6 +49,8 @@ VARIANTS: tuple[tuple[str, dict[str, Any]], ...] = (
     ('fixed valve volume', {'valve_1.valve.volume_scaling': False}),
     ('friction off, fixed volume', {'muscle_1.muscle.hysteresis': False,
                                     'valve_1.valve.volume_scaling': False}),
+    ('sharp contact band', {'muscle_1.muscle.threshold_width_pa': 0.0}),
+    ('narrow contact band (10 kPa)', {'muscle_1.muscle.threshold_width_pa': 1.0e4}),
 )
 """(name, settings by path over the scenes): the bench variants the decomposition runs."""
 
