@@ -14,6 +14,7 @@ import pathlib
 import platform
 import subprocess
 import tempfile
+import time
 from typing import Any
 
 from pam_bench.benchmarks.errors import UsageError
@@ -69,10 +70,13 @@ def run_benchmarks(quick: bool, root: pathlib.Path, scenes: list[str] | None = N
             if only and s.key not in only:
                 continue
             print(f'{s.key} ...', flush=True)
+            t0 = time.perf_counter()
             report.update(s.measure(quick, out, scenes))
+            took = time.perf_counter() - t0
+            print(f'{s.key}: {took:.1f} s', flush=True)
             for key in s.fills:
                 report['measured'][key] = {'commit': head['commit'], 'date': now,
-                                           'quick': quick}
+                                           'quick': quick, 'study_wall_s': round(took, 1)}
     path.write_text(json.dumps(report, indent=2) + '\n', encoding='utf-8')
     render_report(root)
     return report

@@ -53,6 +53,26 @@ def test_pip_install_runs_the_demo_from_anywhere(tmp_path: pathlib.Path,
                          capture_output=True, text=True, cwd=away, timeout=240)
     assert res.returncode == 0, res.stdout + res.stderr
     _check_bag(away / 'bag', 'demo', 24)
+    _check_compiled_core([str(py), '-c', CORE], away, tmp_path / 'cache', str(venv))
+
+
+CORE = ('from pam_bench.models import compiled; compiled.use("compiled"); '
+        'print(compiled.__file__, compiled.cache_dir(), compiled.enabled())')
+"""Loads the compiled core in the installed copy and says where it is and where its cache is."""
+
+
+def _check_compiled_core(cmd: list[str], cwd: pathlib.Path, cache: pathlib.Path,
+                         installed: str, env: dict[str, str] | None = None) -> None:
+    """The installed copy runs the compiled core, its numba cache outside the install (a
+    wheel's or colcon's tree may be read-only): under ``$XDG_CACHE_HOME/pam_bench/numba``."""
+    env = dict(env or os.environ, XDG_CACHE_HOME=str(cache))
+    env.pop('NUMBA_CACHE_DIR', None)
+    res = subprocess.run(cmd, capture_output=True, text=True, cwd=cwd, env=env, timeout=300)
+    assert res.returncode == 0, res.stdout + res.stderr
+    module, where, enabled = res.stdout.split()[-3:]
+    assert module.startswith(installed) and enabled == 'True', res.stdout
+    assert where == str(cache / 'pam_bench' / 'numba')
+    assert list((cache / 'pam_bench' / 'numba').rglob('*.nbi')), 'no numba cache index written'
 
 
 def _check_bag(bag: pathlib.Path, scene: str, readings: int) -> None:
@@ -94,3 +114,5 @@ def test_colcon_workspace_builds_and_its_install_runs(tmp_path: pathlib.Path,
     assert res.returncode == 0, res.stdout + res.stderr
     assert res.stdout.startswith(str(install / 'pam_bench')), res.stdout   # the built copy
     _check_bag(away / 'bag', 'config_short', 8)
+    _check_compiled_core(['bash', '-c', f'. {install / "setup.sh"} && python -c \'{CORE}\''],
+                         away, tmp_path / 'cache', str(install / 'pam_bench'), env)
