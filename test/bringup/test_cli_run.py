@@ -83,3 +83,17 @@ def test_the_readme_path_demo_then_extract_writes_a_report(tmp_path: pathlib.Pat
     assert 150.0 < iso['gain_N_per_V']['max'] < 260.0
     assert {'demo_family.png', 'isometric_gain.png'} <= set(summary['figures'])
     assert 'Isometric gain at x = 20 mm' in (out / 'report.md').read_text()
+
+
+@pytest.mark.parametrize('verb', [['run', 'demo'], ['record', '--out', 'x']])
+@pytest.mark.parametrize('flag, value', [('--max-bag-size', 'lots'), ('--max-bag-size', '-5M'),
+                                         ('--max-bag-duration', 'soon'),
+                                         ('--max-bag-duration', '-1h')])
+def test_a_bad_bag_limit_is_one_line_before_anything_starts(
+        verb: list[str], flag: str, value: str, capsys: pytest.CaptureFixture) -> None:
+    from pam_bench.cli import main
+    with pytest.raises(SystemExit) as exc:
+        main([*verb, flag, value])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count('\n') == 1 and flag in err and 'error' in err, err
