@@ -17,13 +17,8 @@ from __future__ import annotations
 
 import csv
 import dataclasses
-import os
 import pathlib
 import pickle
-import signal
-import socket
-import subprocess
-import sys
 import time
 from typing import Any
 
@@ -41,42 +36,16 @@ def _rows(path: pathlib.Path) -> list[dict[str, str]]:
         return [{k: v for k, v in r.items() if k != 'seconds'} for r in csv.DictReader(fh)]
 
 
-def _port() -> int:
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        return int(s.getsockname()[1])
-
-
 def _external(sweep: Any, out: pathlib.Path) -> float:
     """Run ``sweep`` on an external scheduler with two workers on 127.0.0.1; wall s."""
     from distributed import Client
-    dask = pathlib.Path(sys.executable).with_name('dask')
-    port = _port()
-    address = f'tcp://127.0.0.1:{port}'
-    env = dict(os.environ, PYTHONWARNINGS='ignore')
-    log = open(out / 'external.log', 'w', encoding='utf-8')
-    procs = [subprocess.Popen([str(dask), 'scheduler', '--host', '127.0.0.1', '--port',
-                               str(port), '--no-dashboard'], stdout=log, stderr=log, env=env,
-                              start_new_session=True)]
-    try:
-        for i in range(2):
-            procs.append(subprocess.Popen(
-                [str(dask), 'worker', address, '--host', '127.0.0.1', '--nthreads', '1',
-                 '--no-dashboard', '--name', f'w{i}'], stdout=log, stderr=log, env=env,
-                start_new_session=True))
-        with Client(address, timeout='30s') as c:
-            c.wait_for_workers(2, timeout=60)
-            return _timed_sweep(sweep, out / 'external', c)
-    finally:
-        for p in procs:
-            if p.poll() is None:
-                os.killpg(p.pid, signal.SIGTERM)
-        for p in procs:
-            try:
-                p.wait(timeout=15)
-            except subprocess.TimeoutExpired:
-                os.killpg(p.pid, signal.SIGKILL)
-        log.close()
+
+    from pam_bench.cluster.loopback import loopback_cluster
+    logs = out / 'external_logs'
+    logs.mkdir(parents=True, exist_ok=True)
+    with loopback_cluster(logs, workers=2) as (address, _), \
+            Client(address, timeout='30s') as client:
+        return _timed_sweep(sweep, out / 'external', client)
 
 
 def _noop(x: int) -> int:

@@ -2,4 +2,4 @@
 
 from __future__ import annotations
 
-__all__ = ['errors', 'layer']
+__all__ = ['errors', 'layer', 'loopback']

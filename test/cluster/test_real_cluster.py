@@ -11,17 +11,16 @@ import pathlib
 import signal
 import socket
 import subprocess
-import sys
 import time
 from collections.abc import Iterator
 
 import pytest
 
+from pam_bench.cluster.loopback import loopback_cluster
 from pam_bench.sweep.results import RESULTS, run_sweep
 from pam_bench.sweep.spec import load_sweep
 from test.analysis.test_extract import isometric_points
 
-DASK = pathlib.Path(sys.executable).parent / 'dask'
 SWEEP = """scene: isometric_quick
 engine: twin
 seeds: [1, 2]
@@ -31,49 +30,10 @@ figures: [isometric.gain_N_per_V.max, isometric.gain_N_per_V.min]
 """
 
 
-def _port() -> int:
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        return int(s.getsockname()[1])
-
-
-def _start(args: list[str], log: pathlib.Path) -> subprocess.Popen:
-    return subprocess.Popen([str(DASK), *args], stdout=open(log, 'w'), stderr=subprocess.STDOUT,
-                            start_new_session=True, env=dict(os.environ, PYTHONWARNINGS='ignore'))
-
-
-def _stop(procs: list[subprocess.Popen]) -> None:
-    for p in procs:
-        if p.poll() is None:
-            os.killpg(p.pid, signal.SIGTERM)
-    for p in procs:
-        try:
-            p.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            os.killpg(p.pid, signal.SIGKILL)
-
-
-def _wait_workers(address: str, n: int, security: object = None) -> None:
-    from distributed import Client
-    with Client(address, security=security, timeout='30s') as c:
-        c.wait_for_workers(n, timeout=40)
-
-
 @pytest.fixture
 def cluster(tmp_path: pathlib.Path) -> Iterator[tuple[str, list[subprocess.Popen]]]:
-    port = _port()
-    address = f'tcp://127.0.0.1:{port}'
-    procs = [_start(['scheduler', '--host', '127.0.0.1', '--port', str(port),
-                     '--no-dashboard'], tmp_path / 'scheduler.log')]
-    try:
-        for i in range(2):
-            procs.append(_start(['worker', address, '--host', '127.0.0.1', '--nthreads', '1',
-                                 '--no-dashboard', '--name', f'w{i}', '--no-nanny'],
-                                tmp_path / f'worker{i}.log'))
-        _wait_workers(address, 2)
-        yield address, procs
-    finally:
-        _stop(procs)
+    with loopback_cluster(tmp_path, workers=2, nanny=False, wait_s=40) as running:
+        yield running
 
 
 def _rows(path: pathlib.Path) -> list[dict[str, str]]:
@@ -179,18 +139,11 @@ def test_a_tls_cluster_runs_the_sweep_and_refuses_a_client_without_certificate(
     certs = _certificates(tmp_path)
     tls = ['--tls-ca-file', certs['ca'], '--tls-cert', certs['cert'], '--tls-key',
            certs['key']]
-    port = _port()
-    address = f'tls://127.0.0.1:{port}'
-    procs = [_start(['scheduler', '--host', '127.0.0.1', '--port', str(port), '--protocol',
-                     'tls', '--no-dashboard', *tls], tmp_path / 'scheduler.log')]
-    try:
-        for i in range(2):
-            procs.append(_start(['worker', address, '--host', '127.0.0.1', '--nthreads', '1',
-                                 '--no-dashboard', '--no-nanny', *tls],
-                                tmp_path / f'worker{i}.log'))
-        security = Security(tls_ca_file=certs['ca'], tls_client_cert=certs['cert'],
-                            tls_client_key=certs['key'], require_encryption=True)
-        _wait_workers(address, 2, security)
+    security = Security(tls_ca_file=certs['ca'], tls_client_cert=certs['cert'],
+                        tls_client_key=certs['key'], require_encryption=True)
+    with loopback_cluster(tmp_path, workers=2, nanny=False, tls=tls, security=security,
+                          wait_s=40) as (address, _):
+        port = int(address.rsplit(':', 1)[1])
         spec = tmp_path / 'sweep.yaml'
         spec.write_text(SWEEP)
         rows = run_sweep(load_sweep(spec), tmp_path / 'out',
@@ -203,5 +156,3 @@ def test_a_tls_cluster_runs_the_sweep_and_refuses_a_client_without_certificate(
         with pytest.raises(ClusterError, match='cannot reach the scheduler'):
             with connect(address.replace('tls://', 'tcp://')):
                 pass
-    finally:
-        _stop(procs)
