@@ -46,7 +46,7 @@ def register(sub: Any) -> None:
                    'device in its own process instead of the emulator')
     add_bag_options(p)
     add_live_options(p, '--live', 'serve the recorded topics to Foxglove during the run on '
-                     'ws://127.0.0.1:PORT (default 8765; README, "Watching a run")')
+                     'ws://127.0.0.1:PORT (README, "Watching a run")')
     p.set_defaults(func=_cmd_run)
     p = sub.add_parser('record', help='record topics of a running graph on the wall clock '
                        '(like ros2 bag record), until Ctrl-C')
@@ -59,7 +59,7 @@ def register(sub: Any) -> None:
                        'running graph), until Ctrl-C')
     p.add_argument('scene', nargs='?', default='demo', help="scene whose recorder's topics to "
                    'serve (default demo)')
-    add_live_options(p, '--port', 'TCP port of the server (default 8765)')
+    add_live_options(p, '--port', 'TCP port of the server')
     p.set_defaults(func=_cmd_live)
     p = sub.add_parser('emulate', help="run only a scene's simulated devices on the wall "
                        'clock, until Ctrl-C (a bench for your own controllers)')
@@ -80,34 +80,34 @@ def register(sub: Any) -> None:
     p.set_defaults(func=_cmd_params)
 
 
-def _port(text: str) -> int:
-    try:
-        port = int(text)
-    except ValueError:
-        port = -1
-    if not 0 <= port <= 65535:
-        raise argparse.ArgumentTypeError(f'{text!r} is not a TCP port (0..65535)')
-    return port
-
-
-def _rate(text: str) -> float:
-    try:
-        rate = float(text)
-    except ValueError:
-        rate = -1.0
-    if not 0.0 <= rate < float('inf'):
-        raise argparse.ArgumentTypeError(f'{text!r} is not a rate in Hz (0: no cap)')
-    return rate
+def _live_setting(name: str, convert: Any) -> Any:
+    """An argparse type for the live view's setting ``name``: ``convert`` the text, then check
+    it against the range ``LiveViewSettings`` declares (its one owner)."""
+    def parse(text: str) -> Any:
+        from pam_bench.config.settings import LiveViewSettings
+        from pam_bench.models.errors import ParameterError
+        from pam_bench.models.params import with_path
+        try:
+            value = convert(text)
+            with_path(LiveViewSettings(), name, value)
+        except (ValueError, ParameterError) as exc:
+            raise argparse.ArgumentTypeError(f'{text!r}: {exc}') from None
+        return value
+    return parse
 
 
 def add_live_options(p: argparse.ArgumentParser, flag: str, text: str) -> None:
-    """The live view's options (``config.settings.LiveViewSettings``)."""
-    p.add_argument(flag, nargs='?', const=8765, default=None, type=_port, metavar='PORT',
-                   help=text)
-    p.add_argument('--live-host', metavar='HOST', help='address the live view binds (default '
-                   '127.0.0.1, this machine only; 0.0.0.0 opens it to the network)')
-    p.add_argument('--live-rate', metavar='HZ', type=_rate, help='send each 1 kHz topic at most '
-                   'this often (default 50; 0: every message); points and status always whole')
+    """The live view's options (``config.settings.LiveViewSettings``, whose defaults and ranges
+    they take)."""
+    from pam_bench.config.settings import LiveViewSettings
+    d = LiveViewSettings()
+    p.add_argument(flag, nargs='?', const=d.port, default=None, metavar='PORT',
+                   type=_live_setting('port', int), help=f'{text} (default {d.port})')
+    p.add_argument('--live-host', metavar='HOST', help=f'address the live view binds (default '
+                   f'{d.host}, this machine only; 0.0.0.0 opens it to the network)')
+    p.add_argument('--live-rate', metavar='HZ', type=_live_setting('max_rate_hz', float),
+                   help=f'send each 1 kHz topic at most this often (default {d.max_rate_hz:g}; '
+                   '0: every message); points and status always whole')
 
 
 def live_settings(args: argparse.Namespace, port: int | None) -> Any:
