@@ -9,7 +9,7 @@ first minute, MB/h), the CPU share, the bag's growth (GB/h, compressed as writte
 uncompressed from the MCAP chunk index). From the bag and its ``wall_stats.json``: the
 device topics' rate over every 10 s window of their header stamps, the recorder's lag
 (receive time - header stamp), messages lost, late periods and dropped ticks. Each figure is
-extrapolated linearly to ``CAMPAIGN_H`` (004's campaign, ``bench_spec.yaml``).
+extrapolated linearly to ``CAMPAIGN_H``.
 """
 
 from __future__ import annotations
@@ -32,7 +32,8 @@ __all__ = ['STUDY', 'measure_soak', 'soak_section', 'soak_results', 'process_sam
            'CAMPAIGN_H', 'SOAK_S', 'SAMPLE_S']
 
 CAMPAIGN_H = 6.1
-"""Length of 004's characterisation campaign on its bench, h."""
+"""Length of 004's characterisation campaign, h: the ``campaign`` scene's 21 926 s of bench
+time (BENCHMARKS.md, "Both layouts against the ping-pong floor")."""
 SOAK_S = 1200.0
 """Length of the soak run, s (``--quick``: ``QUICK_SOAK_S``)."""
 QUICK_SOAK_S = 120.0
@@ -105,6 +106,12 @@ def _slope_per_h(t_s: np.ndarray, y: np.ndarray) -> float:
     if keep.sum() < 3:
         return float('nan')
     return float(np.polyfit(t_s[keep], y[keep], 1)[0] * 3600.0)
+
+
+def _rss_at_campaign_mb(p: dict[str, Any], run_h: float) -> float:
+    """A process's RSS (MB) at the campaign's end: its last sample plus its growth, if any,
+    over the ``CAMPAIGN_H - run_h`` hours the run did not last."""
+    return p['rss_mb_last'] + max(p['rss_slope_mb_h'], 0.0) * (CAMPAIGN_H - run_h)
 
 
 def _bag_figures(bag: pathlib.Path) -> dict[str, Any]:
@@ -206,8 +213,7 @@ def measure_soak(out: pathlib.Path, quick: bool, duration_s: float | None = None
     gb_h = _slope_per_h(t, bag_b / 1e9) if t.size > 2 else float('nan')
     raw = figures.get('uncompressed_chunk_bytes', 0)
     ratio = raw / final if final else float('nan')
-    ram_6h = sum(p['rss_mb_last'] + max(p['rss_slope_mb_h'], 0.0) * (CAMPAIGN_H - span_h)
-                 for p in procs.values()) / 1e3
+    ram_6h = sum(_rss_at_campaign_mb(p, span_h) for p in procs.values()) / 1e3
     return {'scene': scene, 'duration_s': float(length), 'code': code,
             'samples': len(samples), 'processes': procs,
             'lost': int(sum(r.lost or 0 for r in rows)),
@@ -230,7 +236,7 @@ def soak_section(r: dict[str, Any], plots: pathlib.Path) -> list[str]:
                     f"RSS at {e['hours']} h MB"],
                    [(n, f"{p['rss_mb_first']:.1f}", f"{p['rss_mb_last']:.1f}",
                      f"{p['rss_slope_mb_h']:+.2f}", f"{p['cpu_share'] * 100:.1f} %",
-                     f"{p['rss_mb_last'] + max(p['rss_slope_mb_h'], 0) * e['hours']:.0f}")
+                     f"{_rss_at_campaign_mb(p, s['duration_s'] / 3600.0):.0f}")
                     for n, p in sorted(s['processes'].items())])
     lines += ['', 'Device topics, rate over every 10 s window of header stamps:', '']
     lines += table(['topic', 'windows', 'min Hz', 'mean Hz', 'max Hz'],
