@@ -107,14 +107,20 @@ class LiveServer:
         cap = 0.0 if topic in self.full_rate_topics else self.max_rate_hz
         self.throttles[topic] = Throttle(cap)
 
+    def admit(self, topic: str, now_ns: int | None = None) -> bool:
+        """Whether a message of ``topic`` received now goes out under its cap (counted)."""
+        return self.throttles[topic].admit(time.monotonic_ns() if now_ns is None else now_ns)
+
+    def send(self, topic: str, data: bytes, log_time_ns: int) -> None:
+        """Send one admitted message's CDR bytes, stamped ``log_time_ns``."""
+        self.channels[topic].log(data, log_time=log_time_ns)
+
     def offer(self, topic: str, data: bytes, log_time_ns: int,
               now_ns: int | None = None) -> bool:
-        """Send one message's CDR bytes if its topic's cap lets it through; returns whether
-        it went out."""
-        throttle = self.throttles[topic]
-        if not throttle.admit(time.monotonic_ns() if now_ns is None else now_ns):
+        """``admit`` then ``send``; returns whether it went out."""
+        if not self.admit(topic, now_ns):
             return False
-        self.channels[topic].log(data, log_time=log_time_ns)
+        self.send(topic, data, log_time_ns)
         return True
 
     def stop(self) -> None:
