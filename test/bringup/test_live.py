@@ -70,4 +70,7 @@ def test_a_client_during_a_run_gets_the_bags_messages(tmp_path: pathlib.Path,
     assert len(force) <= 50 * span_s + 2          # capped at 50 Hz
     assert len(force) >= 25 * span_s              # and not starved
     points = [raw for _, raw in recorded['/protocol/point']]
-    assert [d for _, d in got['/protocol/point']] == points      # every point, in order
+    seen = [d for _, d in got['/protocol/point']]    # the run may take its first points
+    assert seen and seen[0] in points                # before the client has subscribed:
+    assert seen == points[points.index(seen[0]):]    # every point from then on, in order
+    assert len(seen) >= len(points) // 2
