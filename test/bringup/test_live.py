@@ -21,8 +21,11 @@ from test.live.client import FoxgloveClient
 def test_a_client_during_a_run_gets_the_bags_messages(tmp_path: pathlib.Path,
                                                       ros_domain: int) -> None:
     bag = tmp_path / 'bag'
+    # what is under test is the view, not the host: a stall of this shared machine (up to
+    # 0.6 s seen, BENCHMARKS.md "The wall-clock servo on a noisy day") must not abort the run
     proc = subprocess.Popen([sys.executable, '-m', 'pam_bench.cli', 'run', 'demo', '--wallclock',
-                             '--out', str(bag), '--live', '0'], stdout=subprocess.PIPE,
+                             '--out', str(bag), '--live', '0',
+                             '--set', 'sequencer.stale_timeout_s=3.0'], stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True, start_new_session=True)
     client = None
     lines = []
