@@ -36,7 +36,7 @@ CAMPAIGN_H = 6.1
 time (BENCHMARKS.md, "Both layouts against the ping-pong floor")."""
 SOAK_S = 1200.0
 """Length of the soak run, s (``--quick``: ``QUICK_SOAK_S``)."""
-QUICK_SOAK_S = 120.0
+QUICK_SOAK_S = 30.0
 SAMPLE_S = 10.0
 """Sampling period of the processes, s."""
 WINDOW_S = 10.0

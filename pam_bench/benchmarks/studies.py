@@ -16,6 +16,7 @@ from pam_bench.benchmarks import (
     record_exchange,
     scenes,
     servo_compare,
+    settle,
     soak,
     straight_fibre,
     sweep_scaling,
@@ -27,9 +28,9 @@ __all__ = ['STUDIES', 'study']
 
 STUDIES: tuple[Study, ...] = (
     figures_004.STUDY, lockstep.STUDY, layouts.STUDY, profile.STUDY, exchange_step.STUDY,
-    record_exchange.STUDY, scenes.STUDY, numerics.STUDY, wallclock.STUDY, faults.STUDY,
-    straight_fibre.STUDY, calibrate.STUDY, calibrate_nodes.STUDY, servo_compare.STUDY,
-    soak.STUDY, sweep_scaling.STUDY, dynamics.STUDY)
+    settle.STUDY, record_exchange.STUDY, scenes.STUDY, numerics.STUDY, wallclock.STUDY,
+    faults.STUDY, straight_fibre.STUDY, calibrate.STUDY, calibrate_nodes.STUDY,
+    servo_compare.STUDY, soak.STUDY, sweep_scaling.STUDY, dynamics.STUDY)
 """Every study; ``pam-bench bench --only KEY`` runs some."""
 
 

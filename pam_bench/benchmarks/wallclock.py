@@ -36,6 +36,8 @@ SERVO_SETUPS: tuple[tuple[str, dict[str, Any], bool, bool], ...] = (
     ('default, with the live view (--live)', {}, False, True),
 )
 """(label, torque_servo parameters, device_processes, live view) of each servo row."""
+QUICK_SETUPS = (2, 4)
+"""``--quick``: the default set-up and the same with the live view."""
 
 
 def _lost(res: RunResult) -> tuple[int, int]:
@@ -70,7 +72,7 @@ def _readings(name: str, out: pathlib.Path) -> dict[str, Any]:
             'device_periods': emu}
 
 
-def _servo(out: pathlib.Path) -> list[dict[str, Any]]:
+def _servo(out: pathlib.Path, quick: bool = False) -> list[dict[str, Any]]:
     from pam_bench.twin.servo_bench import tracking_metrics
     from pam_bench.twin.servo_setup import servo_run_of_bag
     scene = load_scene('servo_sin_t')
@@ -79,6 +81,8 @@ def _servo(out: pathlib.Path) -> list[dict[str, Any]]:
     ref = servo_run_of_bag(out / 'servo_lock', 2)
     rows = []
     for i, (label, params, separate, live) in enumerate(SERVO_SETUPS):
+        if quick and i not in QUICK_SETUPS:
+            continue
         print(f'  servo_sin_t on the wall clock: {label} ...', flush=True)
         bag = out / f'servo_wall_{i}'
         res = run_scene(_with(scene, 'torque_servo', params), str(bag), wallclock=True,
@@ -100,9 +104,10 @@ def _servo(out: pathlib.Path) -> list[dict[str, Any]]:
 
 
 def measure_wallclock(out: pathlib.Path, quick: bool) -> dict[str, Any]:
-    """The wall-clock study (module docstring); ``quick`` skips isometric_quick (2 min)."""
+    """The wall-clock study (module docstring); ``quick`` skips isometric_quick (2 min) and
+    runs the servo's ``QUICK_SETUPS`` only."""
     scenes = ['demo'] + ([] if quick else ['isometric_quick'])
-    return {'readings': [_readings(n, out) for n in scenes], 'servo': _servo(out)}
+    return {'readings': [_readings(n, out) for n in scenes], 'servo': _servo(out, quick)}
 
 
 def _ms(x: float) -> str:

@@ -14,6 +14,7 @@ import dataclasses
 
 from pam_bench.control.torque_servo import ServoMode, SignalKind, TorqueServoParams
 from pam_bench.models.constants import PULLEY_PITCH_DIAMETER_M, SUB_STEP_S
+from pam_bench.models.coupling import SettleParams
 from pam_bench.models.loading_servo import LoadingServoParams
 from pam_bench.models.muscle import MuscleParams
 from pam_bench.models.params import field, section
@@ -81,6 +82,8 @@ class MuscleSettings(DeviceSettings):
     straight_fibre: StraightFibreParams = section(
         StraightFibreParams, "000's straight-fibre muscle, used when muscle.kind is "
         'straight_fibre (models.straight_fibre_muscle)')
+    settle: SettleParams = section(SettleParams, 'when a settled muscle is held for the rest '
+                                   'of an exchange (models.coupling)')
 
 
 @dataclasses.dataclass

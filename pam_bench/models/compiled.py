@@ -12,7 +12,8 @@ What is compiled (``@njit(cache=True)``, plain floats and arrays in and out):
   (``models.loading_servo.drive``: force, position and off modes, the ideal holder of
   ``dynamics: false``);
 - the coupled sub-step solve g(F) = F_m(p_+, X(F)) - F = 0 by bracketed Newton
-  (``models.coupling``), sub-step after sub-step.
+  (``models.coupling``), sub-step after sub-step, with its settle test (a settled muscle held
+  for the rest of the exchange, the drive replayed).
 
 Every function repeats the reference's floating-point operations in the reference's order, so
 the results are bit-equal (``test/models/test_compiled.py`` checks tables, the friction's turning
@@ -364,19 +365,31 @@ def _commit(f, dp, ds, mode, sp, prep):
 
 # --- the coupled sub-steps -----------------------------------------------------------------
 def solve_mckibben(steps, pressures, f, mp, fk, ff0, fmu, z, st, dp, ds, mode, sp,
-                   out_f, out_x):
+                   out_f, out_x, tol):
     """Every sub-step of an exchange (``models.coupling.solve_substeps``) for a McKibben muscle
     on the loading drive. ``z``, ``st`` (friction) and ``ds`` (drive) are updated in place;
-    forces and contractions go to ``out_f``, ``out_x``. Returns (stiffness -dF/dx N/m and
-    friction N at the end, Newton iterations, status: ``OK`` or ``BAD_POSITION``)."""
+    forces and contractions go to ``out_f``, ``out_x``. ``tol``: the settle tolerances (force
+    N, contraction m, pressure Pa; negative: never settle), shape (3,). Returns (stiffness
+    -dF/dx N/m and friction N at the end, Newton iterations, status: ``OK`` or
+    ``BAD_POSITION``, sub-steps held)."""
     n_el = fk.shape[0]
+    n = steps.shape[0]
     zt = z.copy()
     stt = st.copy()
     prep = [0.0] * 10
     k_last = 0.0
     ff_last = 0.0
     iters = 0
-    for idx in range(steps.shape[0]):
+    settle = tol[0] >= 0.0 and n > 2
+    saved = ds.copy()
+    next_try = 0
+    hi_p = pressures.copy()
+    lo_p = pressures.copy()
+    if settle:
+        for j in range(n - 2, -1, -1):
+            hi_p[j] = hi_p[j] if hi_p[j] > hi_p[j + 1] else hi_p[j + 1]
+            lo_p[j] = lo_p[j] if lo_p[j] < lo_p[j + 1] else lo_p[j + 1]
+    for idx in range(n):
         d = steps[idx]
         p = pressures[idx]
         e = _effective_pressure(p, mp)
@@ -389,7 +402,7 @@ def solve_mckibben(steps, pressures, f, mp, fk, ff0, fmu, z, st, dp, ds, mode, s
         while True:
             x, dxdf = _contraction_and_compliance(f, dp, ds, mode, sp, prep)
             if not math.isfinite(x):
-                return k_last, ff_last, iters, BAD_POSITION
+                return k_last, ff_last, iters, BAD_POSITION, 0
             tf, tk, tff = _muscle_trial(e, x, mp, fk, ff0, fmu, z, zt, stt)
             if f == 0.0:
                 f_hi = tf
@@ -420,7 +433,26 @@ def solve_mckibben(steps, pressures, f, mp, fk, ff0, fmu, z, st, dp, ds, mode, s
         out_x[idx] = x
         k_last, ff_last = tk, tff
         iters += it
-    return k_last, ff_last, iters, OK
+        left = n - 1 - idx
+        if settle and 0 < idx and left > 0 and idx >= next_try and \
+                abs(f - out_f[idx - 1]) * left <= tol[0] and \
+                abs(x - out_x[idx - 1]) * left <= tol[1] and \
+                max(hi_p[idx + 1] - p, p - lo_p[idx + 1]) <= tol[2]:
+            for i in range(ds.shape[0]):
+                saved[i] = ds[i]
+            for j in range(idx + 1, n):
+                if dp[19] != 0.0:
+                    _prepare(steps[j], dp, ds, mode, sp, prep)
+                _commit(f, dp, ds, mode, sp, prep)
+            if abs(ds[5] - x) <= tol[1]:
+                for j in range(idx + 1, n):
+                    out_f[j] = f
+                    out_x[j] = x
+                return k_last, ff_last, iters, OK, left
+            for i in range(ds.shape[0]):
+                ds[i] = saved[i]
+            next_try = idx + 1 + left // 2
+    return k_last, ff_last, iters, OK, 0
 
 
 def replay_drive(steps, forces, dp, ds, mode, sp):
@@ -469,7 +501,7 @@ def _run_each(g: dict[str, Any]) -> None:
     ds = np.zeros(len(STATE_SLOTS))
     g['solve_mckibben'](np.full(2, 0.005), np.full(2, 1e5), 0.0, mp, np.array([1e5]),
                         np.ones(1), np.full(1, 0.01), np.zeros(1), np.ones(1, np.uint8), dp,
-                        ds, MODE_POSITION, 0.0, np.zeros(2), np.zeros(2))
+                        ds, MODE_POSITION, 0.0, np.zeros(2), np.zeros(2), np.full(3, -1.0))
     g['replay_drive'](np.full(2, 0.005), np.full(2, 10.0), dp, ds, MODE_FORCE, 10.0)
 
 

@@ -19,6 +19,25 @@ muscle keeps the friction state of the evaluation at the root, the holder keeps 
 with that force; a holder that only replays the forces (the loading-servo node) reaches the
 same state bit for bit.
 
+Settled sub-steps (``SettleParams``, issue 29 item 2): once the force and the end position
+stop moving and the valve's pressure over the rest of the exchange stays within a tolerance,
+the muscle is held where it is for the remaining sub-steps. The braid friction is rate
+independent, so a muscle whose end and pressure do not move keeps its force; the drive still
+takes every remaining sub-step with that force (prepare and commit, exactly what the loading
+servo node's replay does), so the muscle node, the servo node and the twin keep bit-equal
+states. The test after sub-step i >= 1 (of n, i < n - 1), with m = n - 1 - i sub-steps left:
+
+    |F_i - F_(i-1)| m <= force_n,   |x_i - x_(i-1)| m <= contraction_m,
+    max_(j > i) |p_j - p_i| <= pressure_pa
+
+(a linear bound on the drift the rest could still carry), and the drive, replayed over the
+rest with F_i, must end within ``contraction_m`` of x_i (a drive whose loop still moves, a
+force set value not met, fails it: its state is put back, the sub-steps are solved, and the
+test waits half the sub-steps left before it tries again). The samples of the held span are
+F_i and x_i: the same sub-steps, counts and stamps as the full stepping. The speed and the
+readings' error against the 1 ms reference at each tolerance are in BENCHMARKS.md ('Settled
+sub-steps: speed against error').
+
 Solving the mechanical coupling inside every sub-step is what lets the devices exchange
 messages only once per exchange step (seconds), not once per millisecond: the exchange
 step no longer adds a coupling delay to the mechanics (BENCHMARKS.md,
@@ -38,8 +57,10 @@ from pam_bench.models.bench_muscle import BenchMuscle
 from pam_bench.models.errors import ModelError
 from pam_bench.models.loading_servo.drive import LoadingServoModel
 from pam_bench.models.muscle import MuscleModel
+from pam_bench.models.params import field
 
-__all__ = ['Holder', 'SubStepResult', 'solve_substep', 'solve_substeps', 'substep_grid']
+__all__ = ['Holder', 'SettleParams', 'SubStepResult', 'solve_substep', 'solve_substeps',
+           'substep_grid', 'SETTLE_OFF']
 
 FORCE_TOLERANCE_N = 1.0e-7
 MAX_ITERATIONS = 60
@@ -64,10 +85,30 @@ class Holder(Protocol):
         """Keep the sub-step with that force."""
 
 
+@dataclasses.dataclass(frozen=True)
+class SettleParams:
+    """When the rest of an exchange's sub-steps holds the muscle (module docstring)."""
+
+    enabled: bool = field(True, '-', 'hold a settled muscle for the rest of an exchange (off: '
+                          'solve every sub-step, the plain reference)')
+    force_n: float = field(0.05, 'N', "bound on the force drift the held sub-steps may miss: "
+                           "the last sub-step's change times the sub-steps left", 0.0, 100.0)
+    contraction_m: float = field(2.0e-6, 'm', 'bound on the end-position drift the held '
+                                 'sub-steps may miss (the last change times those left)',
+                                 0.0, 1.0e-2)
+    pressure_pa: float = field(20.0, 'Pa', "largest move of the valve's pressure over the "
+                               'held sub-steps', 0.0, 1.0e5)
+
+
+SETTLE_OFF = SettleParams(enabled=False)
+"""Every sub-step solved (the reference the held spans are tested against)."""
+
+
 @dataclasses.dataclass
 class SubStepResult:
     """Samples of a run of sub-steps: lengths s, forces N, contractions m (shapes (n,)), and
-    the muscle's stiffness -dF/dx (N/m), friction (N) and Newton iterations at the end."""
+    the muscle's stiffness -dF/dx (N/m), friction (N) and Newton iterations at the end, and
+    how many sub-steps held the muscle (``SettleParams``)."""
 
     steps_s: list[float]
     forces_n: list[float]
@@ -75,6 +116,7 @@ class SubStepResult:
     stiffness_n_per_m: float
     friction_n: float
     iterations: int
+    held: int = 0
 
 
 def substep_grid(dt_s: float, period_s: float) -> list[float]:
@@ -141,9 +183,11 @@ def solve_substep(muscle: BenchMuscle, holder: Holder, d: float, pressure_pa: fl
 
 
 def solve_substeps(muscle: BenchMuscle, holder: Holder, steps_s: list[float],
-                   pressures_pa: list[float], force_n: float) -> SubStepResult:
+                   pressures_pa: list[float], force_n: float,
+                   settle: SettleParams = SETTLE_OFF) -> SubStepResult:
     """Every sub-step of an exchange: lengths (s) and the pressure at the end of each (Pa),
-    starting from the force ``force_n`` (N) of the last sub-step.
+    starting from the force ``force_n`` (N) of the last sub-step; a settled muscle is held for
+    the rest (``settle``, module docstring).
 
     Raises:
         ModelError: the lists differ in length or a value is not finite.
@@ -152,21 +196,53 @@ def solve_substeps(muscle: BenchMuscle, holder: Holder, steps_s: list[float],
         raise ModelError(f'{len(pressures_pa)} pressures for {len(steps_s)} sub-steps')
     if type(muscle) is MuscleModel and type(holder) is LoadingServoModel and \
             compiled.wanted(len(steps_s)):
-        return _solve_compiled(muscle, holder, steps_s, pressures_pa, force_n)
-    forces, xs = [], []
+        return _solve_compiled(muscle, holder, steps_s, pressures_pa, force_n, settle)
+    forces: list[float] = []
+    xs: list[float] = []
     k = ff = 0.0
     iters = 0
     f = force_n
-    for d, p in zip(steps_s, pressures_pa, strict=True):
+    n = len(steps_s)
+    hi_p, lo_p = (_suffix_extremes(pressures_pa) if settle.enabled and n > 2
+                  else ([], []))
+    next_try = 0
+    for i, (d, p) in enumerate(zip(steps_s, pressures_pa, strict=True)):
         f, x, k, ff, it = solve_substep(muscle, holder, d, p, f)
         forces.append(f)
         xs.append(x)
         iters += it
+        left = n - 1 - i
+        if hi_p and 0 < i and left > 0 and i >= next_try and \
+                abs(f - forces[i - 1]) * left <= settle.force_n and \
+                abs(x - xs[i - 1]) * left <= settle.contraction_m and \
+                max(hi_p[i + 1] - p, p - lo_p[i + 1]) <= settle.pressure_pa:
+            drive = holder if isinstance(holder, LoadingServoModel) else None
+            saved = drive.arrays()[1] if drive is not None else None
+            for d_rest in steps_s[i + 1:]:
+                holder.prepare(d_rest)
+                holder.commit(f)
+            end = drive.contraction_m if drive is not None else x   # IdealHold: x_0 + F/k_b
+            if abs(end - x) <= settle.contraction_m:
+                forces.extend([f] * left)
+                xs.extend([x] * left)
+                return SubStepResult(list(steps_s), forces, xs, k, ff, iters, left)
+            if drive is not None and saved is not None:
+                drive.set_state(saved)
+            next_try = i + 1 + left // 2
     return SubStepResult(list(steps_s), forces, xs, k, ff, iters)
 
 
+def _suffix_extremes(values: list[float]) -> tuple[list[float], list[float]]:
+    """(max, min) of ``values[j:]`` for every j, shapes (n,)."""
+    hi, lo = list(values), list(values)
+    for j in range(len(values) - 2, -1, -1):
+        hi[j] = hi[j] if hi[j] > hi[j + 1] else hi[j + 1]
+        lo[j] = lo[j] if lo[j] < lo[j + 1] else lo[j + 1]
+    return hi, lo
+
+
 def _solve_compiled(muscle: MuscleModel, drive: LoadingServoModel, steps_s: Any,
-                    pressures_pa: Any, force_n: float) -> SubStepResult:
+                    pressures_pa: Any, force_n: float, settle: SettleParams) -> SubStepResult:
     """``solve_substeps`` on the compiled core (``models.compiled``): bit-equal results, the
     muscle's friction and the drive's state kept as the reference keeps them."""
     steps = np.asarray(steps_s, dtype=float)
@@ -181,11 +257,17 @@ def _solve_compiled(muscle: MuscleModel, drive: LoadingServoModel, steps_s: Any,
     dp, ds = drive.arrays()
     n = len(steps)
     out_f, out_x = np.empty(n), np.empty(n)
-    k, ff, iters, status = compiled.solve_mckibben(
+    tol = (np.array([settle.force_n, settle.contraction_m, settle.pressure_pa])
+           if settle.enabled else _NO_SETTLE)
+    k, ff, iters, status, held = compiled.solve_mckibben(
         steps, pressures, float(force_n), mp, fk, ff0, fmu, z, st, dp, ds, int(drive.mode),
-        float(drive.setpoint), out_f, out_x)
+        float(drive.setpoint), out_f, out_x, tol)
     if status != compiled.OK:
         raise ModelError('holder position is not finite')
     muscle.friction.set_state(z, st)
     drive.set_state(ds)
-    return SubStepResult(list(steps_s), out_f.tolist(), out_x.tolist(), k, ff, iters)
+    return SubStepResult(list(steps_s), out_f.tolist(), out_x.tolist(), k, ff, iters, held)
+
+
+_NO_SETTLE = np.full(3, -1.0)
+"""Tolerances the compiled solve never meets (every sub-step solved)."""

@@ -3,7 +3,8 @@
 Inputs: ``sim/valve_N/samples`` (the valve's pressure at every sub-step of this exchange) and
 ``sim/pulley/law`` (DriveLaw of the previous exchange: how the loading servo moves the muscle
 end under a force). The muscle and the drive are solved together at every sub-step
-(``pam_bench.models.coupling``). Outputs: ``sim/muscle_N/state`` (MuscleState at the end of the
+(``pam_bench.models.coupling``; a settled muscle is held for the rest of the exchange, ``settle``
+settings). Outputs: ``sim/muscle_N/state`` (MuscleState at the end of the
 exchange: pressure, force, contraction, chamber volume for the valve) and
 ``sim/muscle_N/samples`` (MuscleSamples: every sub-step's force and contraction, which the
 loading servo replays and the load cell measures). On a wall clock it steps at ``rate_hz``
@@ -94,7 +95,8 @@ class MuscleSim(BenchNode):
             self.contraction_m = holder.contraction(0.0)
             self.model.reset(self.contraction_m, 0.0)
             self._mounted = True
-        res = solve_substeps(self.model, holder, steps, pressures, self.force_n)
+        res = solve_substeps(self.model, holder, steps, pressures, self.force_n,
+                             self.settings.settle)
         self.pressure_pa = pressures[-1]
         self.force_n = res.forces_n[-1]
         self.contraction_m = res.contractions_m[-1]

@@ -5,6 +5,7 @@ same-exchange inputs valve -> muscle -> loading servo -> encoder, muscle -> load
 
     valve:   p_j     = valve.samples(u, sub-steps of h, V_k-1)    (exact ZOH, u and V held)
     muscle:  F_j, x_j = coupling.solve_substeps(muscle, drive law of t_k-1, sub-steps, p_j)
+             (a settled muscle held for the rest of the exchange: ``settle``)
     servo:   the drive keeps the same sub-steps (the node replays F_j), then takes the command
              the sequencer sent at t_k-1: a new set value acts one exchange after it is sent
     cell:    F_m     = load_cell.measure(F_n)  (every F_j during a 1 kHz record)
@@ -26,7 +27,7 @@ import dataclasses
 
 from pam_bench.models.bench_muscle import make_muscle
 from pam_bench.models.constants import SUB_STEP_S
-from pam_bench.models.coupling import solve_substeps, substep_grid
+from pam_bench.models.coupling import SettleParams, solve_substeps, substep_grid
 from pam_bench.models.loading_servo import LoadingServoModel, LoadingServoParams, LoadMode
 from pam_bench.models.muscle import MuscleParams
 from pam_bench.models.sensors import EncoderModel, EncoderParams, LoadCellModel, LoadCellParams
@@ -59,8 +60,10 @@ class SingleMuscleBench:
                  load_cell: LoadCellParams | None = None, encoder: EncoderParams | None = None,
                  servo: LoadingServoParams | None = None, seed: int = 0,
                  sub_step_s: float = SUB_STEP_S,
-                 straight_fibre: StraightFibreParams | None = None) -> None:
+                 straight_fibre: StraightFibreParams | None = None,
+                 settle: SettleParams | None = None) -> None:
         self.sub_step_s = sub_step_s
+        self.settle = settle or SettleParams()
         self.valve = ValveModel(valve)
         self.muscle = make_muscle(muscle, straight_fibre)
         self.cell = LoadCellModel(load_cell, seed=seed)
@@ -79,6 +82,7 @@ class SingleMuscleBench:
         self.th_meas = 0.0
         self.steps = 0                # exchanges taken
         self.substeps = 0             # sub-steps taken
+        self.held = 0                 # of them, sub-steps that held a settled muscle
         self._pending: tuple[LoadMode, float] | None = None
         self.samples: list[tuple[float, float]] = []   # (t s, measured N) of the last step
 
@@ -108,8 +112,9 @@ class SingleMuscleBench:
         period = sample_period_s if sample_period_s > 0.0 else self.sub_step_s
         steps = substep_grid(h_s, min(period, h_s))
         pressures = self.valve.samples(self.u, steps, self.volume)
-        res = solve_substeps(self.muscle, self.servo, steps, pressures, self.f)
+        res = solve_substeps(self.muscle, self.servo, steps, pressures, self.f, self.settle)
         self.substeps += len(steps)
+        self.held += res.held
         self.steps += 1
         if self._pending is not None:
             self.servo.command(*self._pending)

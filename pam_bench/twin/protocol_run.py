@@ -29,6 +29,7 @@ from pam_bench.analysis.bagread import StepRecord as BagRecord
 from pam_bench.config.protocols import parse_overrides, protocol_schedule
 from pam_bench.config.scene import Scene
 from pam_bench.models.constants import SUB_STEP_S
+from pam_bench.models.coupling import SettleParams
 from pam_bench.models.loading_servo import LoadingServoParams
 from pam_bench.models.muscle import MuscleParams
 from pam_bench.models.sensors import LoadCellParams
@@ -74,15 +75,17 @@ def run_readings(name: str, readings: list[Reading], settle_s: float, exchange_s
                  events: Sequence[tuple[float, str]] = (),
                  straight_fibre: StraightFibreParams | None = None,
                  runner: RunnerSettings | None = None, start_index: int = 0,
-                 max_sim_s: float = math.inf) -> TwinRun:
+                 max_sim_s: float = math.inf, settle: SettleParams | None = None) -> TwinRun:
     """Run a schedule to its end (module docstring); the bench starts at rest. ``events``:
     (sim time s, 'pause' | 'pause_vent' | 'resume'), given to the runner at the first tick
     at or after that time, as an operator's service call would be. ``runner``: the runner's
     settings (limits, suspenders, pause action; default: the defaults with these steps).
     ``max_sim_s``: stop there (exit code ``TIMED_OUT``; a run a suspender holds for ever, or
-    a job of a sweep, must end)."""
+    a job of a sweep, must end). ``settle``: when a settled muscle is held for the rest of an
+    exchange (None: the muscle node's default, ``models.coupling.SettleParams``)."""
     bench = SingleMuscleBench(valve=valve, muscle=muscle, load_cell=load_cell, servo=servo,
-                              seed=seed, sub_step_s=sub_step_s, straight_fibre=straight_fibre)
+                              seed=seed, sub_step_s=sub_step_s, straight_fibre=straight_fibre,
+                              settle=settle)
     settings = runner or RunnerSettings(command_step_s=command_step_s,
                                         record_exchange_s=record_exchange_s)
     run = Runner(settings, lockstep=True)
@@ -157,7 +160,8 @@ def run_scene(scene: Scene, seed: int = 0, events: Sequence[tuple[float, str]] =
                         scene.sub_step_s, valve=st['valve_1'].valve, muscle=muscle.muscle,
                         servo=st['loading_servo'].servo, load_cell=st['load_cell_1'].load_cell,
                         seed=st['load_cell_1'].seed, events=events,
-                        straight_fibre=muscle.straight_fibre, runner=seq, start_index=start)
+                        straight_fibre=muscle.straight_fibre, runner=seq, start_index=start,
+                        settle=muscle.settle)
 
 
 def bag_data_of(run: TwinRun) -> BagData:

@@ -66,6 +66,7 @@ from scipy.optimize import least_squares
 from pam_bench.analysis.bagread import BagData
 from pam_bench.models import compiled
 from pam_bench.models.constants import SUB_STEP_S
+from pam_bench.models.coupling import SETTLE_OFF
 from pam_bench.models.errors import ModelError
 from pam_bench.models.loading_servo import LoadingServoParams, LoadMode
 from pam_bench.models.muscle import MuscleParams
@@ -187,7 +188,10 @@ def _replay_stepped(obs: Observations, valve: ValveParams, muscle: MuscleParams,
                     servo: LoadingServoParams | None) -> tuple[np.ndarray, list[np.ndarray]]:
     """The static readings, then the step records, in order on one time-stepped bench
     (module docstring)."""
-    twin = SingleMuscleBench(valve, muscle, LoadCellParams(noise=False), servo=servo)
+    # every sub-step solved: a held span starts where a tolerance test flips, a step the
+    # finite-difference Jacobian would read as the parameters' effect
+    twin = SingleMuscleBench(valve, muscle, LoadCellParams(noise=False), servo=servo,
+                             settle=SETTLE_OFF)
 
     def settle(mode: LoadMode, voltage_v: float, held: float) -> None:
         twin.command_valve(voltage_v)

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from pam_bench.models.constants import LOAD_CELL_RANGE_N, SUB_STEP_S
+from pam_bench.models.coupling import SettleParams
 from pam_bench.models.loading_servo import LoadingServoParams, LoadMode
 from pam_bench.models.muscle import MuscleParams
 from pam_bench.models.sensors import LoadCellParams
@@ -35,8 +36,8 @@ KINDS = ('isometric', 'isotonic', 'isobaric')
 
 def series_readings(kind: str, value: float, swept: list[float], h_s: float,
                     sub_step_s: float = SUB_STEP_S,
-                    models: tuple[ValveParams, MuscleParams, LoadingServoParams] | None = None
-                    ) -> tuple[np.ndarray, float, float]:
+                    models: tuple[ValveParams, MuscleParams, LoadingServoParams] | None = None,
+                    settle: SettleParams | None = None) -> tuple[np.ndarray, float, float]:
     """One series of readings (3 s dwell each, after 3 s at the held value) on the numpy
     bench from rest, run by the sequencer's state machine with the nodes' exchange steps
     (``twin.protocol_run``), noise-free sensors.
@@ -49,6 +50,7 @@ def series_readings(kind: str, value: float, swept: list[float], h_s: float,
         h_s: the longest exchange step, s (the devices and the sequencer ask for shorter).
         sub_step_s: sub-step of the coupled muscle and drive, s.
         models: valve, muscle and loading-servo parameters (None: the defaults).
+        settle: when a settled muscle is held (None: the muscle node's default).
 
     Returns:
         (readings: measured force N for isometric, encoder contraction m otherwise, shape
@@ -69,7 +71,7 @@ def series_readings(kind: str, value: float, swept: list[float], h_s: float,
             load = value
         readings.append(Reading(kind, 0, k, d, value, float(v), u, mode, load, 3.0))
     run = run_readings(kind, readings, 3.0, h_s, sub_step_s, valve=valve, muscle=muscle,
-                       servo=servo, load_cell=QUIET)
+                       servo=servo, load_cell=QUIET, settle=settle)
     out = [p.measurement.force_n if kind == 'isometric' else p.measurement.contraction_m
            for p in run.points]
     return np.array(out), run.exchanges / len(swept), run.wall_s

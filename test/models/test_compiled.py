@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from pam_bench.models import compiled
-from pam_bench.models.coupling import solve_substeps, substep_grid
+from pam_bench.models.coupling import SETTLE_OFF, SettleParams, solve_substeps, substep_grid
 from pam_bench.models.loading_servo import LoadingServoModel, LoadingServoParams, LoadMode
 from pam_bench.models.muscle import MuscleModel, MuscleParams
 from pam_bench.models.valve import ValveModel, ValveParams
@@ -43,11 +43,11 @@ def _state(muscle: MuscleModel, drive: LoadingServoModel) -> tuple:
 
 
 def _run(muscle: MuscleModel, drive: LoadingServoModel, pressures: np.ndarray,
-         d: float = 0.005, force: float = 0.0) -> tuple:
+         d: float = 0.005, force: float = 0.0, settle: SettleParams = SETTLE_OFF) -> tuple:
     m, dr = copy.deepcopy(muscle), copy.deepcopy(drive)
-    res = solve_substeps(m, dr, [d] * len(pressures), list(pressures), force)
+    res = solve_substeps(m, dr, [d] * len(pressures), list(pressures), force, settle)
     return (res.forces_n, res.contractions_m, res.stiffness_n_per_m, res.friction_n,
-            res.iterations, _state(m, dr))
+            res.iterations, _state(m, dr), res.held)
 
 
 def _drive(mode: LoadMode, setpoint: float, x0: float = 0.0, **kw: object
@@ -85,12 +85,13 @@ CASES = {
 }
 
 
+@pytest.mark.parametrize('settle', [SETTLE_OFF, SettleParams()], ids=['every', 'settled'])
 @pytest.mark.parametrize('name', list(CASES))
-def test_coupled_sub_steps_are_bit_equal(name: str) -> None:
+def test_coupled_sub_steps_are_bit_equal(name: str, settle: SettleParams) -> None:
     params, (mode, sp, x0), pressures = CASES[name]
     muscle, drive = MuscleModel(params), _drive(mode, sp, x0)
     muscle.reset(x0, float(pressures[0]))
-    py, nb = _both(lambda: _run(muscle, drive, pressures))
+    py, nb = _both(lambda: _run(muscle, drive, pressures, settle=settle))
     for a, b in zip(py, nb, strict=True):
         np.testing.assert_array_equal(np.asarray(a, dtype=object), np.asarray(b, dtype=object))
 
