@@ -2,7 +2,10 @@
 
 Parameter sets are drawn at random (seeded) within +-15 % of the defaults for the muscle's
 gain, smallest gain, exponent, contact pressure and band, bladder and lock-up stiffnesses and
-the valve's natural frequency and damping; campaign_quick runs on the time-stepped numpy twin
+the valve's natural frequency and damping, and one set per drawn parameter puts that parameter
+at an end of its fit interval (``FREE_BAGS``: the declared range, narrowed only for the
+reasons ``BOUND_REASONS`` states), the lower end for every other parameter, the rest at their
+defaults (``edge_parameters``); campaign_quick runs on the time-stepped numpy twin
 (``twin.protocol_run``, noise-free load cell) with each; ``verify.calibrate_bags`` fits
 ``FREE_BAGS`` from the bench's defaults to its readings and step records. Reported per set:
 each parameter's recovery error, whether the fit could identify it (not flagged), the RMS of
@@ -24,8 +27,8 @@ from pam_bench.models.valve import ValveParams
 from pam_bench.twin.protocol_run import run_protocol
 from pam_bench.verify.calibrate_bags import FREE_BAGS, calibrate_bags, observations_from_twin
 
-__all__ = ['STUDY', 'DRAWN', 'draw_parameters', 'recovery_errors', 'measure_round_trips',
-           'calibrate_section', 'calibrate_results']
+__all__ = ['STUDY', 'DRAWN', 'draw_parameters', 'edge_parameters', 'recovery_errors',
+           'measure_round_trips', 'calibrate_section', 'calibrate_results']
 
 DRAWN = ('gain_n_per_pa', 'gain_min_n_per_pa', 'gain_exponent', 'threshold_pressure_pa',
          'threshold_width_pa', 'bladder_stiffness_n_per_m', 'stretch_stiffness_n_per_m',
@@ -48,6 +51,22 @@ def draw_parameters(rng: np.random.Generator) -> tuple[ValveParams, MuscleParams
     return dataclasses.replace(v, **vv), dataclasses.replace(m, **mv)
 
 
+def edge_parameters(k: int) -> tuple[ValveParams, MuscleParams, str]:
+    """The ``DRAWN`` parameter k at an end of its fit interval (the lower end for even k),
+    everything else at its default; returns (valve, muscle, 'name at lower|upper end')."""
+    name = DRAWN[k % len(DRAWN)]
+    model, _, lo, hi = next(row for row in FREE_BAGS if row[1] == name)
+    end = 'lower' if k % 2 == 0 else 'upper'
+    value = lo if end == 'lower' else hi
+    v, m = ValveParams(), MuscleParams()
+    change: dict[str, Any] = {name: value}
+    if model == 'valve':
+        v = dataclasses.replace(v, **change)
+    else:
+        m = dataclasses.replace(m, **change)
+    return v, m, f'{name} at its {end} end ({value:g})'
+
+
 def recovery_errors(values: dict[str, float], valve: ValveParams, muscle: MuscleParams
                     ) -> dict[str, float | None]:
     """Relative error of each fitted ``FREE_BAGS`` value against the drawn ``valve`` and
@@ -60,21 +79,28 @@ def recovery_errors(values: dict[str, float], valve: ValveParams, muscle: Muscle
     return errors
 
 
-def measure_round_trips(quick: bool, sets: int | None = None) -> dict[str, Any]:
-    """Run the round trip (module docstring) for ``sets`` sets (2 quick, 5 full)."""
+def measure_round_trips(quick: bool, sets: int | None = None,
+                        edges: int | None = None) -> dict[str, Any]:
+    """Run the round trip (module docstring) for ``sets`` drawn sets (2 quick, 5 full) and
+    ``edges`` sets with one parameter at an end (1 quick, one per drawn parameter full)."""
     rng = np.random.default_rng(2026)
-    rows = []
-    for k in range(sets or (2 if quick else 5)):
-        valve, muscle = draw_parameters(rng)
-        print(f'  round trip {k + 1} ...', flush=True)
+    cases: list[tuple[ValveParams, MuscleParams, str]] = [
+        (*draw_parameters(rng), 'drawn') for _ in range(sets or (2 if quick else 5))]
+    n_edges = edges if edges is not None else (1 if quick else len(DRAWN))
+    cases += [edge_parameters(k) for k in range(n_edges)]
+    rows: list[dict[str, Any]] = []
+    edge_rows: list[dict[str, Any]] = []
+    for k, (valve, muscle, what) in enumerate(cases):
+        print(f'  round trip {k + 1} ({what}) ...', flush=True)
         run = run_protocol('campaign_quick', 3.0, valve=valve, muscle=muscle,
                            load_cell=LoadCellParams(noise=False))
         res = calibrate_bags(observations_from_twin(run.points, run.records))
-        rows.append({'errors': recovery_errors(res['values'], valve, muscle),
-                     'flags': res['flags'], 'fit_s': res['fit_s'],
-                     'evaluations': res['evaluations'], 'rms_before': res['rms_before'],
-                     'rms_after': res['rms_after']})
-    return {'sets': rows, 'tolerance': TOLERANCE}
+        row = {'set': what, 'errors': recovery_errors(res['values'], valve, muscle),
+               'flags': res['flags'], 'at_bound': res.get('at_bound', []),
+               'fit_s': res['fit_s'], 'evaluations': res['evaluations'],
+               'rms_before': res['rms_before'], 'rms_after': res['rms_after']}
+        (rows if what == 'drawn' else edge_rows).append(row)
+    return {'sets': rows, 'edges': edge_rows, 'tolerance': TOLERANCE}
 
 
 def calibrate_section(r: dict[str, Any]) -> list[str]:
@@ -89,7 +115,27 @@ def calibrate_section(r: dict[str, Any]) -> list[str]:
                     _largest(sets, n), _within(sets, n, c['tolerance']))
                    for n in names])
     lines += ['', table_note(sets)]
+    edges = c.get('edges', [])
+    if edges:
+        lines += ['', 'One parameter at an end of its fit interval, the rest at the defaults: '
+                  "what the fit says of it (an error within 5 %, 'at its bound', or flagged as "
+                  'not fixed by the recordings):', '']
+        lines += table(['set', 'identified value error', 'reported as', 'other parameters '
+                        'outside 5 %', 'readings RMS after'],
+                       [_edge_row(e, c['tolerance']) for e in edges])
     return lines
+
+
+def _edge_row(e: dict[str, Any], tol: float) -> Row:
+    name = e['set'].split(' ')[0]
+    err = e['errors'].get(name)
+    said = ('at its bound' if name in e.get('at_bound', []) else
+            'not fixed' if name in e['flags'] else 'identified')
+    others = [n for n, v in e['errors'].items() if n != name and n not in e['flags']
+              and v is not None and abs(v) > tol]
+    rms = ', '.join(f'{k} {v:.2f}' for k, v in e['rms_after'].items())
+    return (e['set'], '-' if err is None else f'{100 * err:+.2f} %', said,
+            ', '.join(others) or 'none', rms)
 
 
 def _identified(sets: list[dict[str, Any]], name: str) -> list[float]:

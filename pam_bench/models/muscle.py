@@ -87,26 +87,26 @@ class MuscleParams:
     nominal_diameter_m: float = field(0.020, 'm', 'nominal diameter d_n (004)', 0.001, 1.0)
     braid_angle_deg: float = field(20.0, 'deg', 'braid angle theta_0 at nominal length',
                                    1.0, 54.0)
-    gain_n_per_pa: float = field(3.165e-3, 'N/Pa', 'isometric gain g_0 at x = 0',
+    gain_n_per_pa: float = field(3.226e-3, 'N/Pa', 'isometric gain g_0 at x = 0',
                                  0.0, 1.0)
-    gain_min_n_per_pa: float = field(1.878e-4, 'N/Pa', 'smallest isometric gain g_m', 0.0, 1.0)
+    gain_min_n_per_pa: float = field(1.881e-4, 'N/Pa', 'smallest isometric gain g_m', 0.0, 1.0)
     gain_min_contraction_m: float = field(0.095, 'm', 'contraction x_m of the smallest gain',
                                           0.001, 10.0)
-    gain_exponent: float = field(1.375, '-', 'exponent n of the gain curve', 1.0, 20.0)
-    gain_rise_n_per_pa_m: float = field(2.61e-4, 'N/(Pa m)', 'rise g_r of the gain past x_m',
+    gain_exponent: float = field(1.353, '-', 'exponent n of the gain curve', 1.0, 20.0)
+    gain_rise_n_per_pa_m: float = field(2.262e-4, 'N/(Pa m)', 'rise g_r of the gain past x_m',
                                         0.0, 1.0)
-    threshold_pressure_pa: float = field(8.389e4, 'Pa', 'pressure p_th of the bladder-braid '
+    threshold_pressure_pa: float = field(9.048e4, 'Pa', 'pressure p_th of the bladder-braid '
                                          'contact', 0.0, 1.0e6)
-    threshold_width_pa: float = field(4.152e4, 'Pa', 'width w of the contact band (0: sharp)',
+    threshold_width_pa: float = field(4.684e4, 'Pa', 'width w of the contact band (0: sharp)',
                                       0.0, 1.0e6)
-    bladder_stiffness_n_per_m: float = field(354.7, 'N/m', 'bladder elasticity k_bl',
+    bladder_stiffness_n_per_m: float = field(334.0, 'N/m', 'bladder elasticity k_bl',
                                              0.0, 1.0e9)
-    stretch_stiffness_n_per_m: float = field(1.421e5, 'N/m', 'braid lock-up stiffness k_s for '
+    stretch_stiffness_n_per_m: float = field(1.162e5, 'N/m', 'braid lock-up stiffness k_s for '
                                              'x < 0', 0.0, 1.0e10)
     lock_stiffness_n_per_m: float = field(5.0e5, 'N/m', 'braid lock stiffness k_l past the '
                                           'largest contraction x_l', 0.0, 1.0e10)
     hysteresis: bool = field(True, '-', 'model braid friction (Maxwell-slip)')
-    friction_stiffness_n_per_m: list = field([1.882e5, 1.255e5, 6.273e4], 'N/m',
+    friction_stiffness_n_per_m: list = field([9.808e4, 6.541e4, 3.269e4], 'N/m',
                                              'stiffness k_i of each friction element',
                                              0.0, 1.0e10)
     friction_break_force_n: list = field([1.0, 2.0, 2.0], 'N',

@@ -11,7 +11,8 @@ full grids on the quasi-static bench, read by the extraction's own estimators):
 - isotonic gain at (0.85 V, 50 N) against 97.16 mm/V and the largest isotonic gain against the
   same (so it is the maximum, at 004's place: the grid's mid voltages are 0.05 V apart), a
   hinge keeping every gain more than 0.15 V away from 0.86 V below 90 % of it, the gain at
-  (0.05 V, 100 N) against 0.13 mm/V (in 0.01 mm/V);
+  (0.05 V, 100 N) against 0.13 mm/V (in 0.001 mm/V: its tolerance is 20 %, 0.026 mm/V, and
+  in hundredths it gave way to the per-cent terms at 0.061 mm/V);
 - hinges for the bounds: contraction >= 100 mm, force >= 900 N, servo torque >= 25.46 N m.
 
 The gain's minimum sits at x_m = 95 mm (004's place, held fixed). Each parameter's standard
@@ -82,7 +83,7 @@ def residuals_004(measured: dict[str, Any]) -> np.ndarray:
         (ton.get('0.85,50', 0.0) - 97.16) / 97.16 * 100.0,
         (measured['isotonic_gain_max'] - 97.16) / 97.16 * 100.0,
         max(0.0, elsewhere - 0.9 * 97.16) / 97.16 * 300.0,
-        (measured['isotonic_gain_at_0v_100n'] - 0.13) / 0.01,
+        (measured['isotonic_gain_at_0v_100n'] - 0.13) / 0.001,
         max(0.0, 100.0 - measured['contraction_max']),
         max(0.0, 900.0 - measured['force_max']) / 10.0,
         max(0.0, 25.46 - measured['servo_torque_max']) * 10.0,
