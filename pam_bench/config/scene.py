@@ -169,7 +169,7 @@ class Scene:
             ConfigError: an unknown node or setting (the nearest named) or a bad value.
         """
         name, _, rest = path.partition('.')
-        if name not in self.nodes:
+        if name not in self.nodes and name != 'sim_clock':        # the clock is in every run
             known = [*self.nodes, 'sim_clock']
             raise ConfigError(f"scene {self.name}: unknown setting '{path}' (node {name!r} is "
                               f'not in this scene; {hint(name, known)})')

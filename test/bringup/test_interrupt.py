@@ -90,7 +90,7 @@ def test_dead_node_ends_the_run_with_a_reason(tmp_path: pathlib.Path, ros_domain
     try:
         muscle = [p for p in node_processes(ros_domain)
                   if b'muscle_sim' in pathlib.Path(f'/proc/{p}/cmdline').read_bytes()]
-        assert len(muscle) == 1
+        assert len(muscle) == 1, ''.join(lines)
         os.kill(muscle[0], signal.SIGKILL)
         out, _ = proc.communicate(timeout=90)
         out = ''.join(lines) + out

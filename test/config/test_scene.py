@@ -108,6 +108,7 @@ def test_two_channel_nodes_take_their_channel_from_the_node_table() -> None:
     ('muscle_1.muscle.gain_exponent', 1.3), ('muscle_1.straight_fibre.segments', 5),
     ('valve_1.valve.damping_ratio', 0.4), ('sequencer.stale_timeout_s', 0.25),
     ('loading_servo.servo.force_kp', 4.0), ('recorder.flush_period_s', 2.0),
+    ('sim_clock.stall_timeout_s', 3.0), ('muscle_1.settle.force_n', 0.2),
 ])
 def test_a_setting_set_by_path_reaches_the_settings(path: str, value: object) -> None:
     scene = load_scene('demo')
