@@ -25,7 +25,8 @@ def test_isometric_staircase_lands_where_the_twin_does(x_m: float, damping: floa
     left the loop up to 28 N wider than the twin's on a drawn parameter set. The first step
     from the slack muscle differs by up to 5 N: the drive's position loop gives way while the
     force rises from zero and takes the friction part of the way back, which the ideal hold
-    leaves out."""
+    leaves out. Back at 0 V the pressure is under the contact threshold and what is left is the
+    braid friction's residual (2 to 3 N), which the same give reaches to within 1 N."""
     valve = dataclasses.replace(ValveParams(), damping_ratio=damping)
     muscle = MuscleParams()
     twin = SingleMuscleBench(valve, muscle, LoadCellParams(noise=False))
@@ -39,5 +40,6 @@ def test_isometric_staircase_lands_where_the_twin_does(x_m: float, damping: floa
         want.append(twin.run(3.0, 3.0).force_n)
         got.append(qs.hold_position(u, x_m).force_n)
     np.testing.assert_allclose(got[0], want[0], atol=5.0)
-    np.testing.assert_allclose(got[1:], want[1:], atol=0.5)
+    np.testing.assert_allclose(got[1:-1], want[1:-1], atol=0.5)
+    np.testing.assert_allclose(got[-1], want[-1], atol=1.0)
 
