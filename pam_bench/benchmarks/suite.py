@@ -71,7 +71,9 @@ def run_benchmarks(quick: bool, root: pathlib.Path, scenes: list[str] | None = N
                 continue
             print(f'{s.key} ...', flush=True)
             t0 = time.perf_counter()
-            report.update(s.measure(quick, out, scenes))
+            where = out / s.key             # a folder per study: bag names do not meet
+            where.mkdir()
+            report.update(s.measure(quick, where, scenes))
             took = time.perf_counter() - t0
             print(f'{s.key}: {took:.1f} s', flush=True)
             for key in s.fills:

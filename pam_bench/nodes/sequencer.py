@@ -197,7 +197,7 @@ class SequencerNode(BenchNode):
         self.count_tick()
         s: SequencerSettings = self.settings
         gate = ('a recorder on protocol/point' if s.await_recorder
-                and self.point_pub.get_subscription_count() == 0 else '')
+                and not self.recorder_listens(topics.POINT) else '')
         core = self.runner.core
         t = t_ns * 1e-9
         if core is not None and core.running and t >= self._next_progress_s:

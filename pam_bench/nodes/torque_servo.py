@@ -134,7 +134,7 @@ class TorqueServoNode(BenchNode):
         self.count_tick()
         waiting = len(self.stamps) < len(self.cell_topics) + 1    # not every device is up yet
         if self.t0_ns is None and self.settings.await_recorder and \
-                self.state_pub.get_subscription_count() == 0:       # nor the recorder
+                not self.recorder_listens(topics.SERVO_STATE):         # nor the recorder
             waiting = not self.waited_too_long(t_ns, ['a recorder on torque_servo/state'],
                                                self.settings.startup_timeout_s)
         if waiting:

@@ -121,6 +121,17 @@ class WallClock(NodeCore):
             self.exit_code = 3
         return True
 
+    def recorder_listens(self, topic: str) -> bool:
+        """Whether the run's recorder (the node called ``recorder``) subscribes to ``topic``:
+        another subscriber, such as the live view, does not count (what a controller
+        publishes before the recorder is there goes unrecorded)."""
+        name = topic if topic.startswith('/') else f'/{topic}'
+        try:
+            infos = self.get_subscriptions_info_by_topic(name)
+        except Exception:  # noqa: BLE001 - a graph query must not end a callback
+            return False
+        return any(i.node_name == 'recorder' for i in infos)
+
     def wall_inputs(self, inputs: dict[str, Any], dt_s: float) -> dict[str, Any]:
         """On a wall clock: adapt the latest inputs to a step of ``dt_s`` (default: as they
         are)."""
