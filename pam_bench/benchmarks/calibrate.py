@@ -81,12 +81,12 @@ def recovery_errors(values: dict[str, float], valve: ValveParams, muscle: Muscle
 
 def measure_round_trips(quick: bool, sets: int | None = None,
                         edges: int | None = None) -> dict[str, Any]:
-    """Run the round trip (module docstring) for ``sets`` drawn sets (2 quick, 5 full) and
-    ``edges`` sets with one parameter at an end (1 quick, one per drawn parameter full)."""
+    """Run the round trip (module docstring) for ``sets`` drawn sets (1 quick, 5 full) and
+    ``edges`` sets with one parameter at an end (none quick, one per drawn parameter full)."""
     rng = np.random.default_rng(2026)
     cases: list[tuple[ValveParams, MuscleParams, str]] = [
-        (*draw_parameters(rng), 'drawn') for _ in range(sets or (2 if quick else 5))]
-    n_edges = edges if edges is not None else (1 if quick else len(DRAWN))
+        (*draw_parameters(rng), 'drawn') for _ in range(sets or (1 if quick else 5))]
+    n_edges = edges if edges is not None else (0 if quick else len(DRAWN))
     cases += [edge_parameters(k) for k in range(n_edges)]
     rows: list[dict[str, Any]] = []
     edge_rows: list[dict[str, Any]] = []

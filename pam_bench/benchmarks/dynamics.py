@@ -166,7 +166,7 @@ def measure(quick: bool, out: Any, scenes: list[str] | None) -> dict[str, Any]:
     duration = 4.0 if quick else None
     rows = []
     shipped = InverseModel.load(config_dir() / 'inverse_model.yaml')
-    for variant, values in VARIANTS[:2] if quick else VARIANTS:
+    for variant, values in VARIANTS[:1] if quick else VARIANTS:
         print(f'  dynamics: {variant}: identify ...', flush=True)
         model, step = identify(values)
         models = [('identified on the twin', model)]
