@@ -27,7 +27,7 @@ from pam_bench.models.valve import ValveParams
 from pam_bench.twin.protocol_run import run_protocol
 from pam_bench.verify.calibrate_bags import FREE_BAGS, calibrate_bags, observations_from_twin
 
-__all__ = ['STUDY', 'DRAWN', 'draw_parameters', 'edge_parameters', 'recovery_errors',
+__all__ = ['STUDY', 'DRAWN', 'draw_parameters', 'edge_parameters', 'invalid', 'recovery_errors',
            'measure_round_trips', 'calibrate_section', 'calibrate_results']
 
 DRAWN = ('gain_n_per_pa', 'gain_min_n_per_pa', 'gain_exponent', 'threshold_pressure_pa',
@@ -38,17 +38,34 @@ TOLERANCE = 0.05
 
 def draw_parameters(rng: np.random.Generator) -> tuple[ValveParams, MuscleParams]:
     """A valve and muscle with ``DRAWN`` uniform within +-15 % of the defaults (clipped to
-    the fit's bounds)."""
-    m, v = MuscleParams(), ValveParams()
-    mv: dict[str, Any] = {}
-    vv: dict[str, Any] = {}
-    for model, name, lo, hi in FREE_BAGS:
-        if name not in DRAWN:
-            continue
-        base = getattr(v if model == 'valve' else m, name)
-        value = float(np.clip(base * rng.uniform(0.85, 1.15), lo, hi))
-        (vv if model == 'valve' else mv)[name] = value
-    return dataclasses.replace(v, **vv), dataclasses.replace(m, **mv)
+    the fit's bounds); a draw the muscle model refuses (``invalid``) is drawn again."""
+    while True:
+        m, v = MuscleParams(), ValveParams()
+        mv: dict[str, Any] = {}
+        vv: dict[str, Any] = {}
+        for model, name, lo, hi in FREE_BAGS:
+            if name not in DRAWN:
+                continue
+            base = getattr(v if model == 'valve' else m, name)
+            value = float(np.clip(base * rng.uniform(0.85, 1.15), lo, hi))
+            (vv if model == 'valve' else mv)[name] = value
+        valve, muscle = dataclasses.replace(v, **vv), dataclasses.replace(m, **mv)
+        if not invalid(valve, muscle):
+            return valve, muscle
+
+
+def invalid(valve: ValveParams, muscle: MuscleParams) -> str:
+    """Why the models refuse these parameters ('' when they take them), e.g. a gain rise past
+    x_m that the bladder's stiffness no longer holds."""
+    from pam_bench.models.errors import ModelError
+    from pam_bench.models.muscle import MuscleModel
+    from pam_bench.models.valve import ValveModel
+    try:
+        MuscleModel(muscle)
+        ValveModel(valve)
+    except (ModelError, ValueError) as exc:
+        return str(exc)
+    return ''
 
 
 def edge_parameters(k: int) -> tuple[ValveParams, MuscleParams, str]:
@@ -92,6 +109,10 @@ def measure_round_trips(quick: bool, sets: int | None = None,
     edge_rows: list[dict[str, Any]] = []
     for k, (valve, muscle, what) in enumerate(cases):
         print(f'  round trip {k + 1} ({what}) ...', flush=True)
+        refused = invalid(valve, muscle)
+        if refused:                      # not a muscle the model takes: said, not run
+            edge_rows.append({'set': what, 'refused': refused})
+            continue
         run = run_protocol('campaign_quick', 3.0, valve=valve, muscle=muscle,
                            load_cell=LoadCellParams(noise=False))
         res = calibrate_bags(observations_from_twin(run.points, run.records))
@@ -128,6 +149,8 @@ def calibrate_section(r: dict[str, Any]) -> list[str]:
 
 def _edge_row(e: dict[str, Any], tol: float) -> Row:
     name = e['set'].split(' ')[0]
+    if 'refused' in e:
+        return (e['set'], '-', f"not a valid muscle: {e['refused']}", '-', '-')
     err = e['errors'].get(name)
     said = ('at its bound' if name in e.get('at_bound', []) else
             'not fixed' if name in e['flags'] else 'identified')

@@ -73,7 +73,15 @@ def run_benchmarks(quick: bool, root: pathlib.Path, scenes: list[str] | None = N
             t0 = time.perf_counter()
             where = out / s.key             # a folder per study: bag names do not meet
             where.mkdir()
-            report.update(s.measure(quick, where, scenes))
+            try:
+                report.update(s.measure(quick, where, scenes))
+            except Exception as exc:  # noqa: BLE001 - one study's failure ends only that study
+                line = f'{type(exc).__name__}: {exc}'.splitlines()[0]
+                print(f'{s.key}: failed: {line}', flush=True)
+                report.setdefault('failed', {})[s.key] = {'error': line, 'commit': head['commit'],
+                                                          'date': now}
+                continue
+            report.get('failed', {}).pop(s.key, None)
             took = time.perf_counter() - t0
             print(f'{s.key}: {took:.1f} s', flush=True)
             for key in s.fills:

@@ -29,3 +29,33 @@ def test_an_edge_set_moves_one_parameter_to_an_end_of_its_interval(k: int) -> No
 def test_every_drawn_parameter_reaches_an_end_once() -> None:
     names = [edge_parameters(k)[2].split(' ')[0] for k in range(len(DRAWN))]
     assert sorted(names) == sorted(DRAWN)
+
+
+def test_drawn_sets_are_muscles_the_model_takes() -> None:
+    import numpy as np
+
+    from pam_bench.benchmarks.calibrate import draw_parameters, invalid
+    rng = np.random.default_rng(7)
+    assert all(not invalid(*draw_parameters(rng)) for _ in range(30))
+    bad = dataclasses.replace(MuscleParams(), bladder_stiffness_n_per_m=250.0,
+                              gain_rise_n_per_pa_m=5e-4)
+    assert 'bladder' in invalid(ValveParams(), bad)
+
+
+def test_a_failing_study_is_reported_and_the_rest_run(tmp_path, monkeypatch) -> None:
+    import json
+
+    from pam_bench.benchmarks import suite
+    from pam_bench.benchmarks.study import Study
+
+    def boom(quick, out, scenes):
+        raise RuntimeError('drawn muscle refused')
+    studies = (Study('first', 'fails', boom, (('first', lambda r, root: []),)),
+               Study('second', 'works', lambda q, o, s: {'second': {'x': 1}},
+                     (('second', lambda r, root: ['second ran']),)))
+    monkeypatch.setattr(suite, 'STUDIES', studies)
+    monkeypatch.setattr(suite, 'render_report', lambda root: root / 'BENCHMARKS.md')
+    report = suite.run_benchmarks(True, tmp_path)
+    assert report['second'] == {'x': 1}
+    assert 'drawn muscle refused' in report['failed']['first']['error']
+    assert json.loads((tmp_path / 'bench.json').read_text())['failed']['first']
