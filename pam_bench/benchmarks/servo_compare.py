@@ -116,7 +116,8 @@ def one_run(engine: str, name: str, ctl: ServoMode, duration_s: float | None, tm
     setup = scene_servo_setup(scene)
     sim = duration_s or scene.duration_s
     run = run_servo(ctl, setup['signal'], sim, setup['angle_rad'], scene.exchange_step_s,
-                    setup['inverse'], setup['muscles'], setup['params'])
+                    setup['inverse'], setup['muscles'], setup['params'], setup['valve'],
+                    setup['muscle'])
     return run, time.perf_counter() - t0, sim
 
 

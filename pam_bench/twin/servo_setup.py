@@ -28,7 +28,8 @@ def scene_servo_setup(scene: Scene) -> dict[str, Any]:
     Returns:
         ``signal`` (Signal), ``angle_rad`` (rad, the angle the loading servo holds),
         ``muscles`` (1 or 2), ``params`` (TorqueServoParams), ``inverse`` (InverseModel or
-        None).
+        None), ``valve`` and ``muscle`` (the scene's valve_1 and muscle_1 models, which the
+        twin gives every muscle).
     """
     st = scene.settings()
     ts, ls = st['torque_servo'], st['loading_servo']
@@ -39,7 +40,8 @@ def scene_servo_setup(scene: Scene) -> dict[str, Any]:
         angle = ls.initial_setpoint / (ts.servo.pitch_diameter_m / 2.0)
     model = ts.inverse_model_file
     return {'signal': sig, 'angle_rad': angle, 'muscles': ts.muscles, 'params': ts.servo,
-            'inverse': InverseModel.load(model) if model else None}
+            'inverse': InverseModel.load(model) if model else None,
+            'valve': st['valve_1'].valve, 'muscle': st['muscle_1'].muscle}
 
 
 def servo_run_of_bag(bag: pathlib.Path, muscles: int) -> ServoRun:
