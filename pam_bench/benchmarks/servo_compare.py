@@ -139,9 +139,15 @@ def forward_model_rms(run: ServoRun, setup: dict[str, Any], settle_s: float = 1.
 
 
 def _plot(name: str, runs: dict[ServoMode, ServoRun], out_dir: pathlib.Path) -> None:
-    """Set point, measured and error of each controller (004 figure style)."""
+    """Set point, measured and error of each controller (004 figure style); dashed lines
+    mark the reversals of the set point's derivative (004 section 4: the largest error sits
+    there)."""
+    from pam_bench.twin.servo_bench import reversals
     fig, axes = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
     first = next(iter(runs.values()))
+    for ax in axes:
+        for m in reversals(first):
+            ax.axvline(m, color='0.5', ls='--', lw=0.8)
     axes[0].plot(first.t_s, first.setpoint, 'k-', lw=1.5, label='set point')
     for ctl, run in runs.items():
         axes[0].plot(run.t_s, run.measured, lw=0.9, label=ctl.value)

@@ -41,7 +41,7 @@ from pam_bench.models.muscle import MuscleModel, MuscleParams
 from pam_bench.models.sensors import EncoderModel, LoadCellModel, LoadCellParams
 from pam_bench.models.valve import ValveModel, ValveParams
 
-__all__ = ['ServoRun', 'run_servo', 'tracking_metrics']
+__all__ = ['ServoRun', 'run_servo', 'reversals', 'tracking_metrics']
 
 
 @dataclasses.dataclass
@@ -124,6 +124,19 @@ def run_servo(mode: ServoMode, signal: Signal, duration_s: float, angle_rad: flo
                     'N m' if muscles == 2 else 'N')
 
 
+def reversals(run: ServoRun, settle_s: float = 0.0) -> np.ndarray:
+    """Times (s) after ``settle_s`` where the set point's derivative changes sign, or a square
+    wave jumps, shape (n,)."""
+    keep = run.t_s >= settle_s
+    t = run.t_s[keep]
+    if len(t) < 2:
+        return np.array([])
+    rate = run.setpoint_rate[keep]
+    jumps = np.abs(np.diff(run.setpoint[keep])) > 0.1 * max(float(np.ptp(run.setpoint)), 1e-9)
+    flips = np.nonzero(np.sign(rate[1:]) * np.sign(rate[:-1]) < 0)[0]
+    return np.sort(np.concatenate([t[1:][flips], t[1:][jumps]]))
+
+
 def tracking_metrics(run: ServoRun, settle_s: float = 1.0, window_s: float | None = None
                      ) -> dict[str, Any]:
     """RMS and max |set point - measured| after ``settle_s``; the largest error in the window
@@ -134,11 +147,7 @@ def tracking_metrics(run: ServoRun, settle_s: float = 1.0, window_s: float | Non
     keep = run.t_s >= settle_s
     e = np.abs(run.setpoint - run.measured)[keep]
     t = run.t_s[keep]
-    rate = run.setpoint_rate[keep]
-    jumps = np.abs(np.diff(run.setpoint[keep])) > 0.1 * max(float(np.ptp(run.setpoint)), 1e-9)
-    flips = np.nonzero(np.sign(rate[1:]) * np.sign(rate[:-1]) < 0)[0]
-    marks = np.concatenate([t[1:][flips], t[1:][jumps]]) if len(t) > 1 else np.array([])
-    marks = np.sort(marks)
+    marks = reversals(run, settle_s)
     if window_s is None:
         window_s = 0.25 * float(np.median(np.diff(marks))) if len(marks) > 1 else 0.1
     near = np.zeros_like(t, dtype=bool)
