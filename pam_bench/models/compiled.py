@@ -381,10 +381,10 @@ def solve_mckibben(steps, pressures, f, mp, fk, ff0, fmu, z, st, dp, ds, mode, s
     ff_last = 0.0
     iters = 0
     settle = tol[0] >= 0.0 and n > 2
-    saved = ds.copy()
+    saved = ds.copy() if settle else ds          # the arrays are copied only when used
     next_try = 0
-    hi_p = pressures.copy()
-    lo_p = pressures.copy()
+    hi_p = pressures.copy() if settle else pressures
+    lo_p = pressures.copy() if settle else pressures
     if settle:
         for j in range(n - 2, -1, -1):
             hi_p[j] = hi_p[j] if hi_p[j] > hi_p[j + 1] else hi_p[j + 1]

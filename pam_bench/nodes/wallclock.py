@@ -36,6 +36,7 @@ class WallClock(NodeCore):
         self._model_ns = 0                          # the model's time
         self._resend_ns = 0
         self._first_tick_ns: int | None = None
+        self._recorded: set[str] = set()        # topics the recorder was seen on
         self.exit_code: int | None = None    # set: the node's work is done, its process exits
         self.wall_timer: Any = None
 
@@ -124,13 +125,19 @@ class WallClock(NodeCore):
     def recorder_listens(self, topic: str) -> bool:
         """Whether the run's recorder (the node called ``recorder``) subscribes to ``topic``:
         another subscriber, such as the live view, does not count (what a controller
-        publishes before the recorder is there goes unrecorded)."""
+        publishes before the recorder is there goes unrecorded). The graph is asked until the
+        recorder is seen, not at every tick after."""
+        if topic in self._recorded:
+            return True
         name = topic if topic.startswith('/') else f'/{topic}'
         try:
             infos = self.get_subscriptions_info_by_topic(name)
         except Exception:  # noqa: BLE001 - a graph query must not end a callback
             return False
-        return any(i.node_name == 'recorder' for i in infos)
+        if any(i.node_name == 'recorder' for i in infos):
+            self._recorded.add(topic)
+            return True
+        return False
 
     def wall_inputs(self, inputs: dict[str, Any], dt_s: float) -> dict[str, Any]:
         """On a wall clock: adapt the latest inputs to a step of ``dt_s`` (default: as they

@@ -64,6 +64,7 @@ class TwinRun:
     reason: str = ''
     paused_s: float = 0.0          # sim time spent paused or suspended
     suspensions: int = 0           # times a suspender paused the run
+    held: int = 0                  # sub-steps that held a settled muscle (of ``substeps``)
 
 
 def run_readings(name: str, readings: list[Reading], settle_s: float, exchange_step_s: float,
@@ -128,7 +129,7 @@ def run_readings(name: str, readings: list[Reading], settle_s: float, exchange_s
             return TwinRun(points, records, bench.steps, bench.substeps, bench.t,
                            time.perf_counter() - t0, TIMED_OUT,
                            f'stopped at {max_sim_s:g} s of sim time', core.paused_s,
-                           suspensions)
+                           suspensions, bench.held)
         cmd = tick.commands
         bench.command_valve(cmd.voltage_v)
         bench.command_load(cmd.load_mode, cmd.load_value)
@@ -137,7 +138,7 @@ def run_readings(name: str, readings: list[Reading], settle_s: float, exchange_s
         h = negotiate(exchange_step_s, (tick.next_step_s, bench.max_step()))
     return TwinRun(points, records, bench.steps, bench.substeps, bench.t,
                    time.perf_counter() - t0, END_CODES.get(core.phase, 4), core.reason,
-                   core.paused_s, suspensions)
+                   core.paused_s, suspensions, bench.held)
 
 
 def run_protocol(protocol: str, exchange_step_s: float, table: dict[str, Any] | None = None,
