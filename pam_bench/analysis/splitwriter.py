@@ -24,6 +24,8 @@ import json
 import os
 import pathlib
 import shutil
+import struct
+from collections.abc import Callable
 from typing import Any
 
 import yaml
@@ -114,6 +116,60 @@ def write_metadata(folder: pathlib.Path, parts: list[dict[str, Any]],
     tmp.replace(folder / 'metadata.yaml')
 
 
+_MESSAGE = struct.Struct('<BQHIQQ')
+"""An MCAP Message record's head: opcode 0x05, record length, channel id, sequence, log time,
+publish time (the data follows)."""
+_CHUNK_BYTES = 2**20
+"""rosbags' MCAP storage closes a chunk once its uncompressed bytes pass this."""
+
+DirectWrite = Callable[[Any, int, bytes], None]
+
+
+def direct_write(writer: Any) -> DirectWrite | None:
+    """A write of one message into an open rosbags ``Writer`` with MCAP storage that appends
+    the same bytes and keeps the same counts as ``Writer.write`` does, in one ``struct`` call
+    instead of its seven small writes and checks (a campaign writes a million messages; this
+    takes about a third of the time). None when the writer is not the MCAP storage this was
+    written against (its attributes are checked), so the caller keeps ``Writer.write``;
+    ``test_splitwriter`` holds the bytes of the two equal."""
+    from rosbags.rosbag2 import CompressionMode
+    storage: Any = getattr(writer, 'storage', None)
+    needed = ('chunk', 'channel_stats', 'message_start_time', 'message_end_time',
+              'close_chunk')
+    if (type(storage).__name__ != 'McapWriter' or not all(hasattr(storage, a) for a in needed)
+            or getattr(writer, 'compression_mode', None) == CompressionMode.MESSAGE
+            or not isinstance(getattr(writer, 'counts', None), dict)
+            or not all(hasattr(writer, a) for a in ('min_timestamp', 'max_timestamp'))):
+        return None
+    counts, stats, pack = writer.counts, storage.channel_stats, _MESSAGE.pack
+
+    def write(connection: Any, timestamp: int, data: bytes) -> None:
+        cid = connection.id
+        chunk = storage.chunk
+        if timestamp < storage.message_start_time:
+            storage.message_start_time = timestamp
+        if timestamp > storage.message_end_time:
+            storage.message_end_time = timestamp
+        if timestamp < writer.min_timestamp:
+            writer.min_timestamp = timestamp
+        if timestamp > writer.max_timestamp:
+            writer.max_timestamp = timestamp
+        if timestamp < chunk.message_start_time:
+            chunk.message_start_time = timestamp
+        if timestamp > chunk.message_end_time:
+            chunk.message_end_time = timestamp
+        bio = chunk.bio
+        chunk.msgs[cid].append((timestamp, bio.tell()))
+        bio.write(pack(5, 22 + len(data), cid, 0, timestamp, timestamp))
+        bio.write(data)
+        stats[cid] += 1
+        counts[cid] += 1
+        if bio.tell() > _CHUNK_BYTES:
+            storage.close_chunk()
+
+    return write
+
+
 class SplitWriter:
     """A rosbag2 MCAP bag written in parts (module docstring).
 
@@ -127,6 +183,8 @@ class SplitWriter:
 
     CHECK_EVERY = 256
     """Writes between two checks of the file's size."""
+    DIRECT = True
+    """Write messages with ``direct_write`` where it applies (False: ``Writer.write``)."""
 
     def __init__(self, path: pathlib.Path, compress: bool = True, max_bytes: int = 0,
                  max_duration_ns: int = 0, min_free_bytes: int = 0) -> None:
@@ -142,6 +200,7 @@ class SplitWriter:
         self._conns: dict[str, tuple[str, dict[str, Any]]] = {}   # topic -> (type, kwargs)
         self._current: dict[str, Any] = {}           # topic -> this part's connection
         self._writer: Any = None
+        self._put: DirectWrite | None = None
         self._index = 0
         self._start_ns: int | None = None
         self._since_check = 0
@@ -195,7 +254,9 @@ class SplitWriter:
             if self.max_bytes and self.size_of_current() >= self.max_bytes:
                 self._next_part()
                 self._start_ns = None
-        self._writer.write(self._current[topic], timestamp, data)
+        put = self._put
+        assert put is not None, 'write before open'
+        put(self._current[topic], timestamp, data)
 
     def flush(self) -> None:
         """Write the pending chunk and flush the file (a SIGKILL loses at most what came
@@ -241,6 +302,7 @@ class SplitWriter:
         self._current = {t: w.add_connection(t, msgtype, **kw)
                          for t, (msgtype, kw) in self._conns.items()}
         self._writer = w
+        self._put = (direct_write(w) if self.DIRECT else None) or w.write
 
     def _close_part(self, single: bool) -> None:
         part = self._part_dir(self._index)

@@ -15,8 +15,8 @@ from pam_bench.config import topics
 from pam_bench.config.settings import EncoderSettings
 from pam_bench.models.sensors import EncoderModel
 from pam_bench.nodes.base import BenchNode
-from pam_bench.nodes.messages import time_of
 from pam_bench.nodes.process import run_node
+from pam_bench.nodes.stamped import stamped
 
 __all__ = ['EncoderSim', 'main']
 
@@ -44,9 +44,8 @@ class EncoderSim(BenchNode):
         reported = self.faulty(angle)               # injected faults (wall clock)
         if reported is None:
             return
-        msg = JointState(name=['pulley'], position=[reported], velocity=[rate])
-        msg.header.stamp = time_of(t_ns)
-        self.pub.publish(msg)
+        self.pub.publish(stamped(JointState, t_ns, name=['pulley'], position=[reported],
+                                 velocity=[rate]))
 
 
 def main(args: list[str] | None = None) -> None:

@@ -9,6 +9,9 @@ through it (``bus_publisher``, ``bus_subscription``):
 * a publish hands the message object to every in-process subscription of the topic by
   appending (callback, message) to one FIFO queue, the way rclcpp's intra-process manager hands
   a message to its subscriptions;
+* a publisher may hand over a list of messages at once (``publish_many``, a load cell's
+  1 kHz record samples of one exchange): a subscription that takes lists gets the list as one
+  delivery, the others one delivery per message, in order;
 * ``spin_composed`` drains that queue in one loop for the whole process: no wait set, no
   task per message. Deliveries are queued, not called in place, so a tick that triggers the
   next tick never recurses;
@@ -46,6 +49,7 @@ class BusPublisher:
         self.bus, self.topic, self.dds = bus, topic, dds
         self.external = False
         self._subs = bus.subscribers(topic)
+        self._many = bus.list_takers(topic)
 
     def publish(self, msg: Any, to_msg: Callable[[Any], Any] | None = None) -> None:
         """Queue ``msg`` for every in-process subscription; publish it on DDS when someone
@@ -59,6 +63,22 @@ class BusPublisher:
         if self.external:
             self.dds.publish(msg if to_msg is None else to_msg(msg))
 
+    def publish_many(self, msgs: list[Any], to_msg: Callable[[Any], Any] | None = None
+                     ) -> None:
+        """``publish`` each of ``msgs`` in order: a subscription that takes lists gets them in
+        one delivery (module docstring)."""
+        queue = self.bus.queue
+        many = self._many
+        for cb, cb_many in zip(self._subs, many, strict=True):
+            if cb_many is not None:
+                queue.append((cb_many, msgs))
+            else:
+                queue.extend([(cb, m) for m in msgs])
+        self.bus.deliveries += len(many) * len(msgs)
+        if self.external:
+            for m in msgs:
+                self.dds.publish(m if to_msg is None else to_msg(m))
+
     def get_subscription_count(self) -> int:
         """In-process and DDS subscriptions together."""
         return len(self._subs) + self.dds.get_subscription_count()
@@ -69,6 +89,7 @@ class IntraProcessBus:
 
     def __init__(self) -> None:
         self._subs: dict[str, list[Callback]] = collections.defaultdict(list)
+        self._many: dict[str, list[Callback | None]] = collections.defaultdict(list)
         self._publishers: list[BusPublisher] = []
         self.queue: collections.deque[tuple[Callback, Any]] = collections.deque()
         self.deliveries = 0         # messages handed to in-process subscriptions so far
@@ -77,6 +98,11 @@ class IntraProcessBus:
         """The live list of in-process callbacks of ``topic`` (full name)."""
         return self._subs[topic]
 
+    def list_takers(self, topic: str) -> list[Callback | None]:
+        """The live list, beside ``subscribers``, of each subscription's callback for a list of
+        messages (None: it takes one message at a time)."""
+        return self._many[topic]
+
     def publisher(self, node: Node, msg_type: type, topic: str, qos: Any) -> BusPublisher:
         """A bus publisher of ``topic`` for ``node`` (with its DDS publisher for outsiders)."""
         name = node.resolve_topic_name(topic)
@@ -84,9 +110,13 @@ class IntraProcessBus:
         self._publishers.append(pub)
         return pub
 
-    def subscribe(self, node: Node, topic: str, callback: Callback) -> None:
-        """Deliver every message published in process on ``topic`` to ``callback``."""
-        self._subs[node.resolve_topic_name(topic)].append(callback)
+    def subscribe(self, node: Node, topic: str, callback: Callback,
+                  many: Callback | None = None) -> None:
+        """Deliver every message published in process on ``topic`` to ``callback``; with
+        ``many``, a list published at once to ``many`` in one call."""
+        name = node.resolve_topic_name(topic)
+        self._subs[name].append(callback)
+        self._many[name].append(many)
 
     def has_publisher(self, node: Node, topic: str) -> bool:
         """Whether some node of this process publishes ``topic``."""
@@ -166,11 +196,13 @@ def bus_publisher(node: Node, msg_type: type, topic: str, qos: QoSProfile) -> An
 
 
 def bus_subscription(node: Node, msg_type: type, topic: str, callback: Callable[[Any], None],
-                     qos: QoSProfile, raw: bool = False) -> None:
+                     qos: QoSProfile, raw: bool = False,
+                     many: Callable[[list[Any]], None] | None = None) -> None:
     """A subscription served by the intra-process bus when the process composes nodes (the
-    callback then gets message objects, also where ``raw`` asks for bytes), else by DDS."""
+    callback then gets message objects, also where ``raw`` asks for bytes, and ``many`` the
+    lists published at once), else by DDS."""
     bus = current()
     if bus is None:
         node.create_subscription(msg_type, topic, callback, qos, raw=raw)
     else:
-        bus.subscribe(node, topic, callback)
+        bus.subscribe(node, topic, callback, many)

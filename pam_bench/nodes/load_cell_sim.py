@@ -63,6 +63,7 @@ class LoadCellSim(BenchNode):
                 samples.append((t0 + round(elapsed * 1e9), f))
             samples[-1] = (t_ns, samples[-1][1])
         measured, saturated = self.model.measure_many([f for _, f in samples])
+        out = []
         for (stamp, force), f, sat in zip(samples, measured.tolist(), saturated.tolist(),
                                           strict=True):
             self.force_n = force
@@ -74,7 +75,8 @@ class LoadCellSim(BenchNode):
             reported = self.faulty(f)             # injected faults (wall clock)
             if reported is None:
                 continue
-            self.pub.publish(force_reading(stamp, self.frame_id, reported))
+            out.append(force_reading(stamp, self.frame_id, reported))
+        self.publish_each(self.pub, out)
 
 
 def main(args: list[str] | None = None) -> None:

@@ -40,8 +40,8 @@ from pam_bench.models.constants import SUB_STEP_S
 from pam_bench.models.coupling import substep_grid
 from pam_bench.models.loading_servo import LoadingServoModel, LoadMode, law_of
 from pam_bench.nodes.base import RELIABLE, BenchNode
-from pam_bench.nodes.messages import time_of
 from pam_bench.nodes.process import run_node
+from pam_bench.nodes.stamped import stamped
 
 __all__ = ['LoadingServoSim', 'main']
 
@@ -112,7 +112,6 @@ class LoadingServoSim(BenchNode):
 
     def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
         """Replay the muscle's sub-steps, take the command, publish the next law."""
-        stamp = time_of(t_ns)
         i, r = self.model.p.gear_ratio, self.model.r
         if self.muscles == 2:
             states = [inputs[t] for t in self.muscle_topics]
@@ -121,8 +120,8 @@ class LoadingServoSim(BenchNode):
             positions = [th, states[0].contraction[-1], states[1].contraction[-1]]
             names = ['pulley', 'muscle_1', 'muscle_2']
             velocity = [0.0, 0.0, 0.0]
-            motor = JointState(name=['motor'], position=[th * i], velocity=[0.0],
-                               effort=[r * (f1 - f2) / i])
+            motor: dict[str, Any] = dict(name=['motor'], position=[th * i], velocity=[0.0],
+                                         effort=[r * (f1 - f2) / i])
         else:
             m: MuscleSamples = inputs[self.muscle_topics[0]]
             out = self.model.replay(list(m.step), list(m.force))
@@ -134,16 +133,13 @@ class LoadingServoSim(BenchNode):
             positions = [out.pulley_angle_rad, out.contraction_m]
             names = ['pulley', f'muscle_{self.channel}']
             velocity = [out.pulley_rate_rad_s, out.pulley_rate_rad_s * r]
-            motor = JointState(name=['motor'], position=[self.model.phi * i],
-                               velocity=[out.pulley_rate_rad_s * i],
-                               effort=[out.output_torque_nm / i])
+            motor = dict(name=['motor'], position=[self.model.phi * i],
+                         velocity=[out.pulley_rate_rad_s * i], effort=[out.output_torque_nm / i])
         if self.cmd_topic in inputs:
             self.apply_command(inputs[self.cmd_topic])
-        pulley = JointState(name=names, position=positions, velocity=velocity)
-        pulley.header.stamp = stamp
-        self.pulley_pub.publish(pulley)
-        motor.header.stamp = stamp
-        self.state_pub.publish(motor)
+        self.pulley_pub.publish(stamped(JointState, t_ns, name=names, position=positions,
+                                        velocity=velocity))
+        self.state_pub.publish(stamped(JointState, t_ns, **motor))
         self._publish_law(t_ns)
 
     def _pair_angle(self) -> float:
@@ -151,14 +147,13 @@ class LoadingServoSim(BenchNode):
                 else self.hold_angle_rad)
 
     def _publish_law(self, t_ns: int) -> None:
-        law = DriveLaw(mode=int(self.model.mode), setpoint=self.model.setpoint,
-                       belt_stiffness=self.model.p.belt_stiffness_n_per_m)
+        law = stamped(DriveLaw, t_ns, mode=int(self.model.mode), setpoint=self.model.setpoint,
+                      belt_stiffness=self.model.p.belt_stiffness_n_per_m)
         if self.muscles == 2:
             x0, rth = self.rest_contraction_m, self.model.r * self._pair_angle()
             law.hold_contraction = [x0 + rth, x0 - rth]
         else:
             law.parameters, law.state = law_of(self.model)
-        law.header.stamp = time_of(t_ns)
         self.law_pub.publish(law)
 
     def on_fault(self, reason: str) -> None:

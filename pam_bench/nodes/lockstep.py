@@ -41,7 +41,7 @@ from pam_bench.nodes.core import NodeCore, Output
 from pam_bench.nodes.intra import bus_publisher, bus_subscription
 from pam_bench.nodes.messages import ack_message, ns_of, stamp_of_cdr, stamp_of_msg
 from pam_bench.nodes.qos import DRIVER, LOCKSTEP, RELIABLE, SENSOR
-from pam_bench.sim.lockstep import Ack, InputSpec, StopRequest, prune, take_inputs
+from pam_bench.sim.lockstep import Ack, InputSpec, StopRequest, first_missing, prune, take_inputs
 
 __all__ = ['Lockstep']
 
@@ -56,6 +56,7 @@ class Lockstep(NodeCore):
         self._prev_prev_ns: int | None = None
         self._last_ns = None
         self._pending_ns: int | None = None
+        self._waiting: tuple[Any, int] | None = None     # (buffer, stamp) the step waits for
         self._step_index = 0
         self.stop_request: StopRequest | None = None      # sent with every acknowledgement
         self.max_next_step_s = 0.0        # longest next exchange step wanted (0: any)
@@ -71,27 +72,47 @@ class Lockstep(NodeCore):
         if not self.lockstep:
             return self.counted(pub, topic)
         send = pub.publish
+        send_many = getattr(pub, 'publish_many', None)
 
         def publish(msg: Any) -> None:
             self._sent.append((send, msg))
             send(msg)
 
+        def publish_many(msgs: list[Any]) -> None:
+            if send_many is None:
+                for m in msgs:
+                    publish(m)
+                return
+            self._sent.append((send_many, msgs))
+            send_many(msgs)
+
         pub.publish = publish
+        pub.publish_many = publish_many
         return pub
+
+    def publish_each(self, pub: Any, msgs: list[Any]) -> None:
+        """Publish ``msgs`` in order on ``pub``: at once where it takes lists (a lock-step
+        step publisher, ``nodes.intra``), else one by one."""
+        many = getattr(pub, 'publish_many', None) if self.lockstep else None
+        if many is not None and len(msgs) > 1:
+            many(msgs)
+        else:
+            for m in msgs:
+                pub.publish(m)
 
     def sync_input(self, msg_type: type, topic: str, raw: bool = False,
                    same_step: bool = False, samples: bool = False,
-                   from_start: bool = False) -> None:
+                   from_start: bool = False, stamped: bool = False) -> None:
         """Subscribe to a synchronous input: buffered by stamp, required at every step.
 
         With ``raw`` the message stays CDR bytes and its stamp is read from the header, which
-        every stamped message (and Clock) starts with. ``same_step``, ``samples`` and
-        ``from_start``: see the module docstring. On a wall clock the input is the latest
-        message (``nodes.wallclock``).
+        every stamped message (and Clock) starts with. ``same_step``, ``samples``,
+        ``from_start`` and ``stamped``: see the module docstring and ``sim.lockstep``. On a
+        wall clock the input is the latest message (``nodes.wallclock``).
         """
         buf: dict[int, Any] = {}
         self._sync[topic] = buf
-        self._specs[topic] = InputSpec(same_step, samples, from_start)
+        self._specs[topic] = InputSpec(same_step, samples, from_start, stamped)
         if not self.lockstep:                # wall clock: the latest message
             latest = self._latest
 
@@ -106,7 +127,12 @@ class Lockstep(NodeCore):
                 buf[stamp_of_msg(msg)] = msg
                 self._try_step()
 
-            bus_subscription(self, msg_type, topic, on_object, LOCKSTEP)
+            def on_objects(msgs: list[Any]) -> None:
+                for m in msgs:
+                    buf[stamp_of_msg(m)] = m
+                self._try_step()
+
+            bus_subscription(self, msg_type, topic, on_object, LOCKSTEP, many=on_objects)
             return
         if not raw:
             self._decode[topic] = msg_type
@@ -145,6 +171,7 @@ class Lockstep(NodeCore):
             for send, out in self._sent:
                 send(out)
         self._pending_ns = t
+        self._waiting = None
         self._try_step()
 
     def _has_publisher(self, topic: str) -> bool:
@@ -156,16 +183,27 @@ class Lockstep(NodeCore):
         t = self._pending_ns
         if t is None or self._last_ns is None:
             return
+        waiting = self._waiting
+        if waiting is not None and waiting[1] not in waiting[0]:
+            return                        # what the step waits for has not come yet
         prev = self._last_ns
-        inputs = take_inputs(self._sync, self._specs, self._prev_prev_ns, prev, t,
-                             self._step_index)
-        if inputs is None:
+        self._waiting = first_missing(self._sync, self._specs, self._prev_prev_ns, prev, t,
+                                      self._step_index)
+        if self._waiting is not None:
             return
+        taken = take_inputs(self._sync, self._specs, self._prev_prev_ns, prev, t,
+                            self._step_index)
+        assert taken is not None
+        inputs: dict[str, Any] = taken
         for topic, cls in self._decode.items():
             if topic in inputs:
                 val = inputs[topic]
-                inputs[topic] = ([deserialize_message(v, cls) for v in val]
-                                 if isinstance(val, list) else deserialize_message(val, cls))
+                if not isinstance(val, list):
+                    inputs[topic] = deserialize_message(val, cls)
+                elif self._specs[topic].stamped:
+                    inputs[topic] = [(k, deserialize_message(v, cls)) for k, v in val]
+                else:
+                    inputs[topic] = [deserialize_message(v, cls) for v in val]
         prune(self._sync, self._specs, prev, t)
         self._pending_ns = None
         self._sent_before, self._sent = self._sent, []

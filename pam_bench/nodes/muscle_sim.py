@@ -26,8 +26,9 @@ from pam_bench.models.coupling import solve_substeps, substep_grid
 from pam_bench.models.errors import ModelError
 from pam_bench.models.loading_servo import IdealHold, drive_from_law
 from pam_bench.nodes.base import BenchNode
-from pam_bench.nodes.messages import floats, time_of
+from pam_bench.nodes.messages import floats
 from pam_bench.nodes.process import run_node
+from pam_bench.nodes.stamped import stamped
 
 __all__ = ['MuscleSim', 'main']
 
@@ -101,21 +102,16 @@ class MuscleSim(BenchNode):
         self.force_n = res.forces_n[-1]
         self.contraction_m = res.contractions_m[-1]
         self._publish(t_ns, res.stiffness_n_per_m, res.friction_n)
-        out = MuscleSamples(step=floats(steps), force=floats(res.forces_n),
-                            contraction=floats(res.contractions_m),
-                            record=samples.record)
-        out.header.stamp = time_of(t_ns)
-        out.header.frame_id = self.joint
-        self.samples_pub.publish(out)
+        self.samples_pub.publish(stamped(MuscleSamples, t_ns, self.joint, step=floats(steps),
+                                         force=floats(res.forces_n),
+                                         contraction=floats(res.contractions_m),
+                                         record=samples.record))
 
     def _publish(self, t_ns: int, stiffness: float, friction: float) -> None:
-        msg = MuscleState(pressure=self.pressure_pa, force=self.force_n,
-                          contraction=self.contraction_m,
-                          volume=self.model.volume(self.contraction_m), stiffness=stiffness,
-                          friction_force=friction)
-        msg.header.stamp = time_of(t_ns)
-        msg.header.frame_id = self.joint
-        self.pub.publish(msg)
+        self.pub.publish(stamped(MuscleState, t_ns, self.joint, pressure=self.pressure_pa,
+                                 force=self.force_n, contraction=self.contraction_m,
+                                 volume=self.model.volume(self.contraction_m),
+                                 stiffness=stiffness, friction_force=friction))
 
 
 def main(args: list[str] | None = None) -> None:

@@ -55,6 +55,7 @@ from pam_bench.nodes.base import RELIABLE, SENSOR, BenchNode, Spin
 from pam_bench.nodes.intra import bus_publisher
 from pam_bench.nodes.messages import ns_of, time_of
 from pam_bench.nodes.process import run_node
+from pam_bench.nodes.stamped import stamped
 from pam_bench.protocol.io import Point, StepRecord
 from pam_bench.protocol.runner import Runner, Tick
 from pam_bench.protocol.schedules import with_approach
@@ -260,12 +261,11 @@ class SequencerNode(BenchNode):
 
     def _publish_commands(self, stamp: Any, u: float, mode: int, value: float,
                           sample_period_s: float = 0.0) -> None:
-        v = ValveCommand(voltage=u, sample_period=sample_period_s)
-        v.header.stamp = stamp
-        self.valve_pub.publish(v)
-        lc = LoadCommand(mode=mode, channel=self.channel, setpoint=value)
-        lc.header.stamp = stamp
-        self.load_pub.publish(lc)
+        t_ns = ns_of(stamp)
+        self.valve_pub.publish(stamped(ValveCommand, t_ns, voltage=u,
+                                       sample_period=sample_period_s))
+        self.load_pub.publish(stamped(LoadCommand, t_ns, mode=mode, channel=self.channel,
+                                      setpoint=value))
 
     def _point_msg(self, pt: Point, stamp: Any) -> CharacteristicPoint:
         r, m = pt.reading, pt.measurement

@@ -44,6 +44,7 @@ from pam_bench.control.torque_servo import (
 from pam_bench.nodes.base import RELIABLE, SENSOR, BenchNode, Spin
 from pam_bench.nodes.messages import ns_of, time_of
 from pam_bench.nodes.process import run_node
+from pam_bench.nodes.stamped import stamped
 
 __all__ = ['TorqueServoNode', 'main']
 
@@ -218,9 +219,7 @@ class TorqueServoNode(BenchNode):
         self.status = fault
         stamp = time_of(t_ns)
         for pub, u in zip(self.valve_pubs, volts, strict=True):
-            msg = ValveCommand(voltage=float(u))
-            msg.header.stamp = stamp
-            pub.publish(msg)
+            pub.publish(stamped(ValveCommand, t_ns, voltage=float(u)))
         f = self.forces + [0.0] * (2 - self.muscles)
         st.torque_setpoint = float(sp[0])
         st.torque_measured = (self.ctl.r * (f[0] - f[1]) if self.muscles == 2

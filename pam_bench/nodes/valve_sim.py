@@ -26,8 +26,9 @@ from pam_bench.models.constants import ATMOSPHERE_PA
 from pam_bench.models.coupling import substep_grid
 from pam_bench.models.valve import ValveModel, VolumeEvidence
 from pam_bench.nodes.base import RELIABLE, BenchNode
-from pam_bench.nodes.messages import floats, time_of
+from pam_bench.nodes.messages import floats
 from pam_bench.nodes.process import run_node
+from pam_bench.nodes.stamped import stamped
 
 __all__ = ['ValveSim', 'main']
 
@@ -42,6 +43,7 @@ class ValveSim(BenchNode):
         super().__init__(name, **kwargs)
         s: ValveSettings = self.settings
         self.channel = s.channel
+        self.frame_id = f'valve_{self.channel}'
         self.sync_command = s.sync_command
         self.sub_step_s = s.sub_step_s
         self.model = ValveModel(s.valve)
@@ -92,17 +94,13 @@ class ValveSim(BenchNode):
         steps = substep_grid(dt_s, min(self.sample_period_s if record else self.sub_step_s,
                                        dt_s))
         pressures = self.model.samples(self.voltage_v, steps, self.volume_m3)
-        stamp = time_of(t_ns)
+        frame = self.frame_id
         reported = self.faulty(pressures[-1] + ATMOSPHERE_PA)   # injected faults (wall clock)
         if reported is not None:
-            msg = FluidPressure(fluid_pressure=reported, variance=0.0)
-            msg.header.stamp = stamp
-            msg.header.frame_id = f'valve_{self.channel}'
-            self.pub.publish(msg)
-        samples = PressureSamples(step=floats(steps), pressure=floats(pressures), record=record)
-        samples.header.stamp = stamp
-        samples.header.frame_id = f'valve_{self.channel}'
-        self.samples_pub.publish(samples)
+            self.pub.publish(stamped(FluidPressure, t_ns, frame, fluid_pressure=reported,
+                                     variance=0.0))
+        self.samples_pub.publish(stamped(PressureSamples, t_ns, frame, step=floats(steps),
+                                         pressure=floats(pressures), record=record))
         self.max_next_step_s = self.model.max_step(self.voltage_v, self.evidence)
 
     def on_fault(self, reason: str) -> None:

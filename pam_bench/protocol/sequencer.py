@@ -86,6 +86,7 @@ class Sequencer:
         self.pending: RecordWindow | None = None      # a record past its window, samples to come
         self._total = settle_s + sum(r.lead_s + r.dwell_s + r.record_s
                                      for r in readings[start_index:])
+        self._total_points = sum(r.recorded for r in readings)
         self.paused_s = 0.0                      # time spent paused so far, s
         self._pause_request: tuple[str, bool] | None = None
         self._resume_request = False
@@ -98,7 +99,7 @@ class Sequencer:
     @property
     def total_points(self) -> int:
         """Readings the run records (approach steps of a resumed run are not)."""
-        return sum(r.recorded for r in self.readings)
+        return self._total_points
 
     @property
     def total_s(self) -> float:

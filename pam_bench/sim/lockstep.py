@@ -14,6 +14,9 @@ Input windows. A participant that last stepped to ``prev`` = t_(k-1) (and before
   the step runs on initial values, unless the input is *from_start* (its producer publishes at
   t_0 too).
 
+With *stamped* (and *samples*) the list holds (stamp ns, message) pairs, for a consumer that
+needs the stamps (the recorder) and would otherwise read them again from every message.
+
 The step waits until the message stamped at the window's upper end is there; sub-step samples
 are stamped at their own times, the last on the grid. After the step, messages no later input
 window can need are dropped.
@@ -38,9 +41,9 @@ import math
 from collections.abc import Iterable, Mapping
 from typing import Any, TypeVar
 
-__all__ = ['InputSpec', 'input_window', 'take_inputs', 'prune', 'FLUSH_NS', 'flush_tick',
-           'MIN_STEP_NS', 'request_ns', 'negotiate', 'EventStepRequest', 'StopRequest',
-           'ClockState', 'RunSummary', 'Ack']
+__all__ = ['InputSpec', 'input_window', 'take_inputs', 'first_missing', 'prune', 'FLUSH_NS',
+           'flush_tick', 'MIN_STEP_NS', 'request_ns', 'negotiate', 'EventStepRequest',
+           'StopRequest', 'ClockState', 'RunSummary', 'Ack']
 
 M = TypeVar('M')
 N = TypeVar('N', int, float)
@@ -58,6 +61,7 @@ class InputSpec:
     same_step: bool = False
     samples: bool = False
     from_start: bool = False
+    stamped: bool = False
 
 
 def input_window(spec: InputSpec, prev_prev_ns: int | None, prev_ns: int, t_ns: int,
@@ -84,7 +88,7 @@ def input_window(spec: InputSpec, prev_prev_ns: int | None, prev_ns: int, t_ns: 
 
 def take_inputs(buffers: Mapping[str, Mapping[int, M]], specs: Mapping[str, InputSpec],
                 prev_prev_ns: int | None, prev_ns: int, t_ns: int, step_index: int
-                ) -> dict[str, M | list[M]] | None:
+                ) -> dict[str, M | list[M] | list[tuple[int, M]]] | None:
     """The inputs of the step to ``t_ns``, or None while one is still missing.
 
     Args:
@@ -96,22 +100,40 @@ def take_inputs(buffers: Mapping[str, Mapping[int, M]], specs: Mapping[str, Inpu
         step_index: as ``input_window``.
 
     Returns:
-        topic -> the message (or, with ``samples``, the list of messages in stamp order) for
-        every input this step takes; None when a message at a window's upper end is missing.
+        topic -> the message (or, with ``samples``, the list of messages in stamp order; with
+        ``stamped`` too, of (stamp, message) pairs) for every input this step takes; None
+        when a message at a window's upper end is missing.
     """
-    out: dict[str, M | list[M]] = {}
+    if first_missing(buffers, specs, prev_prev_ns, prev_ns, t_ns, step_index) is not None:
+        return None
+    out: dict[str, M | list[M] | list[tuple[int, M]]] = {}
     for topic, buf in buffers.items():
         spec = specs[topic]
         window = input_window(spec, prev_prev_ns, prev_ns, t_ns, step_index)
         if window is None:
             continue
         lo, hi = window
-        msg = buf.get(hi)
-        if msg is None:
-            return None
-        out[topic] = [buf[k] for k in sorted(k for k in buf if lo < k <= hi)] \
-            if spec.samples else msg
+        if not spec.samples:
+            out[topic] = buf[hi]
+        elif spec.stamped:
+            out[topic] = [(k, buf[k]) for k in sorted(k for k in buf if lo < k <= hi)]
+        else:
+            out[topic] = [buf[k] for k in sorted(k for k in buf if lo < k <= hi)]
     return out
+
+
+def first_missing(buffers: Mapping[str, Mapping[int, Any]], specs: Mapping[str, InputSpec],
+                  prev_prev_ns: int | None, prev_ns: int, t_ns: int, step_index: int
+                  ) -> tuple[Mapping[int, Any], int] | None:
+    """The first input the step to ``t_ns`` still waits for, as (its buffer, the stamp the step
+    needs), or None when the step can be taken (arguments as ``take_inputs``). Until that
+    stamp is in that buffer the step cannot be taken, whatever else arrives: a participant
+    need not look at its other inputs again before."""
+    for topic, buf in buffers.items():
+        window = input_window(specs[topic], prev_prev_ns, prev_ns, t_ns, step_index)
+        if window is not None and window[1] not in buf:
+            return buf, window[1]
+    return None
 
 
 def prune(buffers: Mapping[str, dict[int, Any]], specs: Mapping[str, InputSpec],
