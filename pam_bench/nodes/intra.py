@@ -69,12 +69,13 @@ class BusPublisher:
         one delivery (module docstring)."""
         queue = self.bus.queue
         many = self._many
-        for cb, cb_many in zip(self._subs, many, strict=True):
+        for i, cb in enumerate(self._subs):
+            cb_many = many[i] if i < len(many) else None
             if cb_many is not None:
                 queue.append((cb_many, msgs))
             else:
                 queue.extend([(cb, m) for m in msgs])
-        self.bus.deliveries += len(many) * len(msgs)
+        self.bus.deliveries += len(self._subs) * len(msgs)
         if self.external:
             for m in msgs:
                 self.dds.publish(m if to_msg is None else to_msg(m))

@@ -67,3 +67,30 @@ def test_dds_only_when_someone_outside_listens() -> None:
     assert inside == ['x', 'y', 'z']
     assert dds.sent == ['y', 'msg(z)']
     assert pub.get_subscription_count() == 2
+
+
+class FakeNode:
+    """Stands for an rclpy node: resolves topic names as given."""
+
+    @staticmethod
+    def resolve_topic_name(topic: str) -> str:
+        return topic
+
+
+def test_a_list_goes_in_one_delivery_to_a_list_taker_and_one_by_one_to_others() -> None:
+    bus = IntraProcessBus()
+    got: list[tuple[str, Any]] = []
+    node: Any = FakeNode()
+    bus.subscribe(node, '/s', lambda m: got.append(('one', m)))
+    bus.subscribe(node, '/s', lambda m: got.append(('many?', m)),
+                  many=lambda ms: got.append(('many', list(ms))))
+    dds = FakeDds(outside=1)
+    pub = BusPublisher(bus, '/s', dds)
+    pub.external = True
+    pub.publish_many([1, 2, 3])
+    pub.publish(4)
+    bus.drain(100)
+    assert got == [('one', 1), ('one', 2), ('one', 3), ('many', [1, 2, 3]), ('one', 4),
+                   ('many?', 4)]
+    assert bus.deliveries == 8                         # as if published one by one
+    assert dds.sent == [1, 2, 3, 4]

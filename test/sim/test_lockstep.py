@@ -13,6 +13,7 @@ from pam_bench.sim.lockstep import (
     InputSpec,
     RunSummary,
     StopRequest,
+    first_missing,
     flush_tick,
     input_window,
     negotiate,
@@ -56,6 +57,27 @@ def test_samples_are_every_message_of_the_window_in_stamp_order() -> None:
     assert take_inputs(buffers, specs, 0, 10, 20, 1) == {'s': ['a', 'b', 'c']}
     buffers = {'s': {12: 'a', 16: 'b'}}                # the grid point is not there yet
     assert take_inputs(buffers, specs, 0, 10, 20, 1) is None
+
+
+def test_stamped_samples_come_with_their_stamps() -> None:
+    specs = {'s': InputSpec(samples=True, stamped=True), 'x': SAME}
+    buffers = {'s': {2: 'a', 5: 'b', 10: 'c', 12: 'later'}, 'x': {20: 'x20'}}
+    assert take_inputs(buffers, specs, 0, 10, 20, 1) == {'s': [(2, 'a'), (5, 'b'), (10, 'c')],
+                                                         'x': 'x20'}
+
+
+def test_first_missing_names_the_buffer_and_stamp_a_step_waits_for() -> None:
+    specs = {'a': LAG, 'b': SAME, 'c': LAG_SAMPLES}
+    buffers: dict[str, dict[int, str]] = {'a': {10: 'a10'}, 'b': {}, 'c': {5: 'c5'}}
+    missing = first_missing(buffers, specs, 0, 10, 20, 1)
+    assert missing is not None and missing[0] is buffers['b'] and missing[1] == 20
+    buffers['b'][20] = 'b20'
+    missing = first_missing(buffers, specs, 0, 10, 20, 1)
+    assert missing is not None and missing[0] is buffers['c'] and missing[1] == 10
+    buffers['c'][10] = 'c10'
+    assert first_missing(buffers, specs, 0, 10, 20, 1) is None
+    assert take_inputs(buffers, specs, 0, 10, 20, 1) == {'a': 'a10', 'b': 'b20',
+                                                         'c': ['c5', 'c10']}
 
 
 def test_a_fast_producer_does_not_replace_what_a_slow_consumer_needs() -> None:
