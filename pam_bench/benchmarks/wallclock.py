@@ -36,8 +36,8 @@ SERVO_SETUPS: tuple[tuple[str, dict[str, Any], bool, bool], ...] = (
     ('default, with the live view (--live)', {}, False, True),
 )
 """(label, torque_servo parameters, device_processes, live view) of each servo row."""
-QUICK_SETUPS = (2, 4)
-"""``--quick``: the default set-up and the same with the live view."""
+QUICK_SETUPS = (2,)
+"""``--quick``: the default set-up (the live view has its test in ``make test``)."""
 
 
 def _lost(res: RunResult) -> tuple[int, int]:
