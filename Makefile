@@ -21,8 +21,7 @@ test:
 	@bash tools/bootstrap.sh --with-js
 	$(PY) -m ruff check pam_bench test
 	$(PY) -m mypy
-	$(PY) -m pytest -q -n 2 -m 'not wallclock' test
-	PAM_BENCH_TEST_DOMAIN_START=80 $(PY) -m pytest -q -p no:xdist -m wallclock test
+	@bash tools/test.sh
 
 lint: setup
 	$(PY) -m ruff check pam_bench test
