@@ -21,7 +21,8 @@ test:
 	@bash tools/bootstrap.sh --with-js
 	$(PY) -m ruff check pam_bench test
 	$(PY) -m mypy
-	@bash tools/test.sh
+	$(PY) -m pytest -q -n 2 -m 'not wallclock' test
+	PAM_BENCH_TEST_DOMAIN_START=80 $(PY) -m pytest -q -p no:xdist -m wallclock test
 
 lint: setup
 	$(PY) -m ruff check pam_bench test

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import itertools
 import os
-import signal
 
 import pytest
 
@@ -14,26 +13,22 @@ os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')
 # in order: a process some earlier test left behind (an emulator still publishing for a
 # moment) can never be in the domain of a later test. Only past 119 domains does it wrap.
 # Under pytest-xdist each worker takes every n-th of them (worker k of n: k, k + n, ...), so
-# two workers never share a domain either. PAM_BENCH_TEST_DOMAIN_START and _END (an index
-# into the list, the end excluded) give a session its own part of the list, wrapping within
-# it: `make test` (tools/test.sh) runs the lock-step tests on the first 80 and the wall-clock
-# tests at the same time on the rest (a default run uses about 70 domains in all).
+# two workers never share a domain either. PAM_BENCH_TEST_DOMAIN_START moves the start: `make
+# test` runs the wall-clock tests in a second session that starts where the first one's
+# domains end (a default run uses about 70 domains in all).
 _SAFE = [*range(1, 102), *range(215, 233)]
 _WORKER = int(os.environ.get('PYTEST_XDIST_WORKER', 'gw0')[2:] or 0)
 _WORKERS = int(os.environ.get('PYTEST_XDIST_WORKER_COUNT', '1'))
 _START = int(os.environ.get('PAM_BENCH_TEST_DOMAIN_START', '0'))
-_END = int(os.environ.get('PAM_BENCH_TEST_DOMAIN_END', str(len(_SAFE))))
-_DOMAINS = itertools.count(_WORKER, _WORKERS)
+_DOMAINS = itertools.count(_START + _WORKER, _WORKERS)
 
 
 def next_domain() -> int:
     """A ROS_DOMAIN_ID no earlier test of this session used (module comment)."""
-    return _SAFE[_START + next(_DOMAINS) % (_END - _START)]
+    return _SAFE[next(_DOMAINS) % len(_SAFE)]
 
 
 def pytest_configure(config: pytest.Config) -> None:
-    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:   # started as a background job
-        signal.signal(signal.SIGINT, signal.default_int_handler)     # (tools/test.sh)
     config.addinivalue_line(
         'markers', 'wallclock: runs on the wall clock against deadlines (stale timeouts, '
         'rates, kill-to-vent latency); `make test` runs these alone, after the others')
