@@ -144,8 +144,17 @@ def direct_write(writer: Any) -> DirectWrite | None:
     counts, stats, pack = writer.counts, storage.channel_stats, _MESSAGE.pack
 
     def write(connection: Any, timestamp: int, data: bytes) -> None:
+        # the record goes into the chunk with one write, before any bookkeeping: a signal
+        # that interrupts a run (its handler raises between two Python statements) can leave
+        # a message unindexed, never a torn record in the chunk the interrupted run closes
         cid = connection.id
         chunk = storage.chunk
+        bio = chunk.bio
+        offset = bio.tell()
+        bio.write(pack(5, 22 + len(data), cid, 0, timestamp, timestamp) + data)
+        chunk.msgs[cid].append((timestamp, offset))
+        stats[cid] += 1
+        counts[cid] += 1
         if timestamp < storage.message_start_time:
             storage.message_start_time = timestamp
         if timestamp > storage.message_end_time:
@@ -158,12 +167,6 @@ def direct_write(writer: Any) -> DirectWrite | None:
             chunk.message_start_time = timestamp
         if timestamp > chunk.message_end_time:
             chunk.message_end_time = timestamp
-        bio = chunk.bio
-        chunk.msgs[cid].append((timestamp, bio.tell()))
-        bio.write(pack(5, 22 + len(data), cid, 0, timestamp, timestamp))
-        bio.write(data)
-        stats[cid] += 1
-        counts[cid] += 1
         if bio.tell() > _CHUNK_BYTES:
             storage.close_chunk()
 
