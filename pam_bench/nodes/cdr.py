@@ -28,7 +28,7 @@ import struct
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ['fields_of', 'encoder', 'ends_padded']
+__all__ = ['fields_of', 'element_of', 'ARRAY_CODES', 'encoder', 'ends_padded']
 
 Encoder = Callable[[Any], bytes]
 
@@ -36,6 +36,8 @@ _FORMATS = {'boolean': '?', 'octet': 'c', 'uint8': 'B', 'int8': 'b', 'int16': 'h
             'uint16': 'H', 'int32': 'i', 'uint32': 'I', 'int64': 'q', 'uint64': 'Q',
             'float': 'f', 'double': 'd'}
 _WIDE = {'double', 'int64', 'uint64'}
+ARRAY_CODES = {k: f for k, f in _FORMATS.items() if f in 'bBhHiIqQfd'}
+"""rosidl type -> the ``array.array`` type code rosidl keeps a sequence of it in."""
 # octet (byte) fields are 1-byte bytes objects in rclpy, hence 'c'
 _HEADER = b'\x00\x01\x00\x00'
 _ZEROS = tuple(bytes(n) for n in range(8))
@@ -56,7 +58,7 @@ def _class_of(kind: str) -> type:
     return getattr(importlib.import_module(f'{pkg}.msg'), name)
 
 
-def _element(kind: str) -> tuple[str, int | None, bool]:
+def element_of(kind: str) -> tuple[str, int | None, bool]:
     """(element type, fixed length or None, is a sequence) of a field type string."""
     if kind.startswith('sequence<'):
         return kind[9:-1].split(',')[0].strip(), None, True
@@ -105,7 +107,7 @@ class _Gen:
             self.field(kind, f'{expr}.{attr}', ind)
 
     def field(self, kind: str, expr: str, ind: str) -> None:
-        base, n, is_seq = _element(kind)
+        base, n, is_seq = element_of(kind)
         if base in _FORMATS and not is_seq:
             self.run.append((expr if n is None else f'*{expr}', _FORMATS[base] * (n or 1)))
             return
@@ -126,7 +128,7 @@ class _Gen:
         elif base in _FORMATS:
             f = _FORMATS[base]
             size = struct.calcsize(f)
-            code = f if f in 'bBhHiIqQfd' else None    # the array.array rclpy may give
+            code = ARRAY_CODES.get(base)                # the array.array rclpy may give
             self.lines.append(f'{ind}_sequence(b, {v}, {f!r}, {size}, {code!r})')
         elif base.startswith('string'):
             self.lines.append(f'{ind}_count(b, len({v}))')
@@ -170,7 +172,7 @@ def ends_padded(cls: type) -> bool:
     in the options byte), as ``Recorder._cdr`` does unless its last field is a number, a string
     or a sequence of numbers narrower than 8 bytes or of strings."""
     kind = list(fields_of(cls).values())[-1]
-    base, n, is_seq = _element(kind)
+    base, n, is_seq = element_of(kind)
     narrow = base.startswith('string') or (base in _FORMATS and base not in _WIDE)
     if is_seq:
         return not narrow

@@ -41,7 +41,14 @@ from pam_bench.nodes.core import NodeCore, Output
 from pam_bench.nodes.intra import bus_publisher, bus_subscription
 from pam_bench.nodes.messages import ack_message, ns_of, stamp_of_cdr, stamp_of_msg
 from pam_bench.nodes.qos import DRIVER, LOCKSTEP, RELIABLE, SENSOR
-from pam_bench.sim.lockstep import Ack, InputSpec, StopRequest, first_missing, prune, take_inputs
+from pam_bench.sim.lockstep import (
+    Ack,
+    InputSpec,
+    StopRequest,
+    collect_inputs,
+    first_missing,
+    prune,
+)
 
 __all__ = ['Lockstep']
 
@@ -191,10 +198,8 @@ class Lockstep(NodeCore):
                                       self._step_index)
         if self._waiting is not None:
             return
-        taken = take_inputs(self._sync, self._specs, self._prev_prev_ns, prev, t,
-                            self._step_index)
-        assert taken is not None
-        inputs: dict[str, Any] = taken
+        inputs: dict[str, Any] = collect_inputs(self._sync, self._specs, self._prev_prev_ns,
+                                                prev, t, self._step_index)
         for topic, cls in self._decode.items():
             if topic in inputs:
                 val = inputs[topic]

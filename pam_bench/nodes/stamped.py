@@ -32,13 +32,11 @@ from typing import Any
 from builtin_interfaces.msg import Time
 from std_msgs.msg import Header
 
-from pam_bench.nodes.cdr import fields_of
+from pam_bench.nodes.cdr import ARRAY_CODES, element_of, fields_of
 from pam_bench.nodes.messages import time_of
 
 __all__ = ['stamped', 'header_of']
 
-_CODES = {'float': 'f', 'double': 'd', 'int8': 'b', 'uint8': 'B', 'int16': 'h',
-          'uint16': 'H', 'int32': 'i', 'uint32': 'I', 'int64': 'q', 'uint64': 'Q'}
 _NUMBERS = {'float': '0.0', 'double': '0.0', 'boolean': 'False',
             **{k: '0' for k in ('int8', 'uint8', 'int16', 'uint16', 'int32', 'uint32', 'int64',
                                 'uint64')}}
@@ -61,15 +59,6 @@ def _numeric_array(value: Any, code: str) -> array.array:
     return array.array(code, value)
 
 
-def _kind(kind: str) -> tuple[str, bool, bool]:
-    """(element type, is a sequence, is a fixed-size array) of a rosidl field type string."""
-    if kind.startswith('sequence<'):
-        return kind[9:-1].split(',')[0].strip(), True, False
-    if kind.endswith(']'):
-        return kind, False, True
-    return kind, False, False
-
-
 @functools.cache
 def _builder(cls: type) -> Callable[..., Any] | None:
     """The generated builder of ``cls`` (module docstring), or None to use the constructor."""
@@ -85,13 +74,14 @@ def _builder(cls: type) -> Callable[..., Any] | None:
     for name, kind in fields.items():
         if name == 'header':
             continue
-        base, is_seq, fixed = _kind(kind)
-        if fixed:
+        base, fixed, is_seq = element_of(kind)
+        if fixed is not None:
             return None
-        if is_seq and base in _CODES:
+        if is_seq and base in ARRAY_CODES:
+            code = ARRAY_CODES[base]
             params.append(f'{name}=None')
-            lines.append(f'    m._{name} = _arr((), {_CODES[base]!r}) if {name} is None '
-                         f'else _arr({name}, {_CODES[base]!r})')
+            lines.append(f'    m._{name} = _arr((), {code!r}) if {name} is None '
+                         f'else _arr({name}, {code!r})')
         elif is_seq and (base.startswith('string') or '/' in base):
             params.append(f'{name}=None')
             lines.append(f'    m._{name} = [] if {name} is None else {name}')

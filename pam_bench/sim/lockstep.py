@@ -41,9 +41,9 @@ import math
 from collections.abc import Iterable, Mapping
 from typing import Any, TypeVar
 
-__all__ = ['InputSpec', 'input_window', 'take_inputs', 'first_missing', 'prune', 'FLUSH_NS',
-           'flush_tick', 'MIN_STEP_NS', 'request_ns', 'negotiate', 'EventStepRequest',
-           'StopRequest', 'ClockState', 'RunSummary', 'Ack']
+__all__ = ['InputSpec', 'input_window', 'take_inputs', 'collect_inputs', 'first_missing',
+           'prune', 'FLUSH_NS', 'flush_tick', 'MIN_STEP_NS', 'request_ns', 'negotiate',
+           'EventStepRequest', 'StopRequest', 'ClockState', 'RunSummary', 'Ack']
 
 M = TypeVar('M')
 N = TypeVar('N', int, float)
@@ -106,6 +106,14 @@ def take_inputs(buffers: Mapping[str, Mapping[int, M]], specs: Mapping[str, Inpu
     """
     if first_missing(buffers, specs, prev_prev_ns, prev_ns, t_ns, step_index) is not None:
         return None
+    return collect_inputs(buffers, specs, prev_prev_ns, prev_ns, t_ns, step_index)
+
+
+def collect_inputs(buffers: Mapping[str, Mapping[int, M]], specs: Mapping[str, InputSpec],
+                   prev_prev_ns: int | None, prev_ns: int, t_ns: int, step_index: int
+                   ) -> dict[str, M | list[M] | list[tuple[int, M]]]:
+    """``take_inputs`` once ``first_missing`` has said nothing is missing (arguments and
+    result as there), for a caller that asked it already."""
     out: dict[str, M | list[M] | list[tuple[int, M]]] = {}
     for topic, buf in buffers.items():
         spec = specs[topic]
