@@ -1,9 +1,9 @@
 """Injected faults tried on the wall clock: each kind detected, survived or resumable, how
 many readings were lost and how long the bench took to reach its safe state.
 
-Each case runs a short isometric series (6 settled readings, the first at 3.0 s) with one
-fault from a scene's ``faults`` list and a force suspender (band and stale bound) on the
-sequencer. Faults start inside a dwell: a reading is one load-cell sample, so a noise burst
+Each case runs a short isometric series (4 settled readings at 0, 1, 1 and 0 V, 1.5 s apart,
+the first at 3.0 s) with one fault from a scene's ``faults`` list and a force suspender (band
+and stale bound) on the sequencer. Faults start inside a dwell: a reading is one load-cell sample, so a noise burst
 whose first sample falls on a reading instant and stays in the band would pass into that
 reading unseen (measured once in CI-like runs: 129 N on a 0.8 N reading). Detected: the
 reason appears on ``protocol/status`` (paused or aborted); survived: the run ended done with
@@ -28,14 +28,14 @@ __all__ = ['STUDY', 'SCENE', 'READINGS', 'CASES', 'measure_faults', 'faults_sect
 SCENE = """description: short isometric series with an injected fault
 exchange_step_s: 1.5
 protocol: isometric_quick
-protocol_overrides: {{x_m: [0.04, 0.04, 0.01], voltage_v: [0.0, 2.0, 1.0], dwell_s: 1.5}}
+protocol_overrides: {{x_m: [0.04, 0.04, 0.01], voltage_v: [0.0, 1.0, 1.0], dwell_s: 1.5}}
 nodes: [valve_1, muscle_1, load_cell_1, encoder, loading_servo, sequencer, recorder]
 parameters:
   sequencer: {{suspenders_yaml: "[{{input: force, low: -50.0, high: 1000.0, stale_s: 0.2,
     resume_after_s: 0.3}}]"}}
 faults: [{fault}]
 """
-READINGS = 6
+READINGS = 4
 
 CASES = {
     # kind: (fault entry, survives, words in the reason)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import pathlib
 import sys
+import time
 from typing import Any
 
 from pam_bench.config.nodes import NODES, devices
@@ -72,6 +73,7 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
         set_realtime_priority,
     )
     from pam_bench.nodes.profiling import profiled
+    from pam_bench.nodes.stats import ACK_WAIT_S
 
     install_interrupt_handlers()
     rclpy.init()
@@ -139,7 +141,9 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
         pass
     finally:
         intra.deactivate()
+        until = time.monotonic() + ACK_WAIT_S      # one wait for acknowledgments for all
         for node in nodes:
+            node.ack_until_s = until
             node.destroy_node()
         rclpy.try_shutdown()
     return 0

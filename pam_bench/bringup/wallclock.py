@@ -48,6 +48,10 @@ STATS_FILE = 'wall_stats.json'
 (rosbag2 readers ignore it)."""
 
 
+class _NotStarted(Exception):
+    """The recorder stopped before it recorded: the run starts nothing else."""
+
+
 def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None, quiet: bool,
                    device_processes: bool, devices_only: bool = False) -> RunResult:
     """Run the scene on the wall clock (module docstring)."""
@@ -101,6 +105,8 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
                     if line.startswith('recorder: recording') or rec.poll() is not None:
                         break
                 threading.Thread(target=copy_lines, args=(rec.stdout, log), daemon=True).start()
+                if rec.poll() is not None:          # it could not start: nothing else is
+                    raise _NotStarted                 # started (its one line is in the log)
             if device_processes:
                 for name in device_names:
                     start(name, node_cmd(name, pfile))
@@ -134,6 +140,9 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
         except KeyboardInterrupt:
             code = 130
             dead = []
+        except _NotStarted:
+            code = procs['recorder'].wait()
+            dead = ['recorder'] if code == 2 else []
         finally:
             write_end_state(settings, code)
             stop_processes(procs)
@@ -142,7 +151,7 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
             node_log = log.read()
             log.close()
         stats = {}
-        for name in scene.nodes:
+        for name in scene.nodes if 'emulator' in procs or len(procs) > 1 else []:
             path = os.path.join(tmp, f'{name}.json')
             try:
                 with open(path, encoding='utf-8') as fh:

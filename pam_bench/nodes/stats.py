@@ -16,7 +16,15 @@ from typing import Any
 from pam_bench.analysis.timing import PeriodStats
 from pam_bench.nodes.core import NodeCore, Output
 
-__all__ = ['Stats']
+__all__ = ['Stats', 'ACK_WAIT_S']
+
+ACK_WAIT_S = 0.5
+"""How long a stopping node lets reliable subscribers acknowledge what it published, over all
+its publishers (s). Fast DDS's readers acknowledge when the writer's heartbeat asks (every 3 s
+by default), so the wait often runs its whole budget even with every subscriber there, and a
+subscriber that has gone without the writer knowing yet never acknowledges: one budget per
+node, or per process (``ack_until_s``), not per publisher, which cost a stopping emulator 0.5 s
+per measured topic (BENCHMARKS.md, Long runs, "make test made shorter")."""
 
 
 class Stats(NodeCore):
@@ -28,6 +36,9 @@ class Stats(NodeCore):
         self._start_outputs: list[Output] | None = None
         self.periods: PeriodStats | None = None     # set by the loop that ticks the node
         self.dropped_ticks = 0                      # ticks its loop skipped, too far behind
+        # when set: the monotonic time (s) by which a stop ends its wait for acknowledgments,
+        # one budget shared by the nodes of one process (bringup.emulator)
+        self.ack_until_s: float | None = None
 
     def count_periods(self, period_s: float) -> None:
         """Keep the statistics of a loop ticking every ``period_s``."""
@@ -74,13 +85,17 @@ class Stats(NodeCore):
                 json.dump(self.wall_stats(), fh)
             os.replace(tmp, path)
 
-    def wait_acknowledged(self, timeout_s: float = 0.5) -> None:
+    def wait_acknowledged(self) -> None:
         """Let reliable subscribers acknowledge what was published (a recorder gets the last
-        messages)."""
+        messages), until ``ack_until_s`` or for ``ACK_WAIT_S`` over all publishers."""
         from rclpy.duration import Duration
+        until = time.monotonic() + ACK_WAIT_S if self.ack_until_s is None else self.ack_until_s
         for pub in self._counted_pubs:
+            left = until - time.monotonic()
+            if left <= 0.0:
+                return
             dds = getattr(pub, 'dds', pub)
             try:
-                dds.wait_for_all_acked(Duration(seconds=timeout_s))
+                dds.wait_for_all_acked(Duration(nanoseconds=round(left * 1e9)))
             except Exception:  # noqa: BLE001 - best effort at shutdown
                 pass

@@ -204,3 +204,18 @@ def test_ctrl_c_in_a_wallclock_run_leaves_a_valid_bag(tmp_path: pathlib.Path, ro
     assert info['end']['state'] == 'interrupted'
     assert 1 <= info['topics']['/protocol/point']['count'] < 6
     assert info['topics']['/load_cell_1/force']['count'] > 1000
+
+
+def test_a_recorder_that_cannot_start_ends_the_run_at_once(tmp_path: pathlib.Path,
+                                                           ros_domain: int,
+                                                           settled_scene: pathlib.Path) -> None:
+    """A bag folder that exists stops the recorder at start-up: the run ends with its one line
+    and starts no device or controller (it waited for the sequencer's 30 s start-up timeout)."""
+    bag = tmp_path / 'taken'
+    bag.mkdir()
+    t0 = time.monotonic()
+    res = run_scene(load_scene(str(settled_scene)), str(bag), wallclock=True, quiet=True)
+    assert res.code == 2
+    assert 'recorder: error' in res.summary and 'exists' in res.summary, res.summary
+    assert time.monotonic() - t0 < 10.0
+    assert list(bag.iterdir()) == []
