@@ -3,13 +3,13 @@ many readings were lost and how long the bench took to reach its safe state.
 
 Each case runs a short isometric series (4 settled readings at 0, 1, 1 and 0 V, 1.5 s apart,
 the first at 3.0 s) with one fault from a scene's ``faults`` list and a force suspender (band
-and stale bound) on the sequencer. Faults start inside a dwell: a reading is one load-cell sample, so a noise burst
-whose first sample falls on a reading instant and stays in the band would pass into that
-reading unseen (measured once in CI-like runs: 129 N on a 0.8 N reading). Detected: the
-reason appears on ``protocol/status`` (paused or aborted); survived: the run ended done with
-every reading; lost: readings of the schedule the bag lacks and a resume would not take (a
-resumable abort loses none); time to safe state: from the fault's start (on the run's clock,
-the first status) to the first paused status or vented command.
+and stale bound) on the sequencer. Faults start inside a dwell: a reading is one load-cell
+sample, so a noise burst whose first sample falls on a reading instant and stays in the band
+would pass into that reading unseen (measured once in CI-like runs: 129 N on a 0.8 N reading).
+Detected: the reason appears on ``protocol/status`` (paused or aborted); survived: the run
+ended done with every reading; lost: readings of the schedule the bag lacks and a resume would
+not take (a resumable abort loses none); time to safe state: from the fault's start (on the
+run's clock, the first status) to the first paused status or vented command.
 """
 
 from __future__ import annotations
