@@ -21,11 +21,15 @@ INC=$("$VPY" -c 'import sysconfig; print(sysconfig.get_paths()["include"])')
 want=$(hash_of tools/ros_wheels.txt tools/requirements.txt)
 if [ "$(cat "$VENV/.stamp-wheels" 2>/dev/null)" != "$want" ]; then
   log "installing ROS 2 Jazzy wheels and requirements (under a minute on a fresh machine)"
-  # uv resolves and installs the same set as pip (pip freeze equal) in about 9 s instead of 61 s
-  # (docs/long_runs.md, "make test on a fresh clone"); pip stays the fallback when uv cannot.
+  # uv resolves and installs the same set as pip (pip freeze equal) in about 19 s instead of
+  # 61 s (BENCHMARKS.md, Long runs, "make test made shorter"); pip stays the fallback when uv
+  # cannot. Compiled to bytecode at install, as pip does: this machine sets
+  # PYTHONDONTWRITEBYTECODE, so a module left uncompiled is compiled again in every process
+  # (the lock-step tests took 342 s instead of 242).
   # (pip's notes on this machine's local find-links for uv are not for the newcomer)
   if "$VPY" -m pip install -q --disable-pip-version-check uv 2> >(grep -v 'is ignored' >&2) \
-      && "$VENV/bin/uv" pip install -q --python "$VPY" -r tools/ros_wheels.txt \
+      && "$VENV/bin/uv" pip install -q --compile-bytecode --python "$VPY" \
+         -r tools/ros_wheels.txt \
          -r tools/requirements.txt; then
     :
   else
@@ -70,6 +74,8 @@ if [ "$(cat "$VENV/.stamp-pkg" 2>/dev/null)" != "$want" ]; then
   "$VPY" -m pip install -q --disable-pip-version-check --no-deps --no-build-isolation -e .
   echo "$want" > "$VENV/.stamp-pkg"
 fi
+# pam_bench's own bytecode, for the same reason (about 0.1 s at every node process's start)
+"$VPY" -m compileall -q pam_bench > /dev/null
 "$VPY" -c 'import rclpy, pam_bench_interfaces.msg, pam_bench' \
   || { log "the environment does not import; remove .venv and run again"; exit 1; }
 # 5. The compiled physics core, compiled once into its cache (models/compiled.py says where).
