@@ -163,7 +163,7 @@ def measure(quick: bool, out: Any, scenes: list[str] | None) -> dict[str, Any]:
     from pam_bench.models.muscle import MuscleModel
     from pam_bench.models.valve import ValveModel
     from pam_bench.twin.servo_setup import scene_servo_setup
-    duration = 4.0 if quick else None
+    duration = 3.0 if quick else None
     rows = []
     shipped = InverseModel.load(config_dir() / 'inverse_model.yaml')
     for variant, values in VARIANTS[:1] if quick else VARIANTS:

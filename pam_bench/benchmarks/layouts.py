@@ -25,7 +25,7 @@ def measure(quick: bool, out: pathlib.Path, scenes: list[str] | None) -> dict[st
     fanout = {}
     for n in (1, 7) if quick else (1, 7, 10):
         print(f'  lock-step with no work, {n} participants ...', flush=True)
-        fanout[str(n)] = fanout_rate(n, 2000)
+        fanout[str(n)] = fanout_rate(n, 1000 if quick else 2000)
     rows = []
     for name in ('demo', 'servo_sin_t', 'campaign_quick') + (() if quick else ('campaign',)):
         for one in (False, True):

@@ -47,5 +47,6 @@ def results(r: dict[str, Any]) -> list[Row]:
 
 
 STUDY = Study('lockstep', 'the demo lock-step rate against the rclpy ping-pong', measure,
-              (('lockstep', section),), results)
-"""The lock-step against the ping-pong (bench.json ``lockstep``)."""
+              (('lockstep', section),), results, quick=False)
+"""The lock-step against the ping-pong (bench.json ``lockstep``); a quick run leaves it out: the
+layouts study measures the same ping-pong and the demo in separate processes beside it."""

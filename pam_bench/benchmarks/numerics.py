@@ -79,7 +79,7 @@ def measure(quick: bool, out: pathlib.Path) -> dict[str, Any]:
     res['ros_exchange_step'] = _ros_sweep(out, quick)
     print('torque servo: controllers compared ...', flush=True)
     from pam_bench.benchmarks.servo_compare import compare_servo
-    few = ['servo_sin_t', 'servo_sin_3t', 'force_verify_20mm', 'force_verify_50mm']
+    few = ['servo_sin_t', 'force_verify_20mm']
     res['servo'] = compare_servo(out / 'servo_numpy', 'numpy', few if quick else None)
     if not quick:
         res['servo'] += compare_servo(out / 'servo_ros', 'ros', ['servo_sin_t',

@@ -37,6 +37,8 @@ class Study:
         measure: runs it.
         sections: (bench.json key, renderer) of each section it fills, in report order.
         results: its rows of the key results (figure, goal, measured, commit).
+        quick: whether ``pam-bench bench --quick`` runs it (False: a quick run has its
+            figures from another study, or they need the full run).
     """
 
     key: str
@@ -44,6 +46,7 @@ class Study:
     measure: Measure
     sections: tuple[tuple[str, Section], ...]
     results: Callable[[dict[str, Any]], list[Row]] = _no_results
+    quick: bool = True
 
     @property
     def fills(self) -> tuple[str, ...]:

@@ -69,6 +69,9 @@ def run_benchmarks(quick: bool, root: pathlib.Path, scenes: list[str] | None = N
         for s in STUDIES:
             if only and s.key not in only:
                 continue
+            if quick and not s.quick and not only:
+                print(f'{s.key}: left to the full run', flush=True)
+                continue
             print(f'{s.key} ...', flush=True)
             t0 = time.perf_counter()
             where = out / s.key             # a folder per study: bag names do not meet

@@ -88,7 +88,7 @@ def project(n_jobs: int, workers: int, job_s: float, overhead_s: float) -> float
 
 
 def measure_scaling(out: pathlib.Path, quick: bool = False) -> dict[str, Any]:
-    """The study (module docstring); ``quick``: 10 jobs instead of 40."""
+    """The study (module docstring); ``quick``: 6 jobs instead of 40."""
     from pam_bench.cluster.layer import connect
     from pam_bench.config.paths import config_dir
     from pam_bench.sweep.jobs import run_job
@@ -96,7 +96,7 @@ def measure_scaling(out: pathlib.Path, quick: bool = False) -> dict[str, Any]:
     from pam_bench.sweep.spec import load_sweep
     sweep = load_sweep(config_dir() / 'sweeps' / 'scaling.yaml')
     if quick:
-        sweep = dataclasses.replace(sweep, seeds=sweep.seeds[:10])
+        sweep = dataclasses.replace(sweep, seeds=sweep.seeds[:6])
     out.mkdir(parents=True, exist_ok=True)
     wall: dict[str, float] = {}
     cold: dict[str, float] = {}

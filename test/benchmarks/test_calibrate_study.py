@@ -59,3 +59,18 @@ def test_a_failing_study_is_reported_and_the_rest_run(tmp_path, monkeypatch) -> 
     assert report['second'] == {'x': 1}
     assert 'drawn muscle refused' in report['failed']['first']['error']
     assert json.loads((tmp_path / 'bench.json').read_text())['failed']['first']
+
+
+def test_a_quick_run_leaves_out_a_study_marked_full_only(tmp_path, monkeypatch) -> None:
+    from pam_bench.benchmarks import suite
+    from pam_bench.benchmarks.study import Study
+    studies = (Study('full', 'full run only', lambda q, o, s: {'full': {'x': 1}},
+                     (('full', lambda r, root: []),), quick=False),
+               Study('both', 'every run', lambda q, o, s: {'both': {'x': 2}},
+                     (('both', lambda r, root: []),)))
+    monkeypatch.setattr(suite, 'STUDIES', studies)
+    monkeypatch.setattr(suite, 'render_report', lambda root: root / 'BENCHMARKS.md')
+    assert 'full' not in suite.run_benchmarks(True, tmp_path)
+    assert suite.run_benchmarks(True, tmp_path, only=['full'])['full'] == {'x': 1}
+    (tmp_path / 'f').mkdir()
+    assert suite.run_benchmarks(False, tmp_path / 'f')['full'] == {'x': 1}
