@@ -9,13 +9,18 @@ from typing import Any
 from pam_bench.bringup.runner import run_scene
 from pam_bench.config.scene import load_scene
 
-__all__ = ['scene_run']
+__all__ = ['scene_run', 'scene_bag']
+
+
+def scene_bag(name: str, out: pathlib.Path, one_process: bool) -> pathlib.Path:
+    """Where ``scene_run`` records scene ``name`` in ``out`` (one folder per layout)."""
+    return out / f'{name}{"_one" if one_process else ""}'
 
 
 def scene_run(name: str, out: pathlib.Path, one_process: bool = False) -> dict[str, Any]:
-    """Run scene ``name`` into ``out`` and return its timing row."""
+    """Run scene ``name`` into ``out`` (``scene_bag``) and return its timing row."""
     t0 = time.perf_counter()
-    bag = out / f'{name}{"_one" if one_process else ""}'
+    bag = scene_bag(name, out, one_process)
     res = run_scene(load_scene(name), str(bag), quiet=True, one_process=one_process)
     wall = time.perf_counter() - t0
     row = {'scene': name, 'code': res.code, 'exchange_steps': res.steps, 'sim_s': res.sim_s,

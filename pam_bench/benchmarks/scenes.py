@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from pam_bench.benchmarks.exchange_step import SCENE_STEPS
-from pam_bench.benchmarks.runs import scene_run
+from pam_bench.benchmarks.runs import scene_bag, scene_run
 from pam_bench.benchmarks.study import Study
 from pam_bench.benchmarks.tables import Row, commit_of, pct, table
 from pam_bench.verify.reference_check import run_against_twin
@@ -27,11 +27,11 @@ def measure(quick: bool, out: pathlib.Path, scenes: list[str] | None) -> dict[st
     report: dict[str, Any] = {'scenes': [scene_run(n, out, one_process=True) for n in names]}
     if campaign in names:
         print(f'{campaign} against its numpy twin (scene steps, then 1 ms) ...', flush=True)
-        report['campaign'] = {'scene': campaign, 'twin_same_steps': run_against_twin(
-            out / campaign, campaign, *SCENE_STEPS)}
+        bag = scene_bag(campaign, out, True)
+        report['campaign'] = {'scene': campaign,
+                              'twin_same_steps': run_against_twin(bag, campaign, *SCENE_STEPS)}
         if not quick:         # 26 s for campaign_quick, 27 min for the campaign
-            report['campaign']['twin_1ms'] = run_against_twin(out / campaign, campaign,
-                                                              0.001, 0.001)
+            report['campaign']['twin_1ms'] = run_against_twin(bag, campaign, 0.001, 0.001)
     print('extraction against truth, identification speed ...', flush=True)
     report['extraction'] = _extraction(out, names, quick)
     return report
@@ -46,7 +46,8 @@ def _extraction(out: pathlib.Path, names: list[str], quick: bool) -> dict[str, A
     rows = []
     for name in names:
         try:
-            summary = extract([str(out / name)], str(out / f'{name}_x'), figures=False)
+            summary = extract([str(scene_bag(name, out, True))], str(out / f'{name}_x'),
+                              figures=False)
         except (BagError, ValueError) as exc:
             rows.append({'scene': name, 'error': str(exc)})
             continue
