@@ -23,7 +23,8 @@ def scene_run(name: str, out: pathlib.Path, one_process: bool = False) -> dict[s
     bag = scene_bag(name, out, one_process)
     res = run_scene(load_scene(name), str(bag), quiet=True, one_process=one_process)
     wall = time.perf_counter() - t0
-    row = {'scene': name, 'code': res.code, 'exchange_steps': res.steps, 'sim_s': res.sim_s,
+    row = {'scene': name, 'layout': 'composed' if one_process else 'separate processes',
+           'code': res.code, 'exchange_steps': res.steps, 'sim_s': res.sim_s,
            'wall_s_lockstep': res.wall_s, 'wall_s_total': wall,
            'real_time_factor': res.sim_s / res.wall_s if res.wall_s else 0.0,
            'lockstep_rate_steps_per_s': res.rate}
