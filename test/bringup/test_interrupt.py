@@ -86,7 +86,10 @@ def test_interrupted_run_leaves_a_valid_bag(tmp_path: pathlib.Path, ros_domain: 
 
 def test_dead_node_ends_the_run_with_a_reason(tmp_path: pathlib.Path, ros_domain: int) -> None:
     bag = tmp_path / 'bag'
-    proc, lines = start_run('isotonic_quick', bag, extra=('--processes',))
+    # a stall is found after stall_timeout_s (10 s by default): 4 s is still far above any
+    # acknowledgment a loaded machine delays
+    proc, lines = start_run('isotonic_quick', bag,
+                            extra=('--processes', '--set', 'sim_clock.stall_timeout_s=4'))
     try:
         muscle = [p for p in node_processes(ros_domain)
                   if b'muscle_sim' in pathlib.Path(f'/proc/{p}/cmdline').read_bytes()]
