@@ -34,26 +34,6 @@ def pytest_configure(config: pytest.Config) -> None:
         'rates, kill-to-vent latency); `make test` runs these alone, after the others')
 
 
-# The modules that take longest (10 to 60 s each, `pytest --durations`), handed to the workers
-# first: at the end of the session two workers then share short tests, instead of one running
-# a long one while the other idles (a real-cluster test at the end kept one worker busy alone
-# for 40 s). Any module missing here keeps its place after these.
-_SLOW_FIRST = (
-    'test/bringup/test_interrupt.py', 'test/packaging/test_install.py',
-    'test/benchmarks/test_servo_compare.py', 'test/nodes/test_protocol_scenes.py',
-    'test/cluster/test_real_cluster.py', 'test/nodes/test_bringup.py',
-    'test/sweep/test_sweep.py', 'test/bringup/test_straight_fibre.py',
-    'test/bringup/test_bag_files.py', 'test/verify/test_calibrate.py',
-    'test/bringup/test_provenance.py', 'test/bringup/test_two_hosts.py',
-)
-
-
-def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """The slowest modules first (``_SLOW_FIRST``), the rest in their order (a stable sort)."""
-    rank = {m: i for i, m in enumerate(_SLOW_FIRST)}
-    items.sort(key=lambda item: rank.get(item.nodeid.split('::', 1)[0], len(rank)))
-
-
 @pytest.fixture
 def ros_domain(monkeypatch: pytest.MonkeyPatch) -> int:
     """A fresh ROS_DOMAIN_ID for this test, exported to child processes."""
