@@ -86,8 +86,9 @@ def run_against_twin(bag: str | pathlib.Path, scene_name: str, exchange_step_s: 
     Returns:
         {'protocols': one row per protocol (readings, largest and 99th-percentile difference
         of the read quantity, N or mm, force also in % FS), 'records': largest relative
-        difference of b, c, d over the step records (all, and 004's 1 <-> 5 V steps), and
-        the twin's exchanges and wall time}.
+        difference of b, c, d over the step records (all, and 004's 1 <-> 5 V steps; a
+        record whose noise-free reference does not move is counted, not compared), and the
+        twin's exchanges and wall time}.
 
     Raises:
         pam_bench.analysis.bagread.BagError: the bag cannot be read.
@@ -134,15 +135,19 @@ def compare_run(data: Any, twin: Any) -> dict[str, Any]:
                      'p99_error': float(np.percentile(diff, 99)),
                      'max_error_pct_fs': (float(diff.max() / FULL_SCALE_N * 100) if force
                                           else None)})
-    errs, big = [], []
+    errs, big, flat = [], [], 0
     for a, b in zip(data.records, twin.records, strict=False):
         dv = a.voltage_final_v - a.voltage_initial_v
-        fa = fit_step(np.asarray(a.force_n), a.sample_period_s, dv)
         fb = fit_step(np.asarray(b.samples), a.sample_period_s, dv)
+        if not all(getattr(fb, k) for k in 'bcd'):   # the reference does not move (a step
+            flat += 1                                  # below the muscle's first pull): no
+            continue                                   # b, c, d to compare against
+        fa = fit_step(np.asarray(a.force_n), a.sample_period_s, dv)
         e = max(abs(getattr(fa, k) / getattr(fb, k) - 1.0) for k in 'bcd')
         errs.append(e)
         if abs(abs(dv) - 4.0) < 1e-9:
             big.append(e)
-    records = {'records': len(errs), 'max_bcd_rel_error': max(errs, default=0.0),
+    records = {'records': len(errs), 'flat_references': flat,
+               'max_bcd_rel_error': max(errs, default=0.0),
                'max_bcd_rel_error_1_5V': max(big, default=0.0)}
     return {'protocols': rows, 'records': records}

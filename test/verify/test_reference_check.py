@@ -49,3 +49,20 @@ def test_a_bag_without_the_twins_readings_is_named(tmp_path: pathlib.Path) -> No
     _bag_of(tmp_path / 'bag', short, 0.0)
     with pytest.raises(ValueError, match='isotonic_quick'):
         compare_run(read_bags([tmp_path / 'bag']), twin)
+
+
+def test_a_step_whose_reference_does_not_move_is_counted_not_compared() -> None:
+    """A step below the muscle's first pull gives the noise-free twin a flat record: it has
+    no b, c, d to divide by (a full campaign's 1.0 -> 1.2 V step at x = 95 mm did)."""
+    from types import SimpleNamespace
+    t = np.arange(1000) * 1e-3
+    rise = 40.0 * (1.0 - np.exp(-t / 0.05))
+    rec = SimpleNamespace(voltage_initial_v=1.0, voltage_final_v=1.2, sample_period_s=1e-3)
+    data = SimpleNamespace(points={}, records=[
+        SimpleNamespace(**vars(rec), force_n=rise), SimpleNamespace(**vars(rec),
+                                                                     force_n=np.zeros(1000))])
+    twin = SimpleNamespace(points=[], records=[SimpleNamespace(samples=rise),
+                                               SimpleNamespace(samples=np.zeros(1000))])
+    out = compare_run(data, twin)['records']
+    assert out['records'] == 1 and out['flat_references'] == 1
+    assert out['max_bcd_rel_error'] < 1e-9
