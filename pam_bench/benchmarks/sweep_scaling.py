@@ -110,11 +110,12 @@ def measure_scaling(out: pathlib.Path, quick: bool = False) -> dict[str, Any]:
             wall[f'local_{w}'] = _timed_sweep(sweep, out / f'local_{w}', client)
     rows = [dict(r) for r in csv.DictReader(open(out / 'local_1' / RESULTS, newline='',
                                                  encoding='utf-8'))]
+    folders = ['local_1', 'local_2']
     if not quick:
         print('  the same on an external scheduler with 2 workers ...', flush=True)
         wall['external_2'] = _external(sweep, out)
-    runs = [k.replace('_2', '') if k.startswith('external') else k for k in wall]
-    same = all(_rows(out / k / RESULTS) == _rows(out / runs[0] / RESULTS) for k in runs)
+        folders.append('external')
+    same = all(_rows(out / f / RESULTS) == _rows(out / 'local_1' / RESULTS) for f in folders)
     job_s = sum(float(r['seconds']) for r in rows) / len(rows)
     job = sweep.jobs()[0]
     returned = len(pickle.dumps(run_job((job, sweep.engine, sweep.figures, sweep.duration_s))))

@@ -96,6 +96,7 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
                 stderr=subprocess.STDOUT, text=True, preexec_fn=die_with_parent)
             return procs[name]
 
+        started = False                    # whether devices and controllers were started
         try:
             if 'recorder' in scene.nodes:
                 rec = start('recorder', node_cmd('recorder', pfile), pipe=True)
@@ -107,6 +108,7 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
                 threading.Thread(target=copy_lines, args=(rec.stdout, log), daemon=True).start()
                 if rec.poll() is not None:          # it could not start: nothing else is
                     raise _NotStarted                 # started (its one line is in the log)
+            started = True
             if device_processes:
                 for name in device_names:
                     start(name, node_cmd(name, pfile))
@@ -151,7 +153,7 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
             node_log = log.read()
             log.close()
         stats = {}
-        for name in scene.nodes if 'emulator' in procs or len(procs) > 1 else []:
+        for name in scene.nodes if started else []:
             path = os.path.join(tmp, f'{name}.json')
             try:
                 with open(path, encoding='utf-8') as fh:
