@@ -1,6 +1,8 @@
 """Faults injected into a simulated device on a wall clock (``sim.faults``): when they act and
-what they do to a measured value. Their time base is the run's start: the first protocol
-status or servo state the device receives."""
+what they do to a measured value. Their time base is the run's start: the start the first
+protocol status received states (its ``elapsed`` back from its arrival, so a status missed
+while discovery was still matching does not shift the faults), or the arrival of the first
+servo state."""
 
 from __future__ import annotations
 
@@ -45,7 +47,9 @@ class FaultInjection(NodeCore):
 
     def _run_started(self, msg: Any) -> None:
         if self._fault_epoch_ns is None:
-            self._fault_epoch_ns = int(self.get_clock().now().nanoseconds)
+            elapsed_s = float(getattr(msg, 'elapsed', 0.0))
+            self._fault_epoch_ns = (int(self.get_clock().now().nanoseconds)
+                                    - round(max(elapsed_s, 0.0) * 1e9))
 
     def fault_time_s(self) -> float:
         """Seconds since the run started; -1 before."""
