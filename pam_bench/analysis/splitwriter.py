@@ -261,6 +261,18 @@ class SplitWriter:
         assert put is not None, 'write before open'
         put(self._current[topic], timestamp, data)
 
+    def reserve(self, topic: str, n: int) -> tuple[Any, DirectWrite] | None:
+        """For ``n`` messages of ``topic`` written next, in stamp order, when ``write`` would
+        do nothing between them but put them (no part to start, no disk or size check due):
+        its bookkeeping for all ``n`` at once, and (connection, put) with which the caller
+        puts each, ``put(connection, stamp, data)``; else None and the caller uses ``write``
+        (the recorder puts a whole exchange's messages of a topic this way)."""
+        if (self.max_duration_ns or self._start_ns is None or self._put is None
+                or self._since_check + n >= self.CHECK_EVERY):
+            return None
+        self._since_check += n
+        return self._current[topic], self._put
+
     def flush(self) -> None:
         """Write the pending chunk and flush the file (a SIGKILL loses at most what came
         since)."""

@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-__all__ = ['zoh', 'second_order_matrices', 'ZohCache']
+__all__ = ['zoh', 'zoh_2x2_floats', 'second_order_matrices', 'ZohCache']
 
 
 def zoh(a: np.ndarray, b: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
@@ -80,12 +80,11 @@ def _scaled_cosh_sinhc(z: float, h: float, e: float) -> tuple[float, float, floa
     return gcm1, (1.0 + em1) * sc, 1.0 + gcm1
 
 
-def _zoh_2x2(a: np.ndarray, b: np.ndarray, h: float
-             ) -> tuple[np.ndarray, np.ndarray] | None:
-    """The closed form of the module docstring for a 2x2 A, in floats (numpy's per-call cost
-    would eat the gain); None when A is nearly singular over the step or the step overflows
-    (the caller uses ``expm``)."""
-    a00, a01, a10, a11 = float(a[0, 0]), float(a[0, 1]), float(a[1, 0]), float(a[1, 1])
+def zoh_2x2_floats(a00: float, a01: float, a10: float, a11: float, b0: float, b1: float,
+                   h: float) -> tuple[float, float, float, float, float, float] | None:
+    """The closed form of the module docstring for x' = A x + B u with a 2x2 A and one input,
+    in floats: (Ad00, Ad01, Ad10, Ad11, Bd0, Bd1) over the step ``h`` (s). None when A is
+    nearly singular over the step or the step overflows (``zoh`` then uses ``expm``)."""
     det = a00 * a11 - a01 * a10
     if not (abs(det) * h * h >= 1e-6 and math.isfinite(det)):
         return None
@@ -99,14 +98,30 @@ def _zoh_2x2(a: np.ndarray, b: np.ndarray, h: float
     d10, d11 = sh * a10, cm1 + sh * (a11 - half)
     if not all(math.isfinite(v) for v in (d00, d01, d10, d11)):
         return None
-    ad = np.array([[1.0 + d00, d01], [d10, 1.0 + d11]])
+    v0, v1 = d00 * b0 + d01 * b1, d10 * b0 + d11 * b1     # Bd = A^-1 (Ad - I) B
+    return (1.0 + d00, d01, d10, 1.0 + d11, (a11 * v0 - a01 * v1) / det,
+            (a00 * v1 - a10 * v0) / det)
+
+
+def _zoh_2x2(a: np.ndarray, b: np.ndarray, h: float
+             ) -> tuple[np.ndarray, np.ndarray] | None:
+    """``zoh_2x2_floats`` for each column of ``b``, as arrays (numpy's per-call cost would eat
+    the gain inside); None as there."""
+    a00, a01, a10, a11 = float(a[0, 0]), float(a[0, 1]), float(a[1, 0]), float(a[1, 1])
     bd = np.empty((2, b.shape[1]))
-    for j in range(b.shape[1]):                        # Bd = A^-1 (Ad - I) B
-        u0, u1 = float(b[0, j]), float(b[1, j])
-        v0, v1 = d00 * u0 + d01 * u1, d10 * u0 + d11 * u1
-        bd[0, j] = (a11 * v0 - a01 * v1) / det
-        bd[1, j] = (a00 * v1 - a10 * v0) / det
-    return ad, bd
+    ad = None
+    for j in range(b.shape[1]):
+        r = zoh_2x2_floats(a00, a01, a10, a11, float(b[0, j]), float(b[1, j]), h)
+        if r is None:
+            return None
+        ad = r[:4]
+        bd[0, j], bd[1, j] = r[4], r[5]
+    if ad is None:                                     # no input column: Ad alone
+        r = zoh_2x2_floats(a00, a01, a10, a11, 0.0, 0.0, h)
+        if r is None:
+            return None
+        ad = r[:4]
+    return np.array([[ad[0], ad[1]], [ad[2], ad[3]]]), bd
 
 
 def second_order_matrices(b: float, c: float, d: float) -> tuple[np.ndarray, np.ndarray]:
@@ -124,6 +139,7 @@ class ZohCache:
     def __init__(self, size: int = 8) -> None:
         self._size = size
         self._store: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+        self._floats: dict[tuple, tuple[float, float, float, float, float, float]] = {}
 
     def get(self, key: tuple, a: np.ndarray, b: np.ndarray, h: float
             ) -> tuple[np.ndarray, np.ndarray]:
@@ -135,4 +151,22 @@ class ZohCache:
                 self._store.pop(next(iter(self._store)))
             hit = zoh(a, b, h)
             self._store[k] = hit
+        return hit
+
+    def get_2x2(self, key: tuple, a00: float, a01: float, a10: float, a11: float, b0: float,
+                b1: float, h: float) -> tuple[float, float, float, float, float, float]:
+        """(Ad00, Ad01, Ad10, Ad11, Bd0, Bd1) for the 2x2 system named ``key`` with one input
+        over step ``h``: ``get`` in floats, without building the arrays where the closed form
+        applies (the valve of a servo run misses the cache at every exchange)."""
+        k = (key, h, 1)
+        hit = self._floats.get(k)
+        if hit is None:
+            hit = zoh_2x2_floats(a00, a01, a10, a11, b0, b1, h)
+            if hit is None:
+                ad, bd = zoh(np.array([[a00, a01], [a10, a11]]), np.array([[b0], [b1]]), h)
+                hit = (float(ad[0, 0]), float(ad[0, 1]), float(ad[1, 0]), float(ad[1, 1]),
+                       float(bd[0, 0]), float(bd[1, 0]))
+            if len(self._floats) >= self._size:
+                self._floats.pop(next(iter(self._floats)))
+            self._floats[k] = hit
         return hit

@@ -180,21 +180,26 @@ class ValveModel:
         if self.p.order == 0 or self.p.scheme != 'zoh' or not math.isfinite(voltage_v):
             return [self.step(voltage_v, d, chamber_volume_m3) for d in steps_s]
         target = self.steady_pressure(voltage_v)
-        a, b = self.matrices(chamber_volume_m3)
-        key = (self.p.order, round(self.natural_frequency(chamber_volume_m3), 9))
+        w = self.natural_frequency(chamber_volume_m3)
+        key = (self.p.order, round(w, 9))
         s0, s1 = float(self.state[0]), float(self.state[1])
         p_max = self.p.pressure_max_pa
         if compiled.wanted(len(steps_s)):
+            a, b = self.matrices(chamber_volume_m3)
             return self._samples_compiled(steps_s, target, a, b, key, s0, s1)
+        if self.p.order == 1:                 # the entries of ``matrices``, as floats
+            k = 1.0 / self.p.time_constant_s
+            entries = (-k, 0.0, 0.0, 0.0, k, 0.0)
+        else:
+            entries = (0.0, 1.0, -w * w, -2.0 * self.p.damping_ratio * w, 0.0, w * w)
         out = []
         cur = None
         for d in steps_s:
             if d != cur:
                 if not (math.isfinite(d) and d >= 0.0):
                     raise ModelError(f'valve step {d!r} s is not a finite non-negative number')
-                ad, bd = self._cache.get(key, a, b, d)
-                a00, a01, a10, a11 = (float(v) for v in ad.ravel())
-                b0, b1 = float(bd[0, 0]) * target, float(bd[1, 0]) * target
+                a00, a01, a10, a11, b0, b1 = self._cache.get_2x2(key, *entries, d)
+                b0, b1 = b0 * target, b1 * target
                 cur = d
             s0, s1 = a00 * s0 + a01 * s1 + b0, a10 * s0 + a11 * s1 + b1
             out.append(min(max(s0, 0.0), p_max))

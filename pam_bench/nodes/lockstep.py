@@ -41,14 +41,7 @@ from pam_bench.nodes.core import NodeCore, Output
 from pam_bench.nodes.intra import bus_publisher, bus_subscription
 from pam_bench.nodes.messages import ack_message, ns_of, stamp_of_cdr, stamp_of_msg
 from pam_bench.nodes.qos import DRIVER, LOCKSTEP, RELIABLE, SENSOR
-from pam_bench.sim.lockstep import (
-    Ack,
-    InputSpec,
-    StopRequest,
-    collect_inputs,
-    first_missing,
-    prune,
-)
+from pam_bench.sim.lockstep import Ack, InputSpec, StepPlan, StopRequest
 
 __all__ = ['Lockstep']
 
@@ -70,6 +63,7 @@ class Lockstep(NodeCore):
         self._sent = []                   # this step's outputs
         self._sent_before: list[Output] = []             # the step before's
         self._ack_pub: Any = None
+        self._plan: StepPlan | None = None
 
     def create_step_publisher(self, msg_type: type, topic: str) -> Any:
         """A publisher of a step output: what it publishes in a step is sent again when the
@@ -155,6 +149,7 @@ class Lockstep(NodeCore):
     def start_lockstep(self) -> None:
         """Subscribe to /clock and create the ack publisher (call after all sync_input)."""
         self._ack_pub = bus_publisher(self, StepAck, topics.ACK, RELIABLE)
+        self._plan = StepPlan(self._sync, self._specs)
         bus_subscription(self, Clock, topics.CLOCK, self._on_clock, RELIABLE)
 
     def _on_clock(self, msg: Clock) -> None:
@@ -194,12 +189,12 @@ class Lockstep(NodeCore):
         if waiting is not None and waiting[1] not in waiting[0]:
             return                        # what the step waits for has not come yet
         prev = self._last_ns
-        self._waiting = first_missing(self._sync, self._specs, self._prev_prev_ns, prev, t,
-                                      self._step_index)
+        plan = self._plan
+        assert plan is not None
+        self._waiting = plan.missing(prev, t, self._step_index)
         if self._waiting is not None:
             return
-        inputs: dict[str, Any] = collect_inputs(self._sync, self._specs, self._prev_prev_ns,
-                                                prev, t, self._step_index)
+        inputs: dict[str, Any] = plan.take(self._prev_prev_ns, prev, t, self._step_index)
         for topic, cls in self._decode.items():
             if topic in inputs:
                 val = inputs[topic]
@@ -209,7 +204,6 @@ class Lockstep(NodeCore):
                     inputs[topic] = [(k, deserialize_message(v, cls)) for k, v in val]
                 else:
                     inputs[topic] = [deserialize_message(v, cls) for v in val]
-        prune(self._sync, self._specs, prev, t)
         self._pending_ns = None
         self._sent_before, self._sent = self._sent, []
         self._prev_prev_ns = prev

@@ -279,6 +279,13 @@ class Recorder(BenchNode):
         else:
             enc = cdr.encoder(first.__class__)
             encode = enc if enc is not None else functools.partial(self._cdr, topic)
+        fast = writer.reserve(topic, len(pairs))
+        if fast is not None:
+            conn, put = fast
+            for t_ns, data in pairs:
+                put(conn, t_ns, encode(data))
+            self.count += len(pairs)
+            return
         write = writer.write
         n = 0
         try:

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import copy
 import math
+import random
 
 import pytest
 
@@ -12,7 +14,9 @@ from pam_bench.sim.lockstep import (
     EventStepRequest,
     InputSpec,
     RunSummary,
+    StepPlan,
     StopRequest,
+    collect_inputs,
     first_missing,
     flush_tick,
     input_window,
@@ -94,6 +98,51 @@ def test_prune_keeps_what_a_later_step_may_need(spec: InputSpec, kept: list[int]
     buffers = {'x': {k: k for k in (5, 10, 20, 25, 30)}}
     prune(buffers, {'x': spec}, 10, 20)
     assert sorted(buffers['x']) == kept
+
+
+ALL_SPECS = [InputSpec(same, samples, from_start, stamped)
+             for same in (False, True) for samples in (False, True)
+             for from_start in (False, True) for stamped in (False, True)]
+
+
+@pytest.mark.parametrize('seed', range(40))
+def test_step_plan_gives_what_the_rules_give(seed: int) -> None:
+    """StepPlan (the nodes' hot path) against first_missing, collect_inputs and prune, on
+    random buffers of every kind of input, for first and later steps, complete or not."""
+    rnd = random.Random(seed)
+    specs = {f'in{i}': rnd.choice(ALL_SPECS) for i in range(rnd.randint(1, 6))}
+    index = rnd.choice([0, 1, 5])
+    prev_prev = None if index == 0 else 10 * rnd.randint(1, 3)
+    prev = (prev_prev or 0) + 10
+    t = prev + rnd.choice([1, 10])
+    buffers: dict[str, dict[int, str]] = {}
+    for topic in specs:
+        stamps = {rnd.randint(-1, t) for _ in range(rnd.randint(0, 8))}
+        stamps |= {prev, t} if rnd.random() < 0.8 else set()
+        buffers[topic] = {k: f'{topic}@{k}' for k in rnd.sample(sorted(stamps), len(stamps))}
+    ref = copy.deepcopy(buffers)
+    plan = StepPlan(buffers, specs)
+    missing = plan.missing(prev, t, index)
+    want = first_missing(ref, specs, prev_prev, prev, t, index)
+    assert (missing is None) == (want is None)
+    if want is not None:
+        assert missing is not None and missing[1] == want[1] and missing[0] == want[0]
+        return
+    got = plan.take(prev_prev, prev, t, index)
+    assert got == collect_inputs(ref, specs, prev_prev, prev, t, index)
+    prune(ref, specs, prev, t)
+    assert buffers == ref
+    assert all(sorted(b) == sorted(ref[k]) for k, b in buffers.items())
+
+
+def test_step_plan_sees_what_arrives_after_it_was_made() -> None:
+    buffers: dict[str, dict[int, str]] = {'a': {}, 'b': {10: 'b10'}}
+    plan = StepPlan(buffers, {'a': SAME, 'b': LAG})
+    assert plan.missing(10, 20, 1) == ({}, 20)
+    buffers['a'][20] = 'a20'
+    assert plan.missing(10, 20, 1) is None
+    assert plan.take(0, 10, 20, 1) == {'a': 'a20', 'b': 'b10'}
+    assert buffers == {'a': {}, 'b': {10: 'b10'}}          # lagged: from prev on
 
 
 @pytest.mark.parametrize('longest, requests, remaining, step', [
