@@ -143,7 +143,13 @@ class ZohCache:
 
     def get(self, key: tuple, a: np.ndarray, b: np.ndarray, h: float
             ) -> tuple[np.ndarray, np.ndarray]:
-        """(Ad, Bd) for the system named ``key`` over step ``h``."""
+        """(Ad, Bd) for the system named ``key`` over step ``h``. A 2x2 system with one input
+        goes through ``get_2x2``: one store for both, so that a caller of either finds what the
+        other computed."""
+        if a.shape == (2, 2) and b.shape == (2, 1):
+            f = self.get_2x2(key, float(a[0, 0]), float(a[0, 1]), float(a[1, 0]),
+                             float(a[1, 1]), float(b[0, 0]), float(b[1, 0]), h)
+            return np.array([[f[0], f[1]], [f[2], f[3]]]), np.array([[f[4]], [f[5]]])
         k = (key, h)
         hit = self._store.get(k)
         if hit is None:

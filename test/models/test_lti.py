@@ -84,3 +84,23 @@ def test_nearly_singular_two_state_system_falls_back_to_expm() -> None:
     ad, bd = zoh(a, bm, 1e-3)
     np.testing.assert_allclose(ad[0, 0], math.exp(-0.05), rtol=1e-14)
     np.testing.assert_allclose(bd[0, 0], -math.expm1(-0.05), rtol=1e-14)
+
+
+@pytest.mark.parametrize('a, bm', [
+    (second_order_matrices(2.0 * 0.7 * 150.0, 150.0**2, 150.0**2)),     # the valve's loop
+    (np.array([[-1.0 / 0.02, 0.0], [0.0, 0.0]]), np.array([[1.0 / 0.02], [0.0]])),  # expm
+])
+def test_zoh_cache_in_floats_gives_the_arrays_and_shares_their_store(a: np.ndarray,
+                                                                      bm: np.ndarray) -> None:
+    """``ZohCache.get_2x2`` gives exactly ``zoh``'s entries (closed form or expm fallback),
+    and ``get`` finds what ``get_2x2`` stored under the same key: a valve that steps one way
+    and samples the other reuses one computation, as it did with arrays alone."""
+    from pam_bench.models.lti import ZohCache
+    ad, bd = zoh(a, bm, 1e-3)
+    cache = ZohCache()
+    entries = (*(float(v) for v in a.ravel()), float(bm[0, 0]), float(bm[1, 0]))
+    got = cache.get_2x2(('v', 1.0), *entries, 1e-3)
+    assert got == (ad[0, 0], ad[0, 1], ad[1, 0], ad[1, 1], bd[0, 0], bd[1, 0])
+    other = a * (1.0 + 1e-12)          # a system the key calls the same: the stored result
+    ad2, bd2 = cache.get(('v', 1.0), other, bm, 1e-3)
+    assert ad2.tolist() == ad.tolist() and bd2.tolist() == bd.tolist()
