@@ -11,14 +11,17 @@ checks off, rosidl's default) in about 1 us, from a function generated once per 
 
 * numeric sequences become ``array.array`` of rosidl's type code (an array of that code is
   kept as it is), other sequences and strings are stored as given, numbers as given;
+* fixed-size numeric arrays become numpy arrays of that type, as rosidl's setters make them
+  (its constructor's zeros when not given; the length is not checked, as rosidl does not
+  with field checks off);
 * a nested message not given is built with its own constructor (rare: the bench's messages
   nest only their Header);
 * an unknown field name raises ``TypeError`` (rosidl checks names only with
   ``ROS_PYTHON_CHECK_FIELDS=1``).
 
-A class with a field type the generator does not handle (fixed-size arrays, which rosidl
-keeps as numpy arrays; ``char``/``octet`` sequences), or without rosidl's slots, falls back to
-the constructor and the setters. Receivers must not change what they get: every message of one
+A class with a field type the generator does not handle (fixed-size arrays of strings or
+booleans; ``char``/``octet`` sequences), or without rosidl's slots, falls back to the
+constructor and the setters. Receivers must not change what they get: every message of one
 tick may share one Time object.
 """
 
@@ -29,6 +32,7 @@ import functools
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
 from builtin_interfaces.msg import Time
 from std_msgs.msg import Header
 
@@ -70,14 +74,19 @@ def _builder(cls: type) -> Callable[..., Any] | None:
         return None
     params, lines = [], []
     scope: dict[str, Any] = {'_new': object.__new__, '_cls': cls, '_header': header_of,
-                             '_arr': _numeric_array}
+                             '_arr': _numeric_array, '_zeros': np.zeros, '_array': np.array}
     for name, kind in fields.items():
         if name == 'header':
             continue
         base, fixed, is_seq = element_of(kind)
         if fixed is not None:
-            return None
-        if is_seq and base in ARRAY_CODES:
+            if base not in ARRAY_CODES:
+                return None
+            scope[f'_dt_{name}'] = np.dtype(ARRAY_CODES[base])
+            params.append(f'{name}=None')
+            lines.append(f'    m._{name} = _zeros({fixed}, _dt_{name}) if {name} is None '
+                         f'else _array({name}, _dt_{name})')
+        elif is_seq and base in ARRAY_CODES:
             code = ARRAY_CODES[base]
             params.append(f'{name}=None')
             lines.append(f'    m._{name} = _arr((), {code!r}) if {name} is None '

@@ -199,34 +199,32 @@ class TorqueServoNode(BenchNode):
         if not fault and self.latched:
             fault = f'{self.latched} (latched: call {topics.SERVO_RESET} to resume)'
         sp = self._setpoint(t)
-        st = TorqueServoState(controller=self.ctl.mode.value, angle=self.angle_rad)
+        pad = [0.0] * (2 - self.muscles)
+        fields: dict[str, Any] = {}
         if fault:
             if fault != self.status:
                 self.diagnose(DiagnosticStatus.ERROR, fault)
             self.ctl.reset()
             volts = [0.0] * self.muscles
-            st.status = fault
         else:
             if self.status:
                 self.diagnose(DiagnosticStatus.OK, 'measurements fresh again: control resumed')
             ch = self.ctl.step(dt_s, sp, self.angle_rad, tuple(self.forces))
             volts = [c.voltage_v for c in ch]
-            pad = [0.0] * (2 - self.muscles)
-            st.force_setpoint = [c.force_setpoint_n for c in ch] + pad
-            st.contraction = [c.contraction_m for c in ch] + pad
-            st.u_feedforward = [c.u_feedforward_v for c in ch] + pad
-            st.u_pid = [c.u_pid_v for c in ch] + pad
+            fields = {'force_setpoint': [c.force_setpoint_n for c in ch] + pad,
+                      'contraction': [c.contraction_m for c in ch] + pad,
+                      'u_feedforward': [c.u_feedforward_v for c in ch] + pad,
+                      'u_pid': [c.u_pid_v for c in ch] + pad}
         self.status = fault
-        stamp = time_of(t_ns)
         for pub, u in zip(self.valve_pubs, volts, strict=True):
             pub.publish(stamped(ValveCommand, t_ns, voltage=float(u)))
-        f = self.forces + [0.0] * (2 - self.muscles)
-        st.torque_setpoint = float(sp[0])
-        st.torque_measured = (self.ctl.r * (f[0] - f[1]) if self.muscles == 2
-                              else float(f[0]))
-        st.force_measured = [float(v) for v in f]
-        st.voltage = [float(v) for v in volts] + [0.0] * (2 - self.muscles)
-        st.header.stamp = stamp
+        f = self.forces + pad
+        st = stamped(TorqueServoState, t_ns, controller=self.ctl.mode.value,
+                     angle=self.angle_rad, torque_setpoint=float(sp[0]),
+                     torque_measured=(self.ctl.r * (f[0] - f[1]) if self.muscles == 2
+                                      else float(f[0])),
+                     force_measured=[float(v) for v in f],
+                     voltage=[float(v) for v in volts] + pad, status=fault, **fields)
         self.state_pub.publish(st)
 
     def on_fault(self, reason: str) -> None:

@@ -44,6 +44,10 @@ CASES: list[tuple[type, str, dict[str, Any]]] = [
                                 force_measured=[10.0, 20.0], status='')),
     (PoseWithCovarianceStamped, 'map', {}),       # nested default built by its constructor
     (Imu, 'imu', dict(linear_acceleration_covariance=[0.5] * 9)),      # fixed arrays
+    (TorqueServoState, 's', dict(controller='dynamic_inverse_pid', angle=-0.2,
+                                 force_setpoint=[100.0, 50.0], force_measured=[99.0, 51.0],
+                                 contraction=[0.01, 0.02], u_feedforward=[1.0, 2.0],
+                                 u_pid=[0.1, -0.1], voltage=[1.1, 1.9], status='x')),
 ]
 
 
@@ -70,9 +74,13 @@ def test_stamped_equals_the_constructor(cls: type, frame: str, fields: dict[str,
         assert type(getattr(msg, name)) is type(getattr(ref, name)), name
 
 
-def test_fixed_arrays_fall_back_to_the_constructor() -> None:
-    assert _builder(Imu) is None
-    assert _builder(MuscleState) is not None
+def test_fixed_arrays_are_fresh_numpy_arrays_of_the_field_type() -> None:
+    assert _builder(Imu) is not None and _builder(TorqueServoState) is not None
+    a, b = stamped(TorqueServoState, T_NS), stamped(TorqueServoState, T_NS, voltage=[1.0, 2.0])
+    assert a.voltage.dtype == TorqueServoState().voltage.dtype and a.voltage.tolist() == [0, 0]
+    a.voltage[0] = 5.0
+    assert stamped(TorqueServoState, T_NS).voltage.tolist() == [0.0, 0.0]
+    assert b.voltage.tolist() == [1.0, 2.0]
 
 
 def test_unknown_field_is_an_error() -> None:
