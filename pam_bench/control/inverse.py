@@ -38,10 +38,20 @@ class Poly:
     x_half_m: float
 
     def __call__(self, x_m: float) -> float:
-        """The polynomial at ``x_m`` (m), z clamped to the fitted range [-1, 1]."""
+        """The polynomial at ``x_m`` (m), z clamped to the fitted range [-1, 1].
+
+        Horner's rule in floats, the operations of numpy's ``polyval`` in its order (the
+        same bits, ``test_inverse``; numpy's costs about 2 us a call, and the servo makes
+        eight calls per 1 ms exchange)."""
         z = (x_m - self.x_mid_m) / self.x_half_m if self.x_half_m else 0.0
-        return float(np.polynomial.polynomial.polyval(min(max(z, -1.0), 1.0),
-                                                      self.coefficients))
+        z = min(max(z, -1.0), 1.0)
+        c = self.coefficients
+        if not c:
+            return float(np.polynomial.polynomial.polyval(z, c))
+        acc = c[-1] + z * 0.0
+        for i in range(len(c) - 2, -1, -1):
+            acc = c[i] + acc * z
+        return float(acc)
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Poly:

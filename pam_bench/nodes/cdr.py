@@ -28,7 +28,7 @@ import struct
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ['fields_of', 'element_of', 'ARRAY_CODES', 'encoder', 'ends_padded']
+__all__ = ['fields_of', 'element_of', 'ARRAY_CODES', 'encoder', 'ends_padded', 'clock_cdr']
 
 Encoder = Callable[[Any], bytes]
 
@@ -200,3 +200,13 @@ def encoder(cls: Any) -> Encoder | None:
     exec(compile(src, f'<cdr {cls.__name__}>', 'exec'), scope)  # noqa: S102 (generated above)
     fn: Encoder = scope['enc']
     return fn
+
+
+_CLOCK = struct.Struct('<4siI')
+
+
+def clock_cdr(t_ns: int) -> bytes:
+    """CDR of a rosgraph_msgs/Clock at ``t_ns`` (ns) without building the message: the
+    encapsulation header, then builtin_interfaces/Time's int32 sec and uint32 nanosec (the
+    recorder writes one per exchange; ``test_cdr`` checks it against rclpy)."""
+    return _CLOCK.pack(b'\x00\x01\x00\x00', t_ns // 1_000_000_000, t_ns % 1_000_000_000)

@@ -39,7 +39,7 @@ from rosgraph_msgs.msg import Clock
 from pam_bench.config import topics
 from pam_bench.nodes.core import NodeCore, Output
 from pam_bench.nodes.intra import bus_publisher, bus_subscription
-from pam_bench.nodes.messages import ack_message, ns_of, stamp_of_cdr, stamp_of_msg
+from pam_bench.nodes.messages import ack_message, clock_ns, stamp_of_cdr, stamp_of_msg
 from pam_bench.nodes.qos import DRIVER, LOCKSTEP, RELIABLE, SENSOR
 from pam_bench.sim.lockstep import Ack, InputSpec, StepPlan, StopRequest
 
@@ -125,8 +125,18 @@ class Lockstep(NodeCore):
         if self._bus is not None:            # message objects, in process
 
             def on_object(msg: Any) -> None:
-                buf[stamp_of_msg(msg)] = msg
-                self._try_step()
+                # about thirty deliveries per servo exchange: the stamp from rosidl's slots
+                # (``stamp_of_msg`` where an object has none), and no try while this
+                # participant has no tick pending or its step waits for another message
+                try:
+                    s = msg._header._stamp
+                    buf[s._sec * 1_000_000_000 + s._nanosec] = msg
+                except AttributeError:
+                    buf[stamp_of_msg(msg)] = msg
+                if self._pending_ns is not None:
+                    waiting = self._waiting
+                    if waiting is None or waiting[1] in waiting[0]:
+                        self._try_step()
 
             def on_objects(msgs: list[Any]) -> None:
                 for m in msgs:
@@ -153,7 +163,7 @@ class Lockstep(NodeCore):
         bus_subscription(self, Clock, topics.CLOCK, self._on_clock, RELIABLE)
 
     def _on_clock(self, msg: Clock) -> None:
-        t = ns_of(msg.clock)
+        t = clock_ns(msg)
         if self._last_ns is not None and t <= self._last_ns:
             if t == self._last_ns:        # the clock repeats t_0 until all are ready, and any
                 for send, out in self._sent_before + self._sent:   # tick not acknowledged

@@ -16,8 +16,8 @@ from std_msgs.msg import Header
 
 from pam_bench.sim.lockstep import Ack, StopRequest
 
-__all__ = ['floats', 'ns_of', 'stamp_of_cdr', 'stamp_of_msg', 'message_class', 'time_of',
-           'ack_message', 'ack_of', 'force_reading']
+__all__ = ['floats', 'ns_of', 'clock_ns', 'stamp_of_cdr', 'stamp_of_msg', 'message_class',
+           'time_of', 'ack_message', 'ack_of', 'force_reading']
 
 
 def floats(values: Any) -> array.array:
@@ -48,12 +48,33 @@ def message_class(msgtype: str) -> type:
 
 
 def stamp_of_msg(msg: Any) -> int:
-    """Stamp (ns) of a message object with a Header (or of a Clock)."""
+    """Stamp (ns) of a message object with a Header (or of a Clock).
+
+    rosidl's messages keep their fields in slots named ``_field`` behind properties; the
+    composed lock-step reads a stamp from every message it delivers (about 30 per servo
+    exchange), so the slots are read directly, and the properties where an object has none.
+    """
     try:
-        stamp = msg.header.stamp
+        stamp = msg._header._stamp
     except AttributeError:
-        stamp = msg.clock
-    return stamp.sec * 1_000_000_000 + stamp.nanosec
+        try:
+            stamp = msg.header.stamp
+        except AttributeError:
+            stamp = msg.clock
+    try:
+        return stamp._sec * 1_000_000_000 + stamp._nanosec
+    except AttributeError:
+        return stamp.sec * 1_000_000_000 + stamp.nanosec
+
+
+def clock_ns(msg: Any) -> int:
+    """Time (ns) of a Clock message object, from rosidl's slots where it has them (every
+    participant reads one per exchange)."""
+    try:
+        c = msg._clock
+        return c._sec * 1_000_000_000 + c._nanosec
+    except AttributeError:
+        return ns_of(msg.clock)
 
 
 def ack_message(ack: Ack) -> StepAck:

@@ -35,7 +35,6 @@ import yaml
 from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
-from rosgraph_msgs.msg import Clock
 
 from pam_bench.analysis.baginfo import END_KEY, RUN_KEY
 from pam_bench.analysis.splitwriter import DiskFull, SplitWriter
@@ -44,7 +43,7 @@ from pam_bench.config.settings import RecorderSettings
 from pam_bench.nodes import cdr
 from pam_bench.nodes.base import BenchNode
 from pam_bench.nodes.intra import bus_subscription
-from pam_bench.nodes.messages import message_class, stamp_of_cdr, stamp_of_msg, time_of
+from pam_bench.nodes.messages import message_class, stamp_of_cdr, stamp_of_msg
 from pam_bench.nodes.process import run_node
 from pam_bench.sim.lockstep import StopRequest
 
@@ -105,6 +104,7 @@ class Recorder(BenchNode):
         self.end_ns: int | None = None
         self.connections: dict[str, str] = {}       # topic -> message type
         self._trim: dict[str, str] = {}
+        self._encoders: dict[str, Any] = {}         # step topic -> CDR of its objects
         step_topics = [e for e in step_topics if e]
         event_topics = [e for e in event_topics if e]
         for entry in list(step_topics) + list(event_topics) if self.lockstep else []:
@@ -298,6 +298,46 @@ class Recorder(BenchNode):
             return
         self.count += n
 
+    def _write_exchange(self, writer: SplitWriter, clock_ns: int | None,
+                        inputs: dict[str, Any]) -> None:
+        """In process: /clock at ``clock_ns`` (None: not recorded) and every step topic's
+        messages of one exchange (message objects), in the order ``on_step`` writes them
+        otherwise, through one ``SplitWriter.reserve_many`` where it allows (the same bytes;
+        about a dozen messages per servo exchange), else through ``_write_stamped``."""
+        items: list[tuple[str, int, bytes]] = []
+        if clock_ns is not None:
+            items.append(('/clock', clock_ns, cdr.clock_cdr(clock_ns)))
+        encoders = self._encoders
+        for topic in self.step_order:
+            pairs = inputs.get(topic)
+            if not pairs:
+                continue
+            encode = encoders.get(topic)
+            if encode is None:
+                cls = pairs[0][1].__class__
+                encode = encoders[topic] = (
+                    bytes if cls in (bytes, bytearray, memoryview)
+                    else cdr.encoder(cls) or functools.partial(self._cdr, topic))
+            for t, msg in pairs:
+                items.append((topic, t, encode(msg)))
+        if not items:
+            return
+        put_many = writer.reserve_many(len(items))
+        if put_many is not None:
+            put_many(items)
+            self.count += len(items)
+            return
+        n = 0
+        try:
+            for topic, t, data in items:
+                writer.write(topic, t, data)
+                n += 1
+        except DiskFull as exc:
+            self.count += n
+            self._disk_full(exc)
+            return
+        self.count += n
+
     def _cdr(self, topic: str, msg: Any) -> bytes:
         """CDR of a message object as DDS puts it on the wire, from ``nodes.cdr``'s encoder of
         its class where there is one. Else rclpy's serialisation, which aligns for the elements
@@ -324,12 +364,17 @@ class Recorder(BenchNode):
         if self.end_ns is not None:
             return
         prev = t_ns - round(dt_s * 1e9)
-        if '/clock' in self.connections:
-            self._write('/clock', prev, self._cdr('/clock', Clock(clock=time_of(prev))))
-        for topic in self.step_order:
-            pairs = inputs.get(topic)
-            if pairs:
-                self._write_stamped(topic, pairs)
+        clock = '/clock' in self.connections
+        writer = self.writer
+        if writer is not None and self._bus is not None:
+            self._write_exchange(writer, prev if clock else None, inputs)
+        else:
+            if clock:
+                self._write('/clock', prev, cdr.clock_cdr(prev))
+            for topic in self.step_order:
+                pairs = inputs.get(topic)
+                if pairs:
+                    self._write_stamped(topic, pairs)
         if dt_s < 1e-6:
             self.end_ns = prev            # the clock's flush tick: nothing later is recorded
 

@@ -289,3 +289,43 @@ def test_reserved_batches_give_the_bytes_of_write(tmp_path: pathlib.Path, kwargs
     assert 'max_duration_ns' in kwargs or reserved > 1000      # the fast path was taken
     if kwargs:
         assert len(files[True]) >= 2 or 'min_free_bytes' in kwargs
+
+
+@pytest.mark.parametrize('kwargs', [{}, {'compress': False}, {'max_bytes': 200_000},
+                                    {'max_duration_ns': 3 * 10**9}, {'min_free_bytes': 1}])
+def test_reserve_many_gives_the_bytes_of_write(tmp_path: pathlib.Path, kwargs: dict) -> None:
+    """Exchanges of two topics put through ``reserve_many`` (a whole exchange at once; stamps
+    out of order within it; chunks closed inside a batch) leave the files of one ``write`` per
+    message, in the same order, without the direct write as with it."""
+    store = bench_typestore()
+    status = b'\x00\x01\x00\x00\x02\x00\x00\x00a\x00'
+    exchanges = []
+    for k in range(8000):                 # about 2.4 MB: chunks close inside batches
+        t = 10**9 + k * 10**6
+        batch = [(STATUS, t, status)]
+        batch += [(FORCE, t - 10**6 + j * 2 * 10**5, _force(store, t, float((k + j) % 89)))
+                  for j in range(k % 6)]
+        batch.append((FORCE, t - 5, _force(store, t, -1.0)))          # out of order
+        exchanges.append(batch)
+    files, taken = {}, 0
+    for batched in (True, False):
+        w = SplitWriter(tmp_path / str(batched) / 'bag', **{'compress': True, **kwargs})
+        w.open()
+        w.add_connection(FORCE, 'geometry_msgs/msg/WrenchStamped', typestore=store)
+        w.add_connection(STATUS, 'std_msgs/msg/String', typestore=store)
+        for batch in exchanges:
+            put_many = w.reserve_many(len(batch)) if batched else None
+            if put_many is None:
+                for topic, t, raw in batch:
+                    w.write(topic, t, raw)
+            else:
+                taken += 1
+                put_many(batch)
+        w.close()
+        root = tmp_path / str(batched)
+        files[batched] = {p.relative_to(root).as_posix(): p.read_bytes()
+                          for p in sorted(root.glob('*/*.mcap'))}
+    assert files[True] == files[False]
+    assert 'max_duration_ns' in kwargs or taken > 6000          # the batched path was taken
+    if 'max_bytes' in kwargs or 'max_duration_ns' in kwargs:
+        assert len(files[True]) >= 2

@@ -59,3 +59,16 @@ def test_forward_force_is_the_inverse_run_backwards() -> None:
     np.testing.assert_allclose(got[t >= 1.0], f[t >= 1.0], atol=0.5)
     step = m.forward_force(np.full(5000, m.u0_v + 1.0), h, x, m.f_a0(x))
     np.testing.assert_allclose(step[-1], m.f_a0(x) + m.d(x) / m.c(x), rtol=1e-6)
+
+
+@pytest.mark.parametrize('degree', [0, 1, 2, 3, 5])
+def test_poly_is_numpy_polyval_bit_for_bit(degree: int) -> None:
+    """Horner in floats gives numpy's ``polyval`` bits, inside and at the clamped ends."""
+    rng = np.random.default_rng(degree)
+    for _ in range(200):
+        coef = tuple(float(v) for v in rng.normal(0.0, 1e3, degree + 1))
+        p = Poly(coef, 0.04, 0.035)
+        x = float(rng.uniform(-0.02, 0.1))
+        z = min(max((x - 0.04) / 0.035, -1.0), 1.0)
+        assert p(x) == float(np.polynomial.polynomial.polyval(z, coef))
+    assert Poly((1.0, 2.0), 0.04, 0.0)(0.5) == 1.0            # no range: z = 0

@@ -132,3 +132,11 @@ def test_force_reading_equals_the_constructed_message(t_ns: int, force_n: float)
     assert serialize_message(msg) == serialize_message(ref)
     enc = encoder(WrenchStamped)
     assert enc is not None and enc(msg) == serialize_message(ref)
+
+
+@pytest.mark.parametrize('t_ns', [0, 1, 999_999_999, 1_000_000_000, 21_932_123_456_789,
+                                  2**31 * 10**9 - 1])
+def test_clock_cdr_is_rclpys_bytes(t_ns: int) -> None:
+    """The recorder's Clock bytes without a message: rclpy's serialisation of the same Clock."""
+    from pam_bench.nodes.cdr import clock_cdr
+    assert clock_cdr(t_ns) == serialize_message(Clock(clock=time_of(t_ns)))

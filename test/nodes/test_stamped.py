@@ -92,3 +92,24 @@ def test_defaults_are_fresh_objects() -> None:
     a, b = stamped(JointState, T_NS), stamped(JointState, T_NS)
     a.position.append(1.0)
     assert list(b.position) == []
+
+
+@pytest.mark.parametrize('t_ns', [0, 1, 999_999_999, 1_000_000_000, T_NS, 2**31 * 10**9 - 1])
+def test_stamp_of_msg_reads_slots_as_the_properties_give(t_ns: int) -> None:
+    """``stamp_of_msg`` and ``clock_ns`` read rosidl's slots directly: the same stamp as
+    through the properties, for stamped messages built either way, a Clock and an object
+    without slots."""
+    from types import SimpleNamespace
+
+    from rosgraph_msgs.msg import Clock
+
+    from pam_bench.nodes.messages import clock_ns, stamp_of_msg
+    built = stamped(FluidPressure, t_ns, 'valve_1', fluid_pressure=1.0)
+    made = FluidPressure()
+    made.header.stamp = time_of(t_ns)
+    plain = SimpleNamespace(header=SimpleNamespace(stamp=SimpleNamespace(
+        sec=t_ns // 10**9, nanosec=t_ns % 10**9)))
+    for msg in (built, made, Clock(clock=time_of(t_ns)), plain):
+        assert stamp_of_msg(msg) == t_ns
+    assert clock_ns(Clock(clock=time_of(t_ns))) == t_ns
+    assert clock_ns(SimpleNamespace(clock=plain.header.stamp)) == t_ns
