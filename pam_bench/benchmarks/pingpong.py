@@ -30,12 +30,21 @@ def _start_helpers(main: str, count: int) -> list[subprocess.Popen]:
     return procs
 
 
-def _stop(procs: list[subprocess.Popen]) -> None:
-    """Terminate the helpers and wait for them."""
+def _stop(procs: list[subprocess.Popen], timeout_s: float = 10.0) -> None:
+    """Terminate the helpers and wait for them; kill one that is still there after
+    ``timeout_s`` (a helper that took SIGTERM while it was still starting once outlived its
+    study and kept a core busy through the rest of a `pam-bench bench` run). Never raises:
+    it runs in a ``finally`` and must not hide the study's own error."""
     for p in procs:
-        p.terminate()
+        if p.poll() is None:
+            p.terminate()
+    deadline = time.monotonic() + timeout_s
     for p in procs:
-        p.wait(timeout=10)
+        try:
+            p.wait(timeout=max(deadline - time.monotonic(), 0.0))
+        except subprocess.TimeoutExpired:
+            p.kill()
+            p.wait()
 
 
 def pong_main() -> None:
