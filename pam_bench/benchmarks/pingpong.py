@@ -32,9 +32,10 @@ def _start_helpers(main: str, count: int) -> list[subprocess.Popen]:
 
 def _stop(procs: list[subprocess.Popen], timeout_s: float = 10.0) -> None:
     """Terminate the helpers and wait for them; kill one that is still there after
-    ``timeout_s`` (a helper that took SIGTERM while it was still starting once outlived its
-    study and kept a core busy through the rest of a `pam-bench bench` run). Never raises:
-    it runs in a ``finally`` and must not hide the study's own error."""
+    ``timeout_s``. A fan-out helper once hung in its teardown, inside Fast DDS's
+    ``destroy_participant`` (spinning in ``DomainParticipant::set_listener``, where no signal
+    handler runs), and kept a core busy through the rest of a `pam-bench bench` run. Never
+    raises: it runs in a ``finally`` and must not hide the study's own error."""
     for p in procs:
         if p.poll() is None:
             p.terminate()
