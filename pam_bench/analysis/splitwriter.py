@@ -123,15 +123,20 @@ _CHUNK_BYTES = 2**20
 """rosbags' MCAP storage closes a chunk once its uncompressed bytes pass this."""
 
 DirectWrite = Callable[[Any, int, bytes], None]
+DirectWriteMany = Callable[[list[tuple[str, int, bytes]]], None]
 
 
-def direct_write(writer: Any) -> DirectWrite | None:
-    """A write of one message into an open rosbags ``Writer`` with MCAP storage that appends
-    the same bytes and keeps the same counts as ``Writer.write`` does, in one ``struct`` call
-    instead of its seven small writes and checks (a campaign writes a million messages; this
-    takes about a third of the time). None when the writer is not the MCAP storage this was
-    written against (its attributes are checked), so the caller keeps ``Writer.write``;
-    ``test_splitwriter`` holds the bytes of the two equal."""
+def _put_records(writer: Any) -> Callable[[list[tuple[Any, int, bytes]]], None] | None:
+    """A function that appends (connection, stamp, data) records, in order, to an open rosbags
+    ``Writer`` with MCAP storage: the same bytes and counts as a ``Writer.write`` per message
+    (seven small writes and checks each), with one ``struct`` call per record, one write per
+    run of records between two chunk closes and the bookkeeping once per run. A chunk is closed
+    after the record that takes it past rosbags' threshold, as ``Writer.write`` closes it.
+    The records go into the chunk before any bookkeeping: a signal that interrupts a run (its
+    handler raises between two Python statements) can leave records unindexed, never a torn
+    record in the chunk the interrupted run closes. None when the writer is not the MCAP
+    storage this was written against (its attributes are checked); ``test_splitwriter``
+    holds the bytes equal to ``Writer.write``'s."""
     from rosbags.rosbag2 import CompressionMode
     storage: Any = getattr(writer, 'storage', None)
     needed = ('chunk', 'channel_stats', 'message_start_time', 'message_end_time',
@@ -143,54 +148,7 @@ def direct_write(writer: Any) -> DirectWrite | None:
         return None
     counts, stats, pack = writer.counts, storage.channel_stats, _MESSAGE.pack
 
-    def write(connection: Any, timestamp: int, data: bytes) -> None:
-        # the record goes into the chunk with one write, before any bookkeeping: a signal
-        # that interrupts a run (its handler raises between two Python statements) can leave
-        # a message unindexed, never a torn record in the chunk the interrupted run closes
-        cid = connection.id
-        chunk = storage.chunk
-        bio = chunk.bio
-        offset = bio.tell()
-        bio.write(pack(5, 22 + len(data), cid, 0, timestamp, timestamp) + data)
-        chunk.msgs[cid].append((timestamp, offset))
-        stats[cid] += 1
-        counts[cid] += 1
-        if timestamp < storage.message_start_time:
-            storage.message_start_time = timestamp
-        if timestamp > storage.message_end_time:
-            storage.message_end_time = timestamp
-        if timestamp < writer.min_timestamp:
-            writer.min_timestamp = timestamp
-        if timestamp > writer.max_timestamp:
-            writer.max_timestamp = timestamp
-        if timestamp < chunk.message_start_time:
-            chunk.message_start_time = timestamp
-        if timestamp > chunk.message_end_time:
-            chunk.message_end_time = timestamp
-        if bio.tell() > _CHUNK_BYTES:
-            storage.close_chunk()
-
-    return write
-
-
-DirectWriteMany = Callable[[list[tuple[str, int, bytes]]], None]
-
-
-def direct_write_many(writer: Any, connections: dict[str, Any]) -> DirectWriteMany | None:
-    """As ``direct_write``, for a list of (topic, stamp, data) written in that order, with
-    ``connections`` (topic -> the writer's connection): the records between two chunk closes
-    go in with one write and the bookkeeping is done once for them (the composed recorder
-    writes an exchange's messages of every topic at once). The same bytes and counts as a
-    ``Writer.write`` per message: a chunk is closed after the record that takes it past
-    rosbags' threshold, as ``Writer.write`` closes it (``test_splitwriter``). An interrupt
-    can leave the records of one write unindexed, never a torn record. None where
-    ``direct_write`` is None."""
-    if direct_write(writer) is None:
-        return None
-    storage: Any = writer.storage
-    counts, stats, pack = writer.counts, storage.channel_stats, _MESSAGE.pack
-
-    def write_many(items: list[tuple[str, int, bytes]]) -> None:
+    def put(items: list[tuple[Any, int, bytes]]) -> None:
         n = len(items)
         i = 0
         while i < n:
@@ -201,9 +159,9 @@ def direct_write_many(writer: Any, connections: dict[str, Any]) -> DirectWriteMa
             index = []
             lo = hi = items[i][1]
             while i < n:
-                topic, ts, data = items[i]
+                connection, ts, data = items[i]
                 i += 1
-                cid = connections[topic].id
+                cid = connection.id
                 record = pack(5, 22 + len(data), cid, 0, ts, ts) + data
                 records.append(record)
                 index.append((cid, ts, offset))
@@ -234,6 +192,35 @@ def direct_write_many(writer: Any, connections: dict[str, Any]) -> DirectWriteMa
                 chunk.message_end_time = hi
             if offset > _CHUNK_BYTES:
                 storage.close_chunk()
+
+    return put
+
+
+def direct_write(writer: Any) -> DirectWrite | None:
+    """A write of one message, ``write(connection, stamp, data)``, into an open rosbags
+    ``Writer`` with MCAP storage, byte-equal to ``Writer.write`` (``_put_records``; a
+    campaign writes a million messages and this takes about a third of the time). None when
+    the writer is not that storage, so the caller keeps ``Writer.write``."""
+    put = _put_records(writer)
+    if put is None:
+        return None
+
+    def write(connection: Any, timestamp: int, data: bytes) -> None:
+        put([(connection, timestamp, data)])
+
+    return write
+
+
+def direct_write_many(writer: Any, connections: dict[str, Any]) -> DirectWriteMany | None:
+    """As ``direct_write``, for a list of (topic, stamp, data) written in that order, with
+    ``connections`` (topic -> the writer's connection): the composed recorder writes an
+    exchange's messages of every topic at once (``_put_records``)."""
+    put = _put_records(writer)
+    if put is None:
+        return None
+
+    def write_many(items: list[tuple[str, int, bytes]]) -> None:
+        put([(connections[topic], ts, data) for topic, ts, data in items])
 
     return write_many
 
@@ -327,22 +314,12 @@ class SplitWriter:
         assert put is not None, 'write before open'
         put(self._current[topic], timestamp, data)
 
-    def reserve(self, topic: str, n: int) -> tuple[Any, DirectWrite] | None:
-        """For ``n`` messages of ``topic`` written next, in stamp order, when ``write`` would
-        do nothing between them but put them (no part to start, no disk or size check due):
-        its bookkeeping for all ``n`` at once, and (connection, put) with which the caller
-        puts each, ``put(connection, stamp, data)``; else None and the caller uses ``write``
-        (the recorder puts a whole exchange's messages of a topic this way)."""
-        if (self.max_duration_ns or self._start_ns is None or self._put is None
-                or self._since_check + n >= self.CHECK_EVERY):
-            return None
-        self._since_check += n
-        return self._current[topic], self._put
-
     def reserve_many(self, n: int) -> DirectWriteMany | None:
-        """As ``reserve``, for ``n`` messages of any topics written next: a function that
-        puts a list of (topic, stamp, data) in order (``direct_write_many``), or None and the
-        caller uses ``write``."""
+        """For ``n`` messages written next, in order, when ``write`` would do nothing between
+        them but put them (no part to start, no disk or size check due): its bookkeeping for
+        all ``n`` at once, and a function that puts a list of (topic, stamp, data)
+        (``direct_write_many``); else None and the caller uses ``write`` (the recorder puts a
+        whole exchange's messages this way)."""
         if (self.max_duration_ns or self._start_ns is None or self._put_many is None
                 or self._since_check + n >= self.CHECK_EVERY):
             return None

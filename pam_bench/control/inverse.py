@@ -46,8 +46,6 @@ class Poly:
         z = (x_m - self.x_mid_m) / self.x_half_m if self.x_half_m else 0.0
         z = min(max(z, -1.0), 1.0)
         c = self.coefficients
-        if not c:
-            return float(np.polynomial.polynomial.polyval(z, c))
         acc = c[-1] + z * 0.0
         for i in range(len(c) - 2, -1, -1):
             acc = c[i] + acc * z

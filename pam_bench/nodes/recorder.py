@@ -266,44 +266,13 @@ class Recorder(BenchNode):
         else:
             self._write(topic, stamp_of_msg(data), self._cdr(topic, data))
 
-    def _write_stamped(self, topic: str, pairs: list[tuple[int, Any]]) -> None:
-        """Write a step topic's (stamp ns, CDR bytes or message object) pairs of one exchange,
-        in order (``_write`` for each, without its per-message look-ups: a 1 kHz record
-        brings a thousand per exchange)."""
-        writer = self.writer
-        if writer is None or self.end_ns is not None:
-            return
-        first = pairs[0][1]
-        if isinstance(first, (bytes, bytearray, memoryview)):
-            encode: Any = bytes
-        else:
-            enc = cdr.encoder(first.__class__)
-            encode = enc if enc is not None else functools.partial(self._cdr, topic)
-        fast = writer.reserve(topic, len(pairs))
-        if fast is not None:
-            conn, put = fast
-            for t_ns, data in pairs:
-                put(conn, t_ns, encode(data))
-            self.count += len(pairs)
-            return
-        write = writer.write
-        n = 0
-        try:
-            for t_ns, data in pairs:
-                write(topic, t_ns, encode(data))
-                n += 1
-        except DiskFull as exc:
-            self.count += n
-            self._disk_full(exc)
-            return
-        self.count += n
-
     def _write_exchange(self, writer: SplitWriter, clock_ns: int | None,
                         inputs: dict[str, Any]) -> None:
-        """In process: /clock at ``clock_ns`` (None: not recorded) and every step topic's
-        messages of one exchange (message objects), in the order ``on_step`` writes them
-        otherwise, through one ``SplitWriter.reserve_many`` where it allows (the same bytes;
-        about a dozen messages per servo exchange), else through ``_write_stamped``."""
+        """/clock at ``clock_ns`` (None: not recorded), then every step topic's (stamp,
+        message) pairs of one exchange in topic order, each topic's in stamp order: CDR bytes
+        from DDS or message objects from the intra-process bus. Through one
+        ``SplitWriter.reserve_many`` where it allows (the same bytes; a dozen messages per
+        servo exchange, a thousand in a 1 kHz record), else one ``write`` per message."""
         items: list[tuple[str, int, bytes]] = []
         if clock_ns is not None:
             items.append(('/clock', clock_ns, cdr.clock_cdr(clock_ns)))
@@ -364,17 +333,9 @@ class Recorder(BenchNode):
         if self.end_ns is not None:
             return
         prev = t_ns - round(dt_s * 1e9)
-        clock = '/clock' in self.connections
-        writer = self.writer
-        if writer is not None and self._bus is not None:
-            self._write_exchange(writer, prev if clock else None, inputs)
-        else:
-            if clock:
-                self._write('/clock', prev, cdr.clock_cdr(prev))
-            for topic in self.step_order:
-                pairs = inputs.get(topic)
-                if pairs:
-                    self._write_stamped(topic, pairs)
+        if self.writer is not None:
+            self._write_exchange(self.writer, prev if '/clock' in self.connections else None,
+                                 inputs)
         if dt_s < 1e-6:
             self.end_ns = prev            # the clock's flush tick: nothing later is recorded
 

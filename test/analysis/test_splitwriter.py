@@ -257,40 +257,6 @@ def test_direct_write_applies_to_this_rosbags(tmp_path: pathlib.Path) -> None:
         w.close()
 
 
-@pytest.mark.parametrize('kwargs', [{}, {'max_bytes': 200_000}, {'max_duration_ns': 3 * 10**9},
-                                    {'min_free_bytes': 1}])
-def test_reserved_batches_give_the_bytes_of_write(tmp_path: pathlib.Path, kwargs: dict) -> None:
-    """Batches put through ``reserve`` (where it allows them: no part and no check due within
-    the batch, else ``write``) leave the files one ``write`` per message leaves."""
-    store = bench_typestore()
-    msgs = [(10**9 + i * 10**6, _force(store, 10**9 + i * 10**6, float(i % 97)))
-            for i in range(12_000)]
-    files, reserved = {}, 0
-    for batched in (True, False):
-        w = SplitWriter(tmp_path / str(batched) / 'bag', compress=True, **kwargs)
-        w.open()
-        w.add_connection(FORCE, 'geometry_msgs/msg/WrenchStamped', typestore=store)
-        for i in range(0, len(msgs), 7):
-            batch = msgs[i:i + 7]
-            fast = w.reserve(FORCE, len(batch)) if batched else None
-            if fast is None:
-                for t, raw in batch:
-                    w.write(FORCE, t, raw)
-            else:
-                reserved += 1
-                conn, put = fast
-                for t, raw in batch:
-                    put(conn, t, raw)
-        w.close()
-        root = tmp_path / str(batched)
-        files[batched] = {p.relative_to(root).as_posix(): p.read_bytes()
-                          for p in sorted(root.glob('*/*.mcap'))}
-    assert files[True] == files[False]
-    assert 'max_duration_ns' in kwargs or reserved > 1000      # the fast path was taken
-    if kwargs:
-        assert len(files[True]) >= 2 or 'min_free_bytes' in kwargs
-
-
 @pytest.mark.parametrize('kwargs', [{}, {'compress': False}, {'max_bytes': 200_000},
                                     {'max_duration_ns': 3 * 10**9}, {'min_free_bytes': 1}])
 def test_reserve_many_gives_the_bytes_of_write(tmp_path: pathlib.Path, kwargs: dict) -> None:
