@@ -34,13 +34,13 @@ calibration: setup
 # the torque servo's inverse model: identify it from a recorded run (about 5 min)
 inverse-model: setup
 	$(VENV)/bin/pam-bench run identification --out bags/identification --overwrite
-	$(VENV)/bin/pam-bench extract bags/identification --out reports/identification
+	$(VENV)/bin/pam-bench extract bags/identification --out reports/identification --overwrite
 	{ sed -n '1,5p' config/inverse_model.yaml; cat reports/identification/inverse_model.yaml; } \
 		> config/inverse_model.yaml.new && mv config/inverse_model.yaml.new config/inverse_model.yaml
 
 # every servo scene x controller through the ROS nodes, composed in one process -> reports/servo
 servo-compare: setup
-	$(VENV)/bin/pam-bench servo-compare --engine ros --out reports/servo
+	$(VENV)/bin/pam-bench servo-compare --engine ros --out reports/servo --overwrite
 
 clean:
 	rm -rf bags/*/ .pytest_cache .ruff_cache

@@ -20,6 +20,10 @@ from typing import Any
 
 import numpy as np
 
+from pam_bench.analysis.errors import ExtractError
+from pam_bench.analysis.extract import VERB
+from pam_bench.vocabulary.outputs import staged_output
+
 __all__ = ['extract_one', 'extract_each', 'comparison_rows', 'drift_rows']
 
 
@@ -158,18 +162,27 @@ def _plot(rows: list[dict[str, Any]], out: pathlib.Path) -> None:
     plt.close(fig)
 
 
-def extract_each(bags: list[str], out_dir: str, cluster: dict[str, Any] | None = None
-                 ) -> list[dict[str, Any]]:
+def extract_each(bags: list[str], out_dir: str, cluster: dict[str, Any] | None = None,
+                 overwrite: bool = False) -> list[dict[str, Any]]:
     """Extract every bag into ``out_dir/<bag name>/`` on the execution layer, then write the
-    comparison into ``out_dir`` (module docstring). Returns the comparison's rows."""
+    comparison into ``out_dir`` (module docstring); the folder takes its place once complete
+    (``vocabulary.outputs``). Returns the comparison's rows.
+
+    Raises:
+        OutputError: ``out_dir`` may not be written (checked before any job runs).
+        ExtractError: two bags of the same folder name (their outputs would collide).
+    """
     from pam_bench.cluster.layer import run_jobs
-    out = pathlib.Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    names = [pathlib.Path(b).name for b in bags]
-    jobs = [(b, str(out / n)) for b, n in zip(bags, names, strict=True)]
-    results = run_jobs(extract_one, jobs, label='extract', **(cluster or {}))
-    summaries = [r.value if r.ok else None for r in results]
-    errors = [r.error for r in results]
-    rows = comparison_rows(bags, summaries, errors)
-    _write(rows, drift_rows(rows), out)
+    names = [pathlib.Path(b).resolve().name for b in bags]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise ExtractError(f'two bags are named {twice[0]!r}: their outputs would share '
+                           f'{out_dir}/{twice[0]}; extract them apart')
+    with staged_output(out_dir, VERB, overwrite, bags) as out:
+        jobs = [(b, str(out / n)) for b, n in zip(bags, names, strict=True)]
+        results = run_jobs(extract_one, jobs, label='extract', **(cluster or {}))
+        summaries = [r.value if r.ok else None for r in results]
+        errors = [r.error for r in results]
+        rows = comparison_rows(bags, summaries, errors)
+        _write(rows, drift_rows(rows), out)
     return rows

@@ -9,8 +9,6 @@ from __future__ import annotations
 import csv
 import json
 import pathlib
-import shutil
-import tempfile
 import time
 from typing import Any
 
@@ -28,8 +26,12 @@ from pam_bench.analysis.law_scores import score
 from pam_bench.analysis.report import report_markdown
 from pam_bench.analysis.smoothing import centred_polyfit
 from pam_bench.analysis.static import gain_summary, kind_of
+from pam_bench.vocabulary.outputs import check_output, staged_output
 
-__all__ = ['extract', 'step_summary', 'coefficient_polynomials', 'inverse_model_of']
+__all__ = ['extract', 'step_summary', 'coefficient_polynomials', 'inverse_model_of', 'VERB']
+
+VERB = 'pam-bench extract'
+"""Who writes an extraction folder (its output marker)."""
 
 
 
@@ -211,14 +213,19 @@ def _run_of(bag: str) -> dict[str, Any] | None:
     return None if info['run'] is None else {**info['run'], 'end': info['end']}
 
 
-def extract(bags: list[str], out_dir: str, figures: bool = True) -> dict[str, Any]:
+def extract(bags: list[str], out_dir: str, figures: bool = True, overwrite: bool = False
+            ) -> dict[str, Any]:
     """Read the bags; write DIR/summary.json, DIR/report.md, DIR/inverse_model.yaml (when the
-    bags hold step responses and isometric points), DIR/<protocol>.csv and the figures.
+    bags hold step responses and isometric points), DIR/<protocol>.csv and the figures. DIR
+    is new, or an extraction's own with ``overwrite``; it takes its place only once complete
+    (``vocabulary.outputs``).
 
     Raises:
+        OutputError: DIR may not be written (checked before the bags are read).
         BagError: unreadable bags or no protocol points.
         ExtractError: points present but too few to extract anything.
     """
+    check_output(out_dir, VERB, overwrite, bags)
     t0 = time.perf_counter()
     data = read_bags(bags)
     summary: dict[str, Any] = gain_summary(data.points)
@@ -246,10 +253,7 @@ def extract(bags: list[str], out_dir: str, figures: bool = True) -> dict[str, An
                            'model_comparison': t3 - t2, 'records': len(data.records)}
     summary['bags'] = [str(b) for b in bags]
     summary['runs'] = runs
-    out = pathlib.Path(out_dir)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = pathlib.Path(tempfile.mkdtemp(prefix=f'.{out.name}.', dir=out.parent))
-    try:
+    with staged_output(out_dir, VERB, overwrite, bags) as tmp:
         _write_csv(tmp, data)
         if inverse is not None:
             summary['inverse_model'] = 'inverse_model.yaml'
@@ -261,10 +265,4 @@ def extract(bags: list[str], out_dir: str, figures: bool = True) -> dict[str, An
         (tmp / 'summary.json').write_text(json.dumps(summary, indent=2) + '\n',
                                           encoding='utf-8')
         (tmp / 'report.md').write_text(report_markdown(summary), encoding='utf-8')
-        if out.exists():
-            shutil.rmtree(out)
-        tmp.rename(out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return summary

@@ -30,7 +30,10 @@ from typing import Any
 
 import yaml
 
-__all__ = ['SplitWriter', 'DiskFull', 'part_name', 'write_metadata', 'read_closed',
+from pam_bench.analysis.errors import DiskFull
+from pam_bench.vocabulary.outputs import claim_output, seal_output
+
+__all__ = ['SplitWriter', 'DiskFull', 'check_room', 'part_name', 'write_metadata', 'read_closed',
            'PART_PREFIX', 'CLOSED']
 
 PART_PREFIX = '.part_'
@@ -42,14 +45,42 @@ _Loader = getattr(yaml, 'CSafeLoader', yaml.SafeLoader)
 _Dumper = getattr(yaml, 'CSafeDumper', yaml.SafeDumper)
 
 
-class DiskFull(OSError):
-    """The disk holding the bag has less free space than the writer keeps in reserve."""
-
-
 def free_bytes(path: pathlib.Path) -> int:
     """Bytes free for an ordinary user on the file system of ``path``."""
     st = os.statvfs(path)
     return int(st.f_bavail * st.f_frsize)
+
+
+def check_room(path: pathlib.Path, min_free_bytes: int) -> None:
+    """Check, before anything starts, that a bag can be written at ``path``: its nearest
+    existing folder is writable, on a file system that stores files (not /proc or /sys) with
+    at least ``min_free_bytes`` free.
+
+    Raises:
+        DiskFull: a pseudo-file system, or too little room.
+        PermissionError: the folder is not writable.
+    """
+    here = pathlib.Path(path).expanduser().absolute()
+    while not here.exists() and here != here.parent:
+        here = here.parent
+    if not here.is_dir():
+        raise NotADirectoryError(errno.ENOTDIR, f'{here} is not a folder: a bag cannot be made '
+                                 f'below it')
+    try:
+        st = os.statvfs(here)
+    except OSError as exc:
+        raise DiskFull(errno.ENOSPC, f'{path}: cannot read its file system: '
+                       f'{exc.strerror}') from None
+    if st.f_blocks == 0:
+        raise DiskFull(errno.ENOSPC, f'{path}: {here} is on a file system that stores no files '
+                       '(a pseudo-file system such as /proc or /sys)')
+    if not os.access(here, os.W_OK | os.X_OK):
+        raise PermissionError(errno.EACCES, f'{here} is not writable: a bag cannot be made in '
+                              'it')
+    free = int(st.f_bavail * st.f_frsize)
+    if min_free_bytes and free < min_free_bytes:
+        raise DiskFull(errno.ENOSPC, f'{free / 1e6:.0f} MB left on the disk of {path} (the '
+                       f'recorder keeps {min_free_bytes / 1e6:.0f} MB free)')
 
 
 def _dump(path: pathlib.Path, data: Any) -> None:
@@ -236,6 +267,8 @@ class SplitWriter:
         min_free_bytes: raise ``DiskFull`` rather than write when the disk has less free.
     """
 
+    VERB = 'pam-bench record'
+    """Who made the bag (its output marker, ``vocabulary.outputs``)."""
     CHECK_EVERY = 256
     """Writes between two checks of the file's size."""
     DIRECT = True
@@ -269,12 +302,10 @@ class SplitWriter:
         Raises:
             DiskFull: the disk has less than ``min_free_bytes`` free already.
         """
+        check_room(self.path, self.min_free_bytes)
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        free = free_bytes(self.path.parent)
-        if self.min_free_bytes and free < self.min_free_bytes:
-            raise DiskFull(errno.ENOSPC, f'{free / 1e6:.0f} MB left on the disk of {self.path} '
-                           f'(the recorder keeps {self.min_free_bytes / 1e6:.0f} MB free)')
-        self.path.mkdir(parents=True)
+        self.path.mkdir()
+        claim_output(self.path, self.VERB, bag=True)
         self._open_part()
         _dump(self.path / CLOSED, {'parts': self.parts, 'custom': self.custom})
 
@@ -341,6 +372,7 @@ class SplitWriter:
         self._close_part(single=self._index == 0)
         write_metadata(self.path, self.parts, self.custom)
         (self.path / CLOSED).unlink(missing_ok=True)
+        seal_output(self.path)
 
     # --- parts ---------------------------------------------------------------------------
     @property

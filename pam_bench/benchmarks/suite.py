@@ -20,7 +20,7 @@ from typing import Any
 from pam_bench.benchmarks.errors import UsageError
 from pam_bench.benchmarks.report import render
 from pam_bench.benchmarks.studies import STUDIES
-from pam_bench.models.params import hint
+from pam_bench.vocabulary.params import hint
 
 __all__ = ['run_benchmarks', 'render_report']
 

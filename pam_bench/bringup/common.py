@@ -99,8 +99,8 @@ def node_error(log: str) -> str:
 
 def write_params_file(settings: dict[str, Any], path: str) -> None:
     """The settings as a ROS 2 params file (values as ROS holds them: ``nodes.params``)."""
-    from pam_bench.models.params import flat_infos, get_path
     from pam_bench.nodes.params import ros_value
+    from pam_bench.vocabulary.params import flat_infos, get_path
     out: dict[str, Any] = {}
     for name, st in settings.items():
         params: dict[str, Any] = {}

@@ -36,11 +36,11 @@ def run_composed(scene: Scene, settings: dict[str, Any], domain_id: int | None,
     from rclpy.exceptions import ParameterException
     from rclpy.executors import SingleThreadedExecutor
 
-    from pam_bench.models.errors import ParameterError
     from pam_bench.nodes import intra
     from pam_bench.nodes.params import overrides_of
     from pam_bench.nodes.process import fail_line, reject_undeclared
     from pam_bench.nodes.profiling import profiled
+    from pam_bench.vocabulary.errors import ParameterError
 
     env = ros_env(domain_id)
     os.environ['ROS_DOMAIN_ID'] = env['ROS_DOMAIN_ID']

@@ -61,7 +61,6 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
     from rclpy.exceptions import ParameterException
 
     from pam_bench.config.scene import settings_of_params_file
-    from pam_bench.models.errors import ModelError
     from pam_bench.nodes import intra
     from pam_bench.nodes.params import overrides_of
     from pam_bench.nodes.process import (
@@ -74,6 +73,7 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
     )
     from pam_bench.nodes.profiling import profiled
     from pam_bench.nodes.stats import ACK_WAIT_S
+    from pam_bench.vocabulary.errors import PamBenchError
 
     install_interrupt_handlers()
     rclpy.init()
@@ -82,7 +82,7 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
     try:
         try:
             settings = settings_of_params_file({n: params.get(n, {}) for n in names})
-        except ModelError as exc:
+        except PamBenchError as exc:
             print(f'emulator: error: {exc}', file=sys.stderr, flush=True)
             return 2
         for name in chain_order(names):
@@ -92,7 +92,7 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
             try:
                 node = cls(name, parameter_overrides=overrides)
                 reject_undeclared(node, overrides)
-            except (ModelError, ParameterException) as exc:
+            except (PamBenchError, ParameterException) as exc:
                 print(fail_line(name, exc), file=sys.stderr, flush=True)
                 return 2
             if node.wall_period_s is None:
@@ -151,7 +151,7 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
 
 def main(argv: list[str] | None = None) -> None:
     """``python -m pam_bench.bringup.emulator PARAMS_FILE NODE [NODE ...]``."""
-    from pam_bench.config.yaml_io import read_yaml
+    from pam_bench.vocabulary.yaml_io import read_yaml
     args = list(sys.argv[1:] if argv is None else argv)
     priority = DEVICE_PRIORITY
     if args[:1] == ['--priority'] and len(args) > 1:

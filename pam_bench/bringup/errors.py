@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from pam_bench.vocabulary.errors import PamBenchError
+
 __all__ = ['LayoutError']
 
 
-class LayoutError(ValueError):
+class LayoutError(PamBenchError, ValueError):
     """The scene and the flags ask for a layout that cannot run (the message says why)."""

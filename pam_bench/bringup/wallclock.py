@@ -40,6 +40,7 @@ from pam_bench.bringup.common import (
 from pam_bench.bringup.errors import LayoutError
 from pam_bench.config.nodes import controllers, devices
 from pam_bench.config.scene import Scene
+from pam_bench.vocabulary.outputs import note_output_file
 
 __all__ = ['run_wallclock', 'STATS_FILE']
 
@@ -163,6 +164,7 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
         bag = pathlib.Path(settings['recorder'].out_dir) if 'recorder' in settings else None
         if stats and bag is not None and bag.is_dir():
             (bag / STATS_FILE).write_text(json.dumps(stats, indent=1), encoding='utf-8')
+            note_output_file(bag, STATS_FILE)
     wall = time.monotonic() - t0
     result = RunResult(code, 0, wall, wall, 1.0, f'wall clock, {wall:.1f} s', stats)
     if dead:

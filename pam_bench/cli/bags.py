@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import pathlib
 from typing import Any
 
 __all__ = ['register']
@@ -89,13 +90,18 @@ def _cmd_diff(args: argparse.Namespace) -> int:
 
 
 def _cmd_bag_repair(args: argparse.Namespace) -> int:
-    from pam_bench.analysis.bag_repair import repair_bag
+    from pam_bench.analysis.bag_repair import OLD_METADATA, repair_bag
     rep = repair_bag(args.bag)
     if not rep.needed:
-        print(f'{args.bag} is a valid bag: nothing to repair')
+        print(f'{args.bag} is a valid bag: every chunk decompresses and passes its CRC; '
+              'nothing to repair')
         return 0
-    print(f'{args.bag} rebuilt from its complete records ({rep.lost_bytes} bytes of a torn '
-          f'chunk unreadable); the torn file is kept in {rep.broken_copy}')
+    what = 'damaged' if rep.bad_chunks else 'torn'
+    print(f'{args.bag} was {what}: rebuilt {", ".join(rep.rebuilt)} from its readable records '
+          f'({rep.bad_chunks} damaged chunk(s) dropped, {rep.lost_bytes} bytes unreadable); '
+          f'the originals are kept in {rep.broken_copy}'
+          + (f', the old metadata in {args.bag}/{OLD_METADATA}'
+             if (pathlib.Path(args.bag) / OLD_METADATA).exists() else ''))
     for topic, n in sorted(rep.kept.items()):
         print(f'  {topic:34s} {n:8d} messages kept')
     return 0

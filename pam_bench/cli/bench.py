@@ -8,6 +8,7 @@ import pathlib
 from typing import Any
 
 from pam_bench.cli.cluster_args import add_cluster_args, cluster_of
+from pam_bench.cli.numbers import integer, number
 
 __all__ = ['register']
 
@@ -15,16 +16,20 @@ __all__ = ['register']
 def register(sub: Any) -> None:
     """Add this group's verbs to the ``pam-bench`` sub-parsers."""
     p = sub.add_parser('pingpong', help='rclpy round-trip rate between two processes')
-    p.add_argument('--count', type=int, default=2000)
+    p.add_argument('--count', type=integer(1, 10_000_000), default=2000)
     p.add_argument('--json', action='store_true')
     p.set_defaults(func=_cmd_pingpong)
     p = sub.add_parser('servo-compare', help='every servo scene x controller -> metrics.json')
     p.add_argument('--engine', choices=['numpy', 'ros'], default='ros',
                    help='ros: the nodes, composed (--processes: one process each); numpy: the '
                    'same models without ROS (seconds)')
-    p.add_argument('--out', default='reports/servo', help='output folder')
+    p.add_argument('--out', default='reports/servo', help='output folder (new; it takes its '
+                   'place once complete)')
+    p.add_argument('--overwrite', action='store_true', help='replace --out, an earlier '
+                   'servo-compare (only the files it wrote)')
     p.add_argument('--scene', action='append', help='servo scene (repeatable; default all)')
-    p.add_argument('--duration', type=float, help='sim time per run, s (default: the scene)')
+    p.add_argument('--duration', type=number(0, 86_400, 's', True),
+                   help='sim time per run, s (default: the scene)')
     p.add_argument('--processes', action='store_true',
                    help='with --engine ros: every node in its own process (same bags, slower)')
     p.add_argument('--one-process', action='store_true', help=argparse.SUPPRESS)  # the default
@@ -54,9 +59,12 @@ def _cmd_pingpong(args: argparse.Namespace) -> int:
 
 def _cmd_servo_compare(args: argparse.Namespace) -> int:
     from pam_bench.benchmarks.servo_compare import compare_servo
+    from pam_bench.vocabulary.outputs import staged_output
     out = pathlib.Path(args.out)
-    rows = compare_servo(out, args.engine, args.scene or None, args.duration,
-                         not args.processes, cluster_of(args))
+    cluster = cluster_of(args)
+    with staged_output(out, 'pam-bench servo-compare', args.overwrite) as tmp:
+        rows = compare_servo(tmp, args.engine, args.scene or None, args.duration,
+                             not args.processes, cluster)
     print(f"{'scene':26s} {'controller':20s} {'RMS':>8s} {'max':>8s} {'at reversal':>12s}")
     for r in rows:
         print(f"{r['scene']:26s} {r['controller']:20s} {r['rms_error']:8.3f} "

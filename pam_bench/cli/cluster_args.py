@@ -6,6 +6,7 @@ import argparse
 from typing import Any
 
 from pam_bench.cli.errors import UsageError
+from pam_bench.cli.numbers import integer
 
 __all__ = ['add_cluster_args', 'cluster_of']
 
@@ -15,7 +16,8 @@ def add_cluster_args(p: Any) -> None:
     p.add_argument('--scheduler', metavar='ADDRESS', help='run the jobs on this Dask '
                    'scheduler (tcp://HOST:8786 or tls://...; default: $PAM_BENCH_SCHEDULER, '
                    'else a local cluster on 127.0.0.1)')
-    p.add_argument('--workers', type=int, help='local cluster: worker processes (default: '
+    p.add_argument('--workers', type=integer(1, 1024),
+                   help='local cluster: worker processes (default: '
                    'one per core)')
     p.add_argument('--tls-cert', metavar='FILE', help="tls:// scheduler: this client's "
                    'certificate')

@@ -11,6 +11,18 @@ from typing import Any
 
 from pam_bench.cli.cluster_args import add_cluster_args, cluster_of
 from pam_bench.cli.errors import UsageError
+from pam_bench.cli.numbers import integer, number
+from pam_bench.vocabulary.outputs import (
+    check_output,
+    claim_output,
+    clear_output,
+    own_files,
+    seal_output,
+    staged_output,
+)
+
+SWEEP_VERB = 'pam-bench sweep'
+"""Who writes a sweep's folder (its output marker)."""
 
 __all__ = ['register']
 
@@ -19,23 +31,33 @@ def register(sub: Any) -> None:
     """Add this group's verbs to the ``pam-bench`` sub-parsers."""
     p = sub.add_parser('size', help="000's design procedure for a straight-fibre muscle")
     p.add_argument('kind', choices=['straight-fibre'])
-    p.add_argument('--diameter-mm', type=float, help='Phi0, mm (forward)')
-    p.add_argument('--length-mm', type=float, help='free length L_m0, mm (forward)')
+    p.add_argument('--diameter-mm', type=number(0, 1e4, 'mm', True), help='Phi0, mm (forward)')
+    p.add_argument('--length-mm', type=number(0, 1e5, 'mm', True),
+                   help='free length L_m0, mm (forward)')
     p.add_argument('--inverse', action='store_true', help='find diameters and lengths that '
                    'contract --contraction-mm under --force-n at --pressure-mpa')
-    p.add_argument('--contraction-mm', type=float, help='target contraction, mm (inverse)')
+    p.add_argument('--contraction-mm', type=number(0, 1e5, 'mm', True),
+                   help='target contraction, mm (inverse)')
     p.add_argument('--plot', metavar='DIR', help='inverse: write the graph with the design '
-                   'points as DIR/correlation_graph.png')
-    p.add_argument('--segments', type=int, required=True, help='segments N + 1 (N rings)')
-    p.add_argument('--wall-mm', type=float, required=True, help='wall thickness s, 1..4 mm')
-    p.add_argument('--force-n', type=float, required=True, help='load F, N')
-    p.add_argument('--pressure-mpa', type=float, required=True, help='gauge pressure P, MPa')
+                   'points as DIR/correlation_graph.png (a new folder)')
+    p.add_argument('--overwrite', action='store_true', help='replace --plot, a folder pam-bench '
+                   'size wrote')
+    p.add_argument('--segments', type=integer(1, 1000), required=True,
+                   help='segments N + 1 (N rings)')
+    p.add_argument('--wall-mm', type=number(0, 100, 'mm', True), required=True,
+                   help='wall thickness s, 1..4 mm')
+    p.add_argument('--force-n', type=number(0, 1e6, 'N', True), required=True, help='load F, N')
+    p.add_argument('--pressure-mpa', type=number(0, 100, 'MPa', True), required=True,
+                   help='gauge pressure P, MPa')
     p.add_argument('--json', action='store_true')
     p.set_defaults(func=_cmd_size)
     p = sub.add_parser('sweep', help='run a scene over a grid, a list or random draws of its '
                        'settings and seeds on the cluster -> results.csv and plots')
     p.add_argument('sweep', help='sweep file (config/sweeps/NAME.yaml or a path)')
-    p.add_argument('--out', required=True, help='output folder (a rerun skips finished jobs)')
+    p.add_argument('--out', required=True, help='output folder: new, or a sweep of its own, '
+                   'which a rerun continues (skipping the jobs that ran)')
+    p.add_argument('--overwrite', action='store_true', help='start --out, a sweep of its own, '
+                   'afresh (only the files it wrote are removed)')
     p.add_argument('--no-plots', action='store_true', help='results.csv only')
     add_cluster_args(p)
     p.set_defaults(func=_cmd_sweep)
@@ -72,13 +94,15 @@ def _size_inverse(args: argparse.Namespace) -> int:
     from pam_bench.models.laws.straight_fibre import designs_for
     if args.contraction_mm is None:
         raise UsageError('--inverse needs --contraction-mm')
+    if args.plot:
+        check_output(args.plot, 'pam-bench size', args.overwrite)
     found = designs_for(args.force_n, args.contraction_mm * 1e-3, args.pressure_mpa * 1e6,
                         args.segments, args.wall_mm * 1e-3)
     if args.plot:
         from pam_bench.analysis.plots import plot_correlation
-        out = pathlib.Path(args.plot)
-        out.mkdir(parents=True, exist_ok=True)
-        print(f'graph with the design points: {out / plot_correlation(found, out)}',
+        with staged_output(args.plot, 'pam-bench size', args.overwrite) as tmp:
+            name = plot_correlation(found, tmp)
+        print(f'graph with the design points: {pathlib.Path(args.plot) / name}',
               file=sys.stderr)
     if args.json:
         print(json.dumps([dataclasses.asdict(d) for d in found], indent=2))
@@ -99,12 +123,20 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     if not path.suffix:
         path = config_dir() / 'sweeps' / f'{args.sweep}.yaml'
     sweep = load_sweep(path)
+    cluster = cluster_of(args)
     out = pathlib.Path(args.out)
-    rows = run_sweep(sweep, out, cluster_of(args))
+    mine = own_files(out) if out.is_dir() else None
+    again = mine is not None and mine[0] == SWEEP_VERB and not args.overwrite
+    check_output(out, SWEEP_VERB, args.overwrite or again, [path])
+    if not again:
+        clear_output(out)
+    claim_output(out, SWEEP_VERB)
+    rows = run_sweep(sweep, out, cluster)
     failed = [r for r in rows if r['status'] != 'ok']
     for r in failed:
         print(f"job {r['job']} ({r['scene']}, seed {r['seed']}): {r['status']}")
     names = [] if args.no_plots else plot_results(sweep, rows, out)
+    seal_output(out)
     print(f'{len(rows) - len(failed)} of {len(rows)} jobs ok; wrote {out / RESULTS}'
           + (f' and {len(names)} plots' if names else ''))
     return 1 if failed else 0

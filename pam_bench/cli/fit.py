@@ -3,21 +3,34 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import pathlib
 from typing import Any
 
 from pam_bench.cli.cluster_args import add_cluster_args, cluster_of
 from pam_bench.cli.errors import UsageError
+from pam_bench.cli.numbers import integer, number
+from pam_bench.vocabulary.outputs import (
+    check_output_file,
+    staged_output,
+    write_output_file,
+)
 
 __all__ = ['register']
+
+VERB = 'pam-bench calibrate'
+"""Who writes an overlay (its first line, ``vocabulary.outputs``)."""
 
 
 def register(sub: Any) -> None:
     """Add this group's verbs to the ``pam-bench`` sub-parsers."""
     p = sub.add_parser('extract', help='bags -> characteristics, gains, identified model')
     p.add_argument('bags', nargs='+', help='rosbag2 directories')
-    p.add_argument('--out', required=True, help='output folder (replaced when complete)')
+    p.add_argument('--out', required=True, help='output folder: new, or an extraction of its '
+                   'own with --overwrite (it takes its place once complete)')
+    p.add_argument('--overwrite', action='store_true', help='replace --out, an earlier '
+                   'extraction (only the files it wrote)')
     p.add_argument('--each', action='store_true', help='each bag on its own into '
                    'OUT/<bag name>/ (one job per bag on the cluster), then one comparison '
                    'across them in OUT (comparison.csv, .md, drift.png)')
@@ -32,7 +45,7 @@ def register(sub: Any) -> None:
     p.set_defaults(func=_cmd_truth)
     p = sub.add_parser('calibration', help='figures the simulated bench implies')
     p.add_argument('--json', action='store_true')
-    p.add_argument('--step', type=float, default=0.01, help='exchange step, s')
+    p.add_argument('--step', type=number(1e-5, 1.0, 's'), default=0.01, help='exchange step, s')
     p.set_defaults(func=_cmd_calibration)
     p = sub.add_parser('calibrate', help="fit the bench's muscle (and valve) to recorded bags, "
                        "or to 004's figures (--target 004)")
@@ -41,7 +54,9 @@ def register(sub: Any) -> None:
     p.add_argument('--target', default='004', help="without bags: what to fit to (004: the "
                    "paper's figures)")
     p.add_argument('--out', help='write the fitted parameters as an overlay (run --params)')
-    p.add_argument('--max-evaluations', type=int, default=60,
+    p.add_argument('--overwrite', action='store_true', help='replace --out, an overlay (or '
+                   'with --each a folder) that pam-bench calibrate wrote')
+    p.add_argument('--max-evaluations', type=integer(1, 100_000), default=60,
                    help='largest number of residual evaluations')
     p.add_argument('--replay', choices=('stepped', 'static'), default='stepped',
                    help="bags: replay the readings on the time-stepped bench with 004's drive "
@@ -99,6 +114,8 @@ def _calibrate_bags(args: argparse.Namespace) -> int:
     from pam_bench.verify.calibrate_bags import calibrate_bags, observations_from_bags, overlay_of
     if args.each:
         return _calibrate_each(args)
+    if args.out:
+        check_output_file(args.out, VERB, args.overwrite, args.bags)
     data = read_bags(args.bags)
     obs = observations_from_bags(data)
     print(f'fitting the muscle and valve to {len(obs.readings)} readings and '
@@ -113,9 +130,8 @@ def _calibrate_bags(args: argparse.Namespace) -> int:
         _print_fit(res)
     if args.out:
         overlay = overlay_of(res['valve'], res['muscle'])
-        pathlib.Path(args.out).write_text(
-            f"# pam-bench calibrate {' '.join(args.bags)}: muscle and valve fitted to these "
-            'recordings\n' + yaml.safe_dump(overlay, sort_keys=False), encoding='utf-8')
+        write_output_file(args.out, VERB, f"# {' '.join(args.bags)}: muscle and valve fitted "
+                          'to these recordings\n' + yaml.safe_dump(overlay, sort_keys=False))
         print(f'overlay written to {args.out} (pam-bench run SCENE --params {args.out})')
     return 0
 
@@ -141,13 +157,22 @@ def _print_fit(res: dict[str, Any]) -> None:
 
 def _calibrate_each(args: argparse.Namespace) -> int:
     """One calibration per bag on the cluster; a broken bag is one line, the rest complete."""
+    with contextlib.ExitStack() as stack:
+        out = (stack.enter_context(staged_output(args.out, VERB, args.overwrite, args.bags))
+               if args.out else None)
+        failed = _calibrate_jobs(args, out)
+    print(f'{len(args.bags) - failed} of {len(args.bags)} bags calibrated'
+          + (f'; overlays in {args.out}' if args.out else ''))
+    return 1 if failed else 0
+
+
+def _calibrate_jobs(args: argparse.Namespace, out: pathlib.Path | None) -> int:
+    """Run ``--each``'s jobs, print a line per bag, write its overlay into ``out``; returns
+    how many failed."""
     import yaml
 
     from pam_bench.cluster.layer import run_jobs
     from pam_bench.verify.calibrate_bags import calibrate_bag, overlay_of
-    out = pathlib.Path(args.out) if args.out else None
-    if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
     jobs = [(b, args.max_evaluations, args.replay) for b in args.bags]
     results = run_jobs(calibrate_bag, jobs, label='calibrate', **cluster_of(args))
     failed = 0
@@ -161,13 +186,10 @@ def _calibrate_each(args: argparse.Namespace) -> int:
         print(f'{bag.name}: ' + ', '.join(f'{k} {v:.3f}' for k, v in res['rms_after'].items())
               + f" ({res['evaluations']} evaluations, {r.seconds:.0f} s)")
         if out is not None:
-            path = out / f'{bag.name}.yaml'
-            path.write_text(f'# pam-bench calibrate {bag}: fitted to this bag\n'
-                            + yaml.safe_dump(overlay_of(res['valve'], res['muscle']),
-                                             sort_keys=False), encoding='utf-8')
-    print(f'{len(results) - failed} of {len(results)} bags calibrated'
-          + (f'; overlays in {out}' if out is not None else ''))
-    return 1 if failed else 0
+            write_output_file(out / f'{bag.name}.yaml', VERB, f'# {bag}: fitted to this bag\n'
+                              + yaml.safe_dump(overlay_of(res['valve'], res['muscle']),
+                                               sort_keys=False))
+    return failed
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:
@@ -178,13 +200,14 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         return _calibrate_bags(args)
     if args.target != '004':
         raise UsageError(f'unknown target {args.target!r} (known: 004)')
+    if args.out:
+        check_output_file(args.out, VERB, args.overwrite)
     print("fitting the muscle to 004's figures (about a minute) ...", flush=True)
     res = calibrate_004(max_nfev=args.max_evaluations)
     overlay = {'parameters': {m: {'muscle': res['params']} for m in ('muscle_1', 'muscle_2')}}
     if args.out:
-        pathlib.Path(args.out).write_text(
-            "# pam-bench calibrate --target 004: muscle parameters fitted to 004's figures\n"
-            + yaml.safe_dump(overlay, sort_keys=False), encoding='utf-8')
+        write_output_file(args.out, VERB, "# --target 004: muscle parameters fitted to 004's "
+                          'figures\n' + yaml.safe_dump(overlay, sort_keys=False))
     if args.json:
         print(json.dumps(res, indent=2))
     else:
@@ -203,14 +226,14 @@ def _cmd_extract(args: argparse.Namespace) -> int:
     from pam_bench.analysis.extract import extract
     if args.each:
         from pam_bench.analysis.batch import extract_each
-        rows = extract_each(args.bags, args.out, cluster_of(args))
+        rows = extract_each(args.bags, args.out, cluster_of(args), args.overwrite)
         failed = [r for r in rows if r['error']]
         for r in failed:
             print(f"{r['bag']}: error: {r['error']}")
         print(f'{len(rows) - len(failed)} of {len(rows)} bags extracted; wrote '
               f'{args.out}/comparison.csv, comparison.md and drift.png')
         return 1 if failed else 0
-    summary = extract(args.bags, args.out)
+    summary = extract(args.bags, args.out, overwrite=args.overwrite)
     t = summary['timing_s']
     print(f'wrote {args.out}/summary.json, report.md and CSV files '
           f'(read {t["read_and_static"]:.2f} s, {t["records"]} step fits '

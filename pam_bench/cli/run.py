@@ -5,11 +5,12 @@ from __future__ import annotations
 import argparse
 import json
 import pathlib
-import shutil
 import sys
 from typing import Any
 
 from pam_bench.cli.errors import UsageError
+from pam_bench.cli.numbers import integer, number
+from pam_bench.vocabulary.errors import shorten
 
 __all__ = ['register']
 
@@ -28,7 +29,8 @@ def register(sub: Any) -> None:
     p.add_argument('--set', action='append', default=[], metavar='PATH=VALUE',
                    help='set one setting by its path over the scene, e.g. '
                    'muscle_1.muscle.gain_exponent=1.4 (repeatable; pam-bench params lists them)')
-    p.add_argument('--seed', type=int, default=0, help='seed of the sensor noise')
+    p.add_argument('--seed', type=integer(0, 2**31 - 1), default=0,
+                   help='seed of the sensor noise')
     p.add_argument('--realtime', action='store_true', help='pace sim time to the wall clock')
     p.add_argument('--processes', action='store_true', help='lock-step: every node in its own '
                    'process, as beside drivers (default: the nodes composed in one process on '
@@ -64,13 +66,15 @@ def register(sub: Any) -> None:
     p = sub.add_parser('emulate', help="run only a scene's simulated devices on the wall "
                        'clock, until Ctrl-C (a bench for your own controllers)')
     p.add_argument('scene', nargs='?', default='demo')
-    p.add_argument('--seed', type=int, default=0, help='seed of the sensor noise')
+    p.add_argument('--seed', type=integer(0, 2**31 - 1), default=0,
+                   help='seed of the sensor noise')
     p.set_defaults(func=_cmd_emulate)
     p = sub.add_parser('check-drivers', help='join a running bench and check that its drivers '
                        'meet the contract (docs/drivers.md)')
     p.add_argument('scene', nargs='?', default='demo', help='scene whose controllers will read '
                    'the drivers (default demo: the sequencer)')
-    p.add_argument('--duration', type=float, default=3.0, help='listening time, s')
+    p.add_argument('--duration', type=number(0, 3600, 's', True), default=3.0,
+                   help='listening time, s')
     p.set_defaults(func=_cmd_check_drivers)
     p = sub.add_parser('params', help="every setting of a scene's nodes: path, value, unit, "
                        'range and meaning (what --set, overlays and sweeps address)')
@@ -85,8 +89,8 @@ def _live_setting(name: str, convert: Any) -> Any:
     it against the range ``LiveViewSettings`` declares (its one owner)."""
     def parse(text: str) -> Any:
         from pam_bench.config.settings import LiveViewSettings
-        from pam_bench.models.errors import ParameterError
-        from pam_bench.models.params import with_path
+        from pam_bench.vocabulary.errors import ParameterError
+        from pam_bench.vocabulary.params import with_path
         try:
             value = convert(text)
             with_path(LiveViewSettings(), name, value)
@@ -169,12 +173,20 @@ def apply_bag_options(scene: Any, args: argparse.Namespace) -> None:
 
 
 def parse_value(text: str) -> Any:
-    """A ``--set`` value as YAML reads it (numbers, true/false, lists, strings)."""
-    import yaml
+    """A ``--set`` value as YAML reads it (numbers, true/false, lists, strings); text that is
+    not YAML stays a string.
+
+    Raises:
+        InputError: an alias bomb, a duplicate key or a value longer than the YAML limit.
+    """
+    from pam_bench.vocabulary.errors import InputError
+    from pam_bench.vocabulary.yaml_io import load_yaml
     try:
-        return yaml.safe_load(text)
-    except yaml.YAMLError:
-        return text
+        return load_yaml(text, '--set value')
+    except InputError as exc:
+        if 'not valid YAML' in str(exc):
+            return text
+        raise
 
 
 def load_with_sets(name: str, sets: list[str]) -> Any:
@@ -189,7 +201,7 @@ def load_with_sets(name: str, sets: list[str]) -> Any:
     for item in sets:
         path, eq, value = item.partition('=')
         if not eq:
-            raise UsageError(f'--set {item!r}: write PATH=VALUE, e.g. '
+            raise UsageError(f'--set {shorten(item)}: write PATH=VALUE, e.g. '
                              'muscle_1.muscle.gain_exponent=1.4')
         scene.set(path.strip(), parse_value(value))
     return scene
@@ -223,8 +235,30 @@ def _replayed(args: argparse.Namespace) -> tuple[Any, dict[str, Any] | None]:
                    if params else None)
 
 
+def _resume_start(scene: Any, bag: str) -> tuple[int, int]:
+    """The reading to resume ``scene`` at from ``bag`` (a bag of this scene and protocol).
+
+    Raises:
+        BagError: unreadable, of another scene or protocol, or without readings.
+    """
+    from pam_bench.analysis.baginfo import run_of_bag
+    from pam_bench.analysis.errors import BagError
+    from pam_bench.bringup.resume import resume_reading
+    try:
+        run = run_of_bag(bag)
+        seq = (run.get('parameters') or {}).get('sequencer', {}).get('ros__parameters', {})
+        if run.get('scene') != scene.name or seq.get('protocol') != scene.protocol:
+            raise BagError(f"a bag of scene {run.get('scene')!r} (protocol "
+                           f"{seq.get('protocol')!r}), not of {scene.name!r} ({scene.protocol!r})")
+        return resume_reading(scene, bag)
+    except BagError as exc:
+        raise BagError(f'cannot resume from {bag}: {exc}') from None
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
+    from pam_bench.analysis.splitwriter import check_room
     from pam_bench.bringup.runner import run_scene
+    from pam_bench.vocabulary.outputs import check_output, clear_output
     settings = None
     if args.replay:
         if args.scene or not args.out:
@@ -240,30 +274,26 @@ def _cmd_run(args: argparse.Namespace) -> int:
     for item in args.set:
         path, eq, value = item.partition('=')
         if not eq:
-            raise UsageError(f'--set {item!r}: write PATH=VALUE')
+            raise UsageError(f'--set {shorten(item)}: write PATH=VALUE')
         scene.set(path.strip(), parse_value(value))
     apply_bag_options(scene, args)
-    out = pathlib.Path(args.out or f'bags/{scene.name}')
-    if args.resume and pathlib.Path(args.resume).resolve() == out.resolve():
-        raise UsageError('--resume needs a new --out (the old bag is kept)')
     if args.wallclock and (args.processes or args.realtime or args.resume):
         raise UsageError('--wallclock runs the devices in the emulator on the wall clock: drop '
                          '--processes, --realtime and --resume')
-    if out.exists():
-        if not args.overwrite and args.out:
-            raise UsageError(f'{out} exists (use --overwrite)')
-        shutil.rmtree(out)
+    out = pathlib.Path(args.out or f'bags/{scene.name}')
+    inputs = [p for p in (args.resume, args.replay, args.params) if p]
+    check_output(out, 'pam-bench run', args.overwrite, inputs, bag=True)
     if args.resume:
-        from pam_bench.analysis.errors import BagError
-        from pam_bench.bringup.resume import resume_reading
-        try:
-            start, total = resume_reading(scene, args.resume)
-        except BagError as exc:
-            raise BagError(f'cannot resume from {args.resume}: {exc}') from None
+        start, total = _resume_start(scene, args.resume)
         if start >= total:
             print(f'{args.resume} holds every reading of {scene.protocol}: nothing to resume')
             return 0
         scene.set('sequencer.resume_from_reading', start)
+    rec = scene.settings().get('recorder')
+    check_room(out, int(rec.min_free_bytes) if rec is not None else 0)
+    # every check has passed: nothing was written or removed before this line
+    clear_output(out)
+    if args.resume:
         print(f'resuming {scene.protocol} at reading {start} of {total} (the first one '
               f'{args.resume} lacks)')
     print(f'scene {scene.name}: {scene.description}\n  exchange step {scene.exchange_step_s} s, '
@@ -276,12 +306,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
                         live=live_settings(args, args.live) if args.live is not None else None)
         code = res.code
     except KeyboardInterrupt:
-        print(f'interrupted: nodes stopped, bag closed in {out}', file=sys.stderr)
+        print(_interrupted(out), file=sys.stderr)
         return 130
     if code == 130:
         if args.wallclock and res.stats:
             print_wall_stats(res.stats)
-        print(f'interrupted: nodes stopped, bag closed in {out}', file=sys.stderr)
+        print(_interrupted(out), file=sys.stderr)
         return 130
     if res.code != 0:
         print(f'error: scene {scene.name} failed (exit code {res.code})', file=sys.stderr)
@@ -294,6 +324,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
           f'({res.rate:.0f} steps/s, x{res.sim_s / res.wall_s if res.wall_s else 0:.1f} real '
           f'time); bag in {out}')
     return 0
+
+
+def _interrupted(out: pathlib.Path) -> str:
+    """What Ctrl-C says: where the bag was closed, or that none was made yet."""
+    from pam_bench.vocabulary.outputs import is_bag_folder
+    if is_bag_folder(out):
+        return f'interrupted: nodes stopped, bag closed in {out}'
+    return 'interrupted before the bag was made: nodes stopped, nothing written'
 
 
 def print_wall_stats(stats: dict[str, Any]) -> None:
@@ -317,9 +355,10 @@ def _cmd_record(args: argparse.Namespace) -> int:
     from pam_bench.nodes.recorder import record
     if not args.topics and not args.all:
         raise UsageError('name the topics to record or give --all')
-    out = pathlib.Path(args.out)
+    from pam_bench.vocabulary.outputs import check_output
+    out = check_output(args.out, 'pam-bench record', False, bag=True)
     if out.exists():
-        raise UsageError(f'{out} exists')
+        raise UsageError(f'{args.out} exists: pick a new folder for the bag')
     return record(str(out), args.topics, args.all, compress=not args.no_compress,
                   max_bytes=args.max_bag_size, max_duration_s=args.max_bag_duration)
 
@@ -368,7 +407,7 @@ def _cmd_check_drivers(args: argparse.Namespace) -> int:
 
 def _cmd_params(args: argparse.Namespace) -> int:
     from pam_bench.config.scene import load_scene
-    from pam_bench.models.params import flat_infos, get_path
+    from pam_bench.vocabulary.params import flat_infos, get_path
     scene = load_scene(args.scene)
     settings = scene.settings()
     unknown = [n for n in args.node or [] if n not in settings]

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from pam_bench.vocabulary.errors import PamBenchError
+
 __all__ = ['ClusterError']
 
 
-class ClusterError(RuntimeError):
+class ClusterError(PamBenchError, RuntimeError):
     """The scheduler cannot be reached, refuses this client, or lost the work (one line)."""

@@ -3,4 +3,4 @@
 from __future__ import annotations
 
 __all__ = ['drivers', 'errors', 'executables', 'nodes', 'paths', 'protocols', 'scene', 'settings',
-           'topics', 'yaml_io']
+           'topics']

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pam_bench.models.errors import ParameterError
+from pam_bench.vocabulary.errors import ParameterError
 
 __all__ = ['ConfigError']
 

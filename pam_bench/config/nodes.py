@@ -23,8 +23,8 @@ from pam_bench.config.settings import (
     TorqueServoSettings,
     ValveSettings,
 )
-from pam_bench.models.errors import ParameterError
-from pam_bench.models.params import hint
+from pam_bench.vocabulary.errors import ParameterError
+from pam_bench.vocabulary.params import hint
 
 __all__ = ['Role', 'NodeType', 'NODES', 'node', 'devices', 'controllers', 'SCENE_NODES',
            'EXECUTABLES']

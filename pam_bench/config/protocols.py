@@ -13,9 +13,11 @@ from typing import Any
 
 from pam_bench.config.errors import ConfigError
 from pam_bench.config.paths import config_dir
-from pam_bench.config.yaml_io import parse_yaml, read_yaml
-from pam_bench.models.params import hint
-from pam_bench.protocol.schedules import Reading, check_protocol, schedule_from_config
+from pam_bench.protocol.schedules import Reading, schedule_from_config
+from pam_bench.protocol.spec import check_protocol
+from pam_bench.vocabulary.errors import InputError
+from pam_bench.vocabulary.params import hint
+from pam_bench.vocabulary.yaml_io import parse_yaml, read_yaml
 
 __all__ = ['load_protocols', 'protocol_config', 'protocol_schedule', 'parse_overrides']
 
@@ -35,8 +37,15 @@ def load_protocols(path: str | pathlib.Path | None = None) -> dict[str, Any]:
 
 
 def parse_overrides(text: str) -> dict[str, Any]:
-    """A protocol override mapping from YAML text (a node parameter or a goal field)."""
-    return parse_yaml(text, 'protocol overrides')
+    """A protocol override mapping from YAML text (a node parameter or a goal field).
+
+    Raises:
+        ConfigError: not YAML, not a mapping, too long, or a duplicate key (one line).
+    """
+    try:
+        return parse_yaml(text, 'protocol overrides')
+    except InputError as exc:
+        raise ConfigError(str(exc)) from None
 
 
 def protocol_config(name: str, overrides: Mapping[str, Any] | None = None,

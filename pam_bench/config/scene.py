@@ -31,12 +31,12 @@ import yaml
 from pam_bench.config.errors import ConfigError
 from pam_bench.config.nodes import NODES, SCENE_NODES, Role, node
 from pam_bench.config.paths import config_dir, scenes_dir
-from pam_bench.config.protocols import protocol_config
+from pam_bench.config.protocols import protocol_schedule
 from pam_bench.config.topics import EVENT_TOPICS, step_topics
-from pam_bench.config.yaml_io import read_yaml
 from pam_bench.models.constants import SUB_STEP_S
-from pam_bench.models.errors import ParameterError
-from pam_bench.models.params import (
+from pam_bench.sim.faults import Fault, parse_faults
+from pam_bench.vocabulary.errors import ParameterError
+from pam_bench.vocabulary.params import (
     check_known,
     deep_merge,
     from_mapping,
@@ -45,7 +45,7 @@ from pam_bench.models.params import (
     to_mapping,
     with_path,
 )
-from pam_bench.sim.faults import Fault, parse_faults
+from pam_bench.vocabulary.yaml_io import parse_yaml, read_text, read_yaml
 
 __all__ = ['Scene', 'load_scene', 'scene_names', 'SCENE_KEYS', 'apply_overlay', 'bench_overlay',
            'params_file', 'settings_of_params_file']
@@ -233,14 +233,15 @@ def load_scene(name: str) -> Scene:
     if not path.exists():
         raise ConfigError(f'no scene {name!r} ({hint(name, scene_names())})')
     try:
-        return _parse_scene(path, read_yaml(path))
+        text = read_text(path)
+        return _parse_scene(path, parse_yaml(text, str(path)), text)
     except ConfigError:
         raise
     except ParameterError as exc:
         raise ConfigError(str(exc)) from None
 
 
-def _parse_scene(path: pathlib.Path, data: dict[str, Any]) -> Scene:
+def _parse_scene(path: pathlib.Path, data: dict[str, Any], text: str) -> Scene:
     where = f'scene {path.name}'
     for old, why in GONE.items():
         if old in data:
@@ -273,7 +274,7 @@ def _parse_scene(path: pathlib.Path, data: dict[str, Any]) -> Scene:
     overrides = dict(_typed(where, data, 'protocol_overrides', {}))
     if 'sequencer' in nodes:
         try:
-            protocol_config(protocol, overrides)
+            protocol_schedule(protocol, overrides)      # every value, before anything starts
         except ParameterError as exc:
             raise ConfigError(f'{where}: {exc}') from None
     try:
@@ -283,7 +284,7 @@ def _parse_scene(path: pathlib.Path, data: dict[str, Any]) -> Scene:
     scene = Scene(path.stem, _typed(where, data, 'description', ''), float(step), protocol,
                   list(nodes), float(duration), parameters, overrides, float(sub),
                   _typed(where, data, 'record_samples', False),
-                  path.read_text(encoding='utf-8'), faults)
+                  text, faults)
     _check_settings(scene, where)
     return scene
 

@@ -17,11 +17,11 @@ from pam_bench.models.constants import PULLEY_PITCH_DIAMETER_M, SUB_STEP_S
 from pam_bench.models.coupling import SettleParams
 from pam_bench.models.loading_servo import LoadingServoParams
 from pam_bench.models.muscle import MuscleParams
-from pam_bench.models.params import field, section
 from pam_bench.models.sensors import EncoderParams, LoadCellParams
 from pam_bench.models.straight_fibre_muscle import StraightFibreParams
 from pam_bench.models.valve import ValveParams
 from pam_bench.protocol.settings import RunnerSettings
+from pam_bench.vocabulary.params import field, section
 
 __all__ = ['NodeSettings', 'DeviceSettings', 'ControllerSettings', 'ClockSettings',
            'ValveSettings', 'MuscleSettings', 'LoadCellSettings', 'EncoderSettings',
@@ -188,8 +188,9 @@ class RecorderSettings(NodeSettings):
                                'topic:type recorded as they come', item=str)
     record_all: bool = field(False, '-', 'record every topic that appears (wall clock only; '
                              'like ros2 bag -a)')
-    flush_period_s: float = field(1.0, 's', 'wall clock: write the pending chunk to disk this '
-                                  'often', 0.01, 3600.0)
+    flush_period_s: float = field(1.0, 's', 'close the pending chunk and write it to disk at '
+                                  'least this often (wall-clock seconds, lock-step too): what '
+                                  'a SIGKILL can lose', 0.01, 3600.0)
     run_yaml: str = field('', '-', "how the run was made (YAML, from the runner): stored in the "
                           "bag's custom data")
     end_file: str = field('', '-', 'JSON of how the run ended, written by the runner before it '

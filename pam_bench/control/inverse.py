@@ -22,9 +22,10 @@ import pathlib
 from typing import Any
 
 import numpy as np
-import yaml
 
 from pam_bench.models.errors import ModelError
+from pam_bench.vocabulary.errors import InputError
+from pam_bench.vocabulary.yaml_io import load_yaml, read_text
 
 __all__ = ['Poly', 'InverseModel']
 
@@ -134,9 +135,9 @@ class InverseModel:
             ModelError: unreadable file or malformed content.
         """
         try:
-            data = yaml.safe_load(pathlib.Path(path).read_text(encoding='utf-8'))
-        except (OSError, yaml.YAMLError) as exc:
-            raise ModelError(f'inverse model {path}: {exc}') from None
+            data = load_yaml(read_text(pathlib.Path(path)), str(path))
+        except InputError as exc:
+            raise ModelError(f'inverse model {exc}') from None
         if not isinstance(data, dict):
             raise ModelError(f'inverse model {path}: not a mapping')
         return cls.from_dict(data)

@@ -33,7 +33,7 @@ import math
 from pam_bench.control.inverse import InverseModel
 from pam_bench.models.constants import PULLEY_PITCH_DIAMETER_M
 from pam_bench.models.errors import ModelError
-from pam_bench.models.params import field
+from pam_bench.vocabulary.params import field
 
 __all__ = ['ServoMode', 'SignalKind', 'Signal', 'split_torque', 'Pid', 'TorqueServoParams',
            'ChannelOutput', 'TorqueServoController']

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from pam_bench.vocabulary.errors import PamBenchError
+
 __all__ = ['LiveViewError']
 
 
-class LiveViewError(OSError):
+class LiveViewError(PamBenchError, OSError):
     """The live view's port is taken or its address cannot be bound."""

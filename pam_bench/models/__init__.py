@@ -3,5 +3,5 @@
 from __future__ import annotations
 
 __all__ = ['bench_muscle', 'constants', 'coupling', 'errors', 'friction', 'laws',
-           'loading_servo', 'lti', 'muscle', 'params', 'sensors', 'straight_fibre_muscle',
+           'loading_servo', 'lti', 'muscle', 'sensors', 'straight_fibre_muscle',
            'valve']

@@ -10,10 +10,10 @@ from __future__ import annotations
 
 from typing import Protocol
 
-from pam_bench.models.errors import ParameterError
 from pam_bench.models.muscle import MuscleModel, MuscleOutput, MuscleParams, MuscleTrial
-from pam_bench.models.params import hint
 from pam_bench.models.straight_fibre_muscle import StraightFibreMuscle, StraightFibreParams
+from pam_bench.vocabulary.errors import ParameterError
+from pam_bench.vocabulary.params import hint
 
 __all__ = ['KINDS', 'BenchMuscle', 'make_muscle']
 

@@ -57,7 +57,7 @@ from pam_bench.models.bench_muscle import BenchMuscle
 from pam_bench.models.errors import ModelError
 from pam_bench.models.loading_servo.drive import LoadingServoModel
 from pam_bench.models.muscle import MuscleModel
-from pam_bench.models.params import field
+from pam_bench.vocabulary.params import field
 
 __all__ = ['Holder', 'SettleParams', 'SubStepResult', 'solve_substep', 'solve_substeps',
            'substep_grid', 'SETTLE_OFF']

@@ -1,13 +1,11 @@
-"""Errors of the physics layer; every later layer's errors build on them or on a builtin."""
+"""Errors of the physics layer."""
 
 from __future__ import annotations
 
-__all__ = ['ModelError', 'ParameterError']
+from pam_bench.vocabulary.errors import PamBenchError
+
+__all__ = ['ModelError']
 
 
-class ModelError(ValueError):
+class ModelError(PamBenchError, ValueError):
     """A model was asked for something it cannot do (bad state, bad input)."""
-
-
-class ParameterError(ModelError):
-    """A setting is unknown, malformed or out of its range; the message names its path."""

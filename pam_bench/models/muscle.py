@@ -61,7 +61,7 @@ import numpy as np
 
 from pam_bench.models.errors import ModelError
 from pam_bench.models.friction import FrictionTrial, MaxwellSlip
-from pam_bench.models.params import field
+from pam_bench.vocabulary.params import field
 
 __all__ = ['FrictionMuscle', 'MuscleParams', 'MuscleModel', 'MuscleOutput', 'MuscleTrial',
            'LOCK_COS']

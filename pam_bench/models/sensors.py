@@ -20,7 +20,7 @@ import numpy as np
 
 from pam_bench.models.constants import LOAD_CELL_RANGE_N
 from pam_bench.models.errors import ModelError
-from pam_bench.models.params import field
+from pam_bench.vocabulary.params import field
 
 __all__ = ['LoadCellParams', 'LoadCellModel', 'EncoderParams', 'EncoderModel']
 

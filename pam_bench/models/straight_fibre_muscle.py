@@ -47,11 +47,12 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from pam_bench.models.errors import ModelError, ParameterError
+from pam_bench.models.errors import ModelError
 from pam_bench.models.friction import MaxwellSlip
 from pam_bench.models.laws.straight_fibre import Correlation
 from pam_bench.models.muscle import FrictionMuscle
-from pam_bench.models.params import field
+from pam_bench.vocabulary.errors import ParameterError
+from pam_bench.vocabulary.params import field
 
 __all__ = ['StraightFibreParams', 'StraightFibreMuscle']
 

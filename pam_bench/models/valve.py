@@ -31,7 +31,7 @@ import numpy as np
 from pam_bench.models import compiled
 from pam_bench.models.errors import ModelError
 from pam_bench.models.lti import ZohCache
-from pam_bench.models.params import field
+from pam_bench.vocabulary.params import field
 
 __all__ = ['ValveParams', 'ValveModel', 'VolumeEvidence']
 

@@ -10,13 +10,13 @@ import zlib
 from typing import Any
 
 import numpy as np
-import yaml
 
 from pam_bench.config import topics
-from pam_bench.models.errors import ParameterError
 from pam_bench.nodes.core import NodeCore
 from pam_bench.nodes.qos import RELIABLE
 from pam_bench.sim.faults import Fault, parse_faults, sensor_value
+from pam_bench.vocabulary.errors import ParameterError
+from pam_bench.vocabulary.yaml_io import load_yaml
 
 __all__ = ['FaultInjection']
 
@@ -35,7 +35,7 @@ class FaultInjection(NodeCore):
         Raises:
             ParameterError: a bad fault, or faults on a lock-step node.
         """
-        self.faults = parse_faults(yaml.safe_load(text) if text else [], [self.get_name()])
+        self.faults = parse_faults(load_yaml(text, 'faults') if text else [], [self.get_name()])
         if self.faults and self.lockstep:
             raise ParameterError(f'{self.get_name()}: faults run on a wall clock (lockstep '
                                  'false)')

@@ -3,7 +3,7 @@
 Every leaf of the settings becomes one declared parameter, sections joined by dots as in a
 params file (``muscle.gain_exponent``), with a ``ParameterDescriptor`` that carries the text,
 unit and range of its ``field``. The values rclpy resolved (params file, ``-p``, overrides)
-are read back into the dataclass with ``models.params.from_mapping``, which checks type and
+are read back into the dataclass with ``vocabulary.params.from_mapping``, which checks type and
 range and names a bad key; ``nodes.process.reject_undeclared`` refuses any key the class does
 not have.
 """
@@ -16,7 +16,7 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from pam_bench.models.params import ParamInfo, describe, flat_infos, from_mapping, get_path
+from pam_bench.vocabulary.params import ParamInfo, describe, flat_infos, from_mapping, get_path
 
 __all__ = ['descriptor', 'declare_settings', 'overrides_of', 'ros_value']
 

@@ -21,9 +21,9 @@ from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
-from pam_bench.models.errors import ModelError
-from pam_bench.models.params import check_known
 from pam_bench.nodes.profiling import profiled
+from pam_bench.vocabulary.errors import PamBenchError
+from pam_bench.vocabulary.params import check_known
 
 __all__ = ['lean_spin', 'deadline_spin', 'spin', 'serve_services', 'set_realtime_priority',
            'reject_undeclared',
@@ -275,7 +275,7 @@ def start_node(cls: Callable[[], Node], name: str) -> Any:
     try:
         node = cls()
         reject_undeclared(node)
-    except (ModelError, ParameterException) as exc:
+    except (PamBenchError, ParameterException) as exc:
         print(fail_line(name, exc), file=sys.stderr, flush=True)
         return None
     except OSError as exc:              # a file or disk it needs: a recorder's bag folder

@@ -50,7 +50,6 @@ from pam_bench.config import topics
 from pam_bench.config.protocols import load_protocols, parse_overrides, protocol_schedule
 from pam_bench.config.settings import SequencerSettings
 from pam_bench.models.constants import ATMOSPHERE_PA
-from pam_bench.models.errors import ParameterError
 from pam_bench.nodes.base import RELIABLE, SENSOR, BenchNode, Spin
 from pam_bench.nodes.intra import bus_publisher
 from pam_bench.nodes.messages import ns_of, time_of
@@ -60,6 +59,7 @@ from pam_bench.protocol.io import Point, StepRecord
 from pam_bench.protocol.runner import Runner, Tick
 from pam_bench.protocol.schedules import with_approach
 from pam_bench.protocol.sequencer import Phase, Sequencer
+from pam_bench.vocabulary.errors import ParameterError
 
 __all__ = ['SequencerNode', 'main']
 

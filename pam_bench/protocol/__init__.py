@@ -2,4 +2,4 @@
 
 from __future__ import annotations
 
-__all__ = ['io', 'runner', 'schedules', 'sequencer', 'settings', 'suspenders']
+__all__ = ['io', 'runner', 'schedules', 'sequencer', 'settings', 'spec', 'suspenders', 'window']

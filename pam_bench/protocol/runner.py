@@ -28,14 +28,13 @@ from __future__ import annotations
 import dataclasses
 import math
 
-import yaml
-
 from pam_bench.models.loading_servo import LoadMode
 from pam_bench.protocol.io import Commands, Measurement, Point, StepRecord
 from pam_bench.protocol.sequencer import Phase, Sequencer
 from pam_bench.protocol.settings import RunnerSettings
 from pam_bench.protocol.suspenders import INPUTS, Suspenders, parse_rules
 from pam_bench.sim.lockstep import EventStepRequest, StopRequest
+from pam_bench.vocabulary.yaml_io import load_yaml
 
 __all__ = ['Runner', 'Tick', 'Note', 'END_CODES', 'INPUTS']
 
@@ -102,7 +101,7 @@ class Runner:
         self.limits = settings.limits()
         self.pause_vent = settings.pause_action == 'vent'
         text = settings.suspenders_yaml
-        self.suspenders = Suspenders(parse_rules(yaml.safe_load(text) if text else []))
+        self.suspenders = Suspenders(parse_rules(load_yaml(text, 'suspenders') if text else []))
         self.core: Sequencer | None = None
         self.meas = Measurement(0.0, 0.0, 0.0)
         self.samples: list[tuple[float, float]] = []     # load-cell (stamp s, N) since a tick

@@ -16,14 +16,13 @@ from typing import Any
 
 import numpy as np
 
-from pam_bench.models.errors import ParameterError
 from pam_bench.models.loading_servo import LoadMode
-from pam_bench.models.params import check_known, hint
+from pam_bench.protocol.spec import check_protocol
 from pam_bench.protocol.window import READING_WINDOW_S
+from pam_bench.vocabulary.errors import ParameterError
 
 __all__ = ['Direction', 'Reading', 'sweep', 'schedule_from_config', 'resume_index',
-           'with_approach', 'APPROACH_DWELL_S',
-           'PROTOCOL_KEYS', 'check_protocol']
+           'with_approach', 'APPROACH_DWELL_S']
 
 
 class Direction(enum.IntEnum):
@@ -110,37 +109,6 @@ def _step_response(name: str, get: Any, dwell: float) -> list[Reading]:
     return out
 
 
-_COMMON = ('kind', 'dwell_s', 'settle_s', 'reading_window_s')
-PROTOCOL_KEYS: dict[str, tuple[str, ...]] = {
-    'ramp': _COMMON + ('load_mode', 'load_value', 'voltage_v', 'ramp_rate_v_per_s',
-                       'reading_every_s'),
-    'isometric': _COMMON + ('x_m', 'voltage_v'),
-    'isotonic': _COMMON + ('force_n', 'voltage_v'),
-    'isobaric': _COMMON + ('voltage_v', 'force_n'),
-    'step_response': _COMMON + ('x_m', 'up', 'down', 'record_s', 'sample_period_s'),
-    'campaign': _COMMON + ('protocols',),
-}
-"""The keys each protocol kind takes (config/protocols.yaml)."""
-_STEP_KEYS = ('u0_v', 'step_v', 'n')
-
-
-def check_protocol(name: str, cfg: Mapping[str, Any]) -> None:
-    """Check a protocol entry's kind and keys (values are checked when it is scheduled).
-
-    Raises:
-        ParameterError: a missing or unknown kind, or a key the kind does not take (named,
-            with the nearest known key).
-    """
-    kind = cfg.get('kind')
-    if kind not in PROTOCOL_KEYS:
-        raise ParameterError(f'protocol {name!r}: unknown kind {kind!r} '
-                             f'({hint(str(kind), PROTOCOL_KEYS)})')
-    check_known(cfg, PROTOCOL_KEYS[kind], f'protocol {name!r} ({kind})')
-    for key in ('up', 'down'):
-        if isinstance(cfg.get(key), Mapping):
-            check_known(cfg[key], _STEP_KEYS, f'protocol {name!r}, {key}')
-
-
 def schedule_from_config(name: str, cfg: Mapping[str, Any],
                          table: Mapping[str, Any] | None = None
                          ) -> tuple[list[Reading], float]:
@@ -155,7 +123,7 @@ def schedule_from_config(name: str, cfg: Mapping[str, Any],
     last window of its dwell (``protocol.window``).
 
     Raises:
-        ParameterError: a missing or malformed key, named.
+        ParameterError: a missing or malformed key, named (``protocol.spec``).
     """
     def get(key: str) -> Any:
         if key not in cfg:
@@ -188,6 +156,8 @@ def schedule_from_config(name: str, cfg: Mapping[str, Any],
             for i, sub in enumerate(get('protocols')):
                 if sub not in table:
                     raise ParameterError(f'campaign {name!r}: unknown protocol {sub!r}')
+                if table[sub].get('kind') == 'campaign':
+                    raise ParameterError(f'campaign {name!r}: {sub!r} is a campaign itself')
                 readings, sub_settle = schedule_from_config(sub, table[sub], table)
                 if i > 0:
                     readings[0] = dataclasses.replace(readings[0], lead_s=sub_settle)

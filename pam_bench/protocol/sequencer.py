@@ -10,12 +10,12 @@ from __future__ import annotations
 import enum
 import math
 
-from pam_bench.models.errors import ParameterError
 from pam_bench.models.loading_servo import LoadMode
 from pam_bench.protocol.io import Commands, Measurement, Point, RecordWindow, StepRecord
 from pam_bench.protocol.schedules import Reading
 from pam_bench.protocol.settings import COMMAND_STEP_S, RECORD_EXCHANGE_S, Limits
 from pam_bench.protocol.window import SampleWindow
+from pam_bench.vocabulary.errors import ParameterError
 
 __all__ = ['Phase', 'Measurement', 'Limits', 'Point', 'StepRecord', 'Commands', 'Sequencer',
            'COMMAND_STEP_S', 'RECORD_EXCHANGE_S']

@@ -1,6 +1,6 @@
 """Settings of a protocol run: the abort limits of the sequencer and the runner's policies.
 
-One field per setting (``models.params.field``): the sequencer node declares its ROS parameters
+One field per setting (``vocabulary.params.field``): the sequencer node declares its ROS parameters
 from these classes and the twin runs with the same objects, so a default lives here only.
 """
 
@@ -9,7 +9,7 @@ from __future__ import annotations
 import dataclasses
 
 from pam_bench.models.constants import LOAD_CELL_RANGE_N
-from pam_bench.models.params import field
+from pam_bench.vocabulary.params import field
 
 __all__ = ['Limits', 'RunnerSettings', 'COMMAND_STEP_S', 'RECORD_EXCHANGE_S', 'PAUSE_ACTIONS',
            'OUTLIER_ACTIONS']

@@ -22,8 +22,8 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
-from pam_bench.models.errors import ParameterError
-from pam_bench.models.params import check_known
+from pam_bench.vocabulary.errors import ParameterError
+from pam_bench.vocabulary.params import check_known
 
 __all__ = ['Fault', 'KINDS', 'SENSOR_KINDS', 'parse_faults', 'sensor_value']
 

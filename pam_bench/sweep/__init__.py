@@ -2,4 +2,4 @@
 
 from __future__ import annotations
 
-__all__ = ['jobs', 'results', 'spec']
+__all__ = ['figures', 'jobs', 'results', 'spec']

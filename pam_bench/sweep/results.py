@@ -1,8 +1,9 @@
 """Running a sweep on the execution layer, its ``results.csv`` and its plots.
 
 ``results.csv`` has one row per job, in the sweep's job order: its id, scene, seed, the values
-it sets, its figures, its status (``ok`` or the one-line error) and its wall time. A rerun
-reads the file, skips every job already ``ok`` and writes the whole file again, so an
+it sets, its figures, its status (``ok``, ``no figure: ...`` naming the figures the run did not
+give, or the one-line error) and its wall time. A rerun reads the file, skips every job that
+ran and writes the whole file again, so an
 interrupted sweep goes on where it stopped; apart from the time column the file does not
 depend on how many workers ran it, or where. Plots: each figure against the one varied
 setting (the seeds' mean and spread), or as a heat map over two (the seeds' mean).
@@ -20,7 +21,7 @@ import numpy as np
 from pam_bench.sweep.jobs import run_job
 from pam_bench.sweep.spec import Job, Sweep
 
-__all__ = ['run_sweep', 'read_results', 'plot_results', 'RESULTS']
+__all__ = ['run_sweep', 'read_results', 'plot_results', 'RESULTS', 'NO_FIGURE']
 
 RESULTS = 'results.csv'
 
@@ -33,6 +34,27 @@ def _fmt(v: Any) -> str:
     if isinstance(v, float):
         return repr(v)
     return str(v)
+
+
+NO_FIGURE = 'no figure: '
+"""The status of a job that ran but did not give every figure (a run too short for it, a
+protocol without it): the missing figures follow."""
+
+
+def _status(ok: bool, error: str, figures: dict[str, float]) -> str:
+    """``ok``, the job's one-line error, or ``NO_FIGURE`` and the figures that came out NaN."""
+    if not ok:
+        return error.replace('\n', ' ')
+    missing = [f for f, v in figures.items() if not math.isfinite(v)]
+    if missing:
+        return (NO_FIGURE + ', '.join(missing) + ' (the run did not give them: too short, or '
+                'its protocol or data lack them)')
+    return 'ok'
+
+
+def _finished(status: str) -> bool:
+    """A job a rerun skips: done, or done without some figure (the same run gives the same)."""
+    return status == 'ok' or status.startswith(NO_FIGURE)
 
 
 def read_results(path: pathlib.Path) -> dict[str, dict[str, str]]:
@@ -53,7 +75,7 @@ def run_sweep(sweep: Sweep, out: pathlib.Path, cluster: dict[str, Any] | None = 
     cols = _columns(sweep)
     old = read_results(path)
     jobs = sweep.jobs()
-    todo = [j for j in jobs if old.get(j.id, {}).get('status') != 'ok' or
+    todo = [j for j in jobs if not _finished(old.get(j.id, {}).get('status', '')) or
             any(c not in old[j.id] for c in cols)]
     done: dict[str, dict[str, Any]] = {}
     if todo:
@@ -62,7 +84,7 @@ def run_sweep(sweep: Sweep, out: pathlib.Path, cluster: dict[str, Any] | None = 
                           ros=sweep.engine == 'ros', **(cluster or {})):
             job: Job = r.item[0]
             figs = r.value if r.ok else {f: math.nan for f in sweep.figures}
-            done[job.id] = {**figs, 'status': 'ok' if r.ok else r.error.replace('\n', ' '),
+            done[job.id] = {**figs, 'status': _status(r.ok, r.error, figs),
                             'seconds': round(r.seconds, 3)}
     rows = []
     for j in jobs:

@@ -28,6 +28,7 @@ import dataclasses
 import hashlib
 import itertools
 import json
+import math
 import pathlib
 from typing import Any
 
@@ -36,15 +37,20 @@ import numpy as np
 from pam_bench.config.errors import ConfigError
 from pam_bench.config.nodes import NODES
 from pam_bench.config.scene import load_scene
-from pam_bench.config.yaml_io import read_yaml
-from pam_bench.models.params import check_known, flat_infos, hint
+from pam_bench.sweep.figures import check_figures
+from pam_bench.vocabulary.params import check_known, flat_infos, hint
+from pam_bench.vocabulary.yaml_io import read_yaml
 
 __all__ = ['Sweep', 'Job', 'load_sweep', 'FIGURE_ROOTS', 'ENGINES', 'SWEEP_KEYS']
 
 ENGINES = ('twin', 'ros')
-FIGURE_ROOTS = ('isometric', 'isotonic', 'isobaric', 'step_response', 'model_comparison',
-                'readings', 'servo', 'calibrate', 'run')
+FIGURE_ROOTS = ('isometric', 'isotonic', 'isobaric', 'step_response', 'readings', 'servo',
+                'calibrate', 'run')
 """First words a figure may start with (module docstring)."""
+MAX_JOBS = 100_000
+"""Jobs a sweep may hold (scenes x settings x seeds)."""
+MAX_DURATION_S = 86_400.0
+"""Longest ``duration_s`` of a servo job, s."""
 SWEEP_KEYS = ('description', 'scene', 'engine', 'seeds', 'grid', 'list', 'random', 'figures',
               'duration_s')
 
@@ -111,6 +117,8 @@ def _combos(where: str, data: dict[str, Any]) -> list[dict[str, Any]]:
             if not isinstance(values, list) or not values:
                 raise ConfigError(f'{where}: grid.{path} must be a list of values')
         paths = list(spec)
+        if math.prod(len(v) for v in spec.values()) > MAX_JOBS:
+            raise ConfigError(f'{where}: the grid holds more than {MAX_JOBS} combinations')
         return [dict(zip(paths, vals, strict=True))
                 for vals in itertools.product(*(spec[p] for p in paths))]
     if kind == 'list':
@@ -126,9 +134,10 @@ def _combos(where: str, data: dict[str, Any]) -> list[dict[str, Any]]:
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
     n, seed, ranges = spec.get('n'), spec.get('seed', 0), spec.get('ranges')
-    if not isinstance(n, int) or n < 1 or not isinstance(seed, int):
-        raise ConfigError(f'{where}: random.n must be a positive integer, random.seed an '
-                          'integer')
+    if (not isinstance(n, int) or isinstance(n, bool) or not 1 <= n <= MAX_JOBS
+            or not isinstance(seed, int) or isinstance(seed, bool) or seed < 0):
+        raise ConfigError(f'{where}: random.n must be an integer in [1, {MAX_JOBS}], '
+                          'random.seed a non-negative integer')
     if not isinstance(ranges, dict) or not ranges:
         raise ConfigError(f'{where}: random.ranges must map each path to [low, high]')
     rng = np.random.default_rng(seed)
@@ -167,6 +176,7 @@ def _check_figures(where: str, figures: Any) -> list[str]:
         root = f.split('.', 1)[0]
         if root not in FIGURE_ROOTS:
             raise ConfigError(f"{where}: unknown figure '{f}' ({hint(root, FIGURE_ROOTS)})")
+    check_figures(where, list(figures))
     return list(figures)
 
 
@@ -199,9 +209,17 @@ def load_sweep(path: str | pathlib.Path) -> Sweep:
             isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in seeds):
         raise ConfigError(f'{where}: seeds must be a list of non-negative integers')
     duration = data.get('duration_s')
-    if duration is not None and (not isinstance(duration, (int, float)) or duration <= 0):
-        raise ConfigError(f'{where}: duration_s must be a positive number of seconds')
+    if duration is not None and (isinstance(duration, bool)
+                                 or not isinstance(duration, (int, float))
+                                 or not 0 < duration <= MAX_DURATION_S):
+        raise ConfigError(f'{where}: duration_s must be a number of seconds in (0, '
+                          f'{MAX_DURATION_S:g}]')
+    if len(seeds) > MAX_JOBS:
+        raise ConfigError(f'{where}: {len(seeds)} seeds (a sweep runs at most {MAX_JOBS} jobs)')
     combos = _combos(where, data)
+    if len(combos) * len(seeds) * len(scenes) > MAX_JOBS:
+        raise ConfigError(f'{where}: {len(combos) * len(seeds) * len(scenes)} jobs (at most '
+                          f'{MAX_JOBS})')
     _check_paths(where, scenes, combos)
     figures = _check_figures(where, data.get('figures'))
     return Sweep(p.stem, scenes, engine, list(seeds), combos, figures,

@@ -33,6 +33,7 @@ from scipy.optimize import least_squares
 from pam_bench.models.errors import ModelError
 from pam_bench.models.muscle import MuscleParams
 from pam_bench.verify.figures_004 import figure_rows, measure_004
+from pam_bench.vocabulary.errors import ParameterError
 
 __all__ = ['fit_report', 'FREE', 'residuals_004', 'calibrate_004', 'fit_summary', 'covariance']
 
@@ -174,7 +175,7 @@ def calibrate_004(base: MuscleParams | None = None, max_nfev: int = 60) -> dict[
     def res(z: np.ndarray) -> np.ndarray:
         try:
             return residuals_004(measure_004(muscle=_params(lower + z * scale, base)))
-        except ModelError:
+        except (ModelError, ParameterError):
             return np.full(len(res0), 1e3)
 
     start = np.array([1.0 if n == 'friction_stiffness_scale' else _value(base, n, base)

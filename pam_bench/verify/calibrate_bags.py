@@ -75,6 +75,7 @@ from pam_bench.models.valve import ValveParams
 from pam_bench.twin.bench import SingleMuscleBench
 from pam_bench.twin.quasistatic import QuasiStaticBench
 from pam_bench.verify.calibrate import fit_report, fit_summary
+from pam_bench.vocabulary.errors import ParameterError
 
 __all__ = ['FREE_BAGS', 'BOUND_REASONS', 'Observations', 'observations_from_bags',
            'observations_from_twin',
@@ -375,7 +376,7 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
         try:
             v, m = _models(lower + z * span, valve, muscle, free)
             data = _residuals(obs, predict(obs, v, m, servo, replay), left_out)
-        except ModelError:
+        except (ModelError, ParameterError):
             return np.full(n_res, 1e3)
         return np.concatenate([data, PRIOR_WEIGHT * (z - z0)])
 

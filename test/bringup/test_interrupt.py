@@ -64,7 +64,8 @@ def test_interrupted_run_leaves_a_valid_bag(tmp_path: pathlib.Path, ros_domain: 
                                             sig: signal.Signals, inherited: str,
                                             layout: tuple[str, ...]) -> None:
     bag = tmp_path / 'bag'
-    proc, lines = start_run('isometric', bag, ignore_sigint=inherited == 'ignored',
+    # the full campaign: minutes of wall time in either layout, so the signal comes mid-run
+    proc, lines = start_run('campaign', bag, ignore_sigint=inherited == 'ignored',
                             extra=layout, progress_lines=2)
     try:
         assert proc.poll() is None, ''.join(lines)
@@ -88,7 +89,7 @@ def test_dead_node_ends_the_run_with_a_reason(tmp_path: pathlib.Path, ros_domain
     bag = tmp_path / 'bag'
     # a stall is found after stall_timeout_s (10 s by default): 4 s is still far above any
     # acknowledgment a loaded machine delays
-    proc, lines = start_run('isotonic_quick', bag,
+    proc, lines = start_run('isotonic', bag,
                             extra=('--processes', '--set', 'sim_clock.stall_timeout_s=4'))
     try:
         muscle = [p for p in node_processes(ros_domain)

@@ -13,7 +13,7 @@ from pam_bench.config.protocols import (
     protocol_config,
     protocol_schedule,
 )
-from pam_bench.models.errors import ParameterError
+from pam_bench.vocabulary.errors import ParameterError
 
 
 def test_every_protocol_of_the_table_schedules() -> None:
@@ -27,7 +27,7 @@ def test_every_protocol_of_the_table_schedules() -> None:
     ('isometrc', None, ["unknown protocol 'isometrc'", "did you mean 'isometric'"]),
     ('isometric', {'dwel_s': 2.0}, ["'dwel_s'", "did you mean 'dwell_s'"]),
     ('isometric', {'force_n': [1, 2, 1]}, ["'force_n'", 'isometric']),
-    ('step_response', {'up': {'u0_v': 1.0, 'stepv': 0.2, 'n': 2}}, ["'stepv'", "'step_v'"]),
+    ('step_response', {'up': {'u0_v': 1.0, 'stepv': 0.2, 'n': 2}}, ["'up.stepv'", "'up.step_v'"]),
 ])
 def test_unknown_names_give_one_error(name: str, overrides: dict | None,
                                       words: list[str]) -> None:

@@ -11,8 +11,8 @@ from pam_bench.config.nodes import NODES
 from pam_bench.config.paths import config_dir
 from pam_bench.config.protocols import load_protocols
 from pam_bench.config.scene import SCENE_KEYS, bench_overlay, load_scene, scene_names
-from pam_bench.config.yaml_io import read_yaml
-from pam_bench.models.params import flat_infos, get_path
+from pam_bench.vocabulary.params import flat_infos, get_path
+from pam_bench.vocabulary.yaml_io import read_yaml
 
 
 def _flat(d: dict, prefix: str = '') -> dict:

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import pytest
 
-from pam_bench.models.errors import ParameterError
 from pam_bench.models.muscle import MuscleParams
-from pam_bench.models.params import from_mapping
 from pam_bench.models.valve import ValveParams
+from pam_bench.vocabulary.errors import ParameterError
+from pam_bench.vocabulary.params import from_mapping
 
 
 @pytest.mark.parametrize('values, key', [

@@ -11,9 +11,9 @@ import pytest
 from scipy.optimize import brentq
 
 from pam_bench.models.bench_muscle import make_muscle
-from pam_bench.models.errors import ParameterError
 from pam_bench.models.muscle import MuscleModel, MuscleParams
 from pam_bench.models.straight_fibre_muscle import StraightFibreMuscle, StraightFibreParams
+from pam_bench.vocabulary.errors import ParameterError
 
 P_PA = 0.22e6           # 000 section 2.3: 2.2 bar
 L_M = 0.25

@@ -10,8 +10,8 @@ import pytest
 import rclpy
 
 from pam_bench.config.nodes import NODES
-from pam_bench.models.params import flat_infos
 from pam_bench.nodes import intra
+from pam_bench.vocabulary.params import flat_infos
 
 NODES_DIR = pathlib.Path(__file__).resolve().parents[2] / 'pam_bench' / 'nodes'
 ROS_OWN = {'use_sim_time', 'start_type_description_service'}   # rclpy's own, on every node

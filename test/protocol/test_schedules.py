@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pam_bench.models.errors import ParameterError
 from pam_bench.models.loading_servo import LoadMode
 from pam_bench.protocol.schedules import Direction, resume_index, schedule_from_config, sweep
+from pam_bench.vocabulary.errors import ParameterError
 
 FULL = {
     'isometric': {'kind': 'isometric', 'x_m': [0.0, 0.110, 0.005], 'voltage_v': [0, 6, 0.1]},

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pam_bench.models.errors import ParameterError
 from pam_bench.models.loading_servo import LoadMode
 from pam_bench.protocol.schedules import schedule_from_config
 from pam_bench.protocol.sequencer import Measurement, Phase, Sequencer
+from pam_bench.vocabulary.errors import ParameterError
 from test.protocol.test_schedules import QUICK_ISO, STEP
 
 

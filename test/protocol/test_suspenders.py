@@ -6,8 +6,8 @@ import math
 
 import pytest
 
-from pam_bench.models.errors import ParameterError
 from pam_bench.protocol.suspenders import Rule, Suspenders, parse_rules
+from pam_bench.vocabulary.errors import ParameterError
 
 
 @pytest.mark.parametrize('value, age, words', [

@@ -178,9 +178,9 @@ def test_calibrate_cli_names_the_readings_it_leaves_out(tmp_path: pathlib.Path,
 
 
 def test_every_fit_interval_lies_in_the_declared_range_and_says_why() -> None:
-    from pam_bench.models.params import param_infos
     from pam_bench.models.valve import ValveParams
     from pam_bench.verify.calibrate_bags import BOUND_REASONS, FREE_BAGS
+    from pam_bench.vocabulary.params import param_infos
     infos = {(m, i.name): i for m, cls in (('muscle', MuscleParams), ('valve', ValveParams))
              for i in param_infos(cls)}
     for model, name, lo, hi in FREE_BAGS:

@@ -37,8 +37,8 @@ import math
 
 import numpy as np
 
-from pam_bench.models.errors import ParameterError
 from pam_bench.models.laws.base import ForceLaw
+from pam_bench.vocabulary.errors import ParameterError
 
 __all__ = ['PI2', 'PI3', 'TABLE4', 'K_S_PER_MM', 'contraction_ratio', 'SizeResult', 'size',
            'Design', 'designs_for', 'Correlation', 'force', 'LAW']

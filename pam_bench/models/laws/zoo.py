@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from pam_bench.models.errors import ParameterError
 from pam_bench.models.laws import (
     al_ibadi,
     bench_mckibben,
@@ -14,7 +13,8 @@ from pam_bench.models.laws import (
     tondu_lopez,
 )
 from pam_bench.models.laws.base import ForceLaw
-from pam_bench.models.params import hint
+from pam_bench.vocabulary.errors import ParameterError
+from pam_bench.vocabulary.params import hint
 
 __all__ = ['FORCE_LAWS', 'force_law']
 

@@ -7,7 +7,7 @@ import dataclasses
 import enum
 
 from pam_bench.models.constants import PULLEY_PITCH_DIAMETER_M
-from pam_bench.models.params import field
+from pam_bench.vocabulary.params import field
 
 __all__ = ['LoadMode', 'LoadingServoParams', 'LAW_PARAMETERS']
 

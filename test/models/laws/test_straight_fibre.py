@@ -10,8 +10,8 @@ import sys
 import numpy as np
 import pytest
 
-from pam_bench.models.errors import ParameterError
 from pam_bench.models.laws.straight_fibre import PI2, PI3, TABLE4, contraction_ratio, size
+from pam_bench.vocabulary.errors import ParameterError
 
 # 000 Table 4 as printed: (Phi0 mm, L0 mm, P MPa, F N, dL/L0)
 ROWS = [(30, 120, 0.2, 1, 0.433), (30, 80, 0.45, 1, 0.387), (30, 60, 0.8, 1, 0.345),

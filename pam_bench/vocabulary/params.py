@@ -18,7 +18,7 @@ import math
 from collections.abc import Iterable, Mapping
 from typing import Any, TypeVar
 
-from pam_bench.models.errors import ParameterError
+from pam_bench.vocabulary.errors import ParameterError
 
 __all__ = ['field', 'section', 'from_mapping', 'to_mapping', 'merged', 'with_path', 'get_path',
            'describe', 'ParamInfo', 'param_infos', 'flat_infos', 'sections', 'validate',

@@ -1,0 +1,45 @@
+"""Bounded numeric arguments: every count and duration a verb takes is finite, in a stated
+range, or one line saying what it must be."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Callable
+
+__all__ = ['number', 'integer']
+
+
+def _check(value: float, text: str, low: float, high: float, low_open: bool, unit: str) -> None:
+    below = value <= low if low_open else value < low
+    if not math.isfinite(value) or below or value > high:
+        lo = '(' if low_open else '['
+        raise argparse.ArgumentTypeError(f'{text!r} is not in {lo}{low:g}, {high:g}]'
+                                         + (f' {unit}' if unit else ''))
+
+
+def number(low: float, high: float, unit: str = '', low_open: bool = False
+           ) -> Callable[[str], float]:
+    """An argparse type: a finite float in [low, high] (``low_open``: (low, high])."""
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f'{text[:40]!r} is not a number') from None
+        _check(value, text, low, high, low_open, unit)
+        return value
+    parse.__name__ = 'number'
+    return parse
+
+
+def integer(low: int, high: int) -> Callable[[str], int]:
+    """An argparse type: an integer in [low, high]."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f'{text[:40]!r} is not an integer') from None
+        _check(value, text, low, high, False, '')
+        return value
+    parse.__name__ = 'integer'
+    return parse

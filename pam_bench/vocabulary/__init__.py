@@ -1,0 +1,5 @@
+"""The words every room uses: the settings framework, the error base, the rule for outputs."""
+
+from __future__ import annotations
+
+__all__ = ['errors', 'outputs', 'params', 'yaml_io']
