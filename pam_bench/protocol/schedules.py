@@ -22,7 +22,7 @@ from pam_bench.protocol.window import READING_WINDOW_S
 from pam_bench.vocabulary.errors import ParameterError
 
 __all__ = ['Direction', 'Reading', 'sweep', 'schedule_from_config', 'resume_index',
-           'with_approach', 'APPROACH_DWELL_S']
+           'with_approach']
 
 
 class Direction(enum.IntEnum):
@@ -205,21 +205,24 @@ def resume_index(readings: list[Reading], done: set[tuple[str, int, int]]) -> in
     return len(readings)
 
 
-APPROACH_DWELL_S = 1.0
-"""Hold of each approach step (s): the valve and the drive settle well within it."""
-
-
 def with_approach(readings: list[Reading], index: int,
-                  dwell_s: float = APPROACH_DWELL_S) -> tuple[list[Reading], int]:
+                  dwell_s: float | None = None) -> tuple[list[Reading], int]:
     """The schedule to resume at ``readings[index]`` in the middle of a series.
 
-    The braid's friction is rate independent (Maxwell-slip, 004 section 2.1 and
-    ``models.friction``): its state depends on the path's turning points, not on how fast it
-    was travelled. So the bench is taken along the series' path before ``index`` by its
-    turning points only: the series' first set values, every reading where the sweep
-    reverses, and the reading just before ``index``, each held ``dwell_s`` and not recorded
-    (``recorded`` False: no point, no record, no step). The reading at ``index`` then meets
-    the bench in the state the uninterrupted run left it in.
+    The bench is taken along the protocol's own path up to ``index``: every reading of the
+    series before it and of the one before that, in order, each held its own dwell (or
+    ``dwell_s``) and not recorded
+    (``recorded`` False: no point, no record; a ramp or a step reading holds its final
+    voltage). The braid's friction is rate independent (Maxwell-slip, 004 section 2.1 and
+    ``models.friction``): its state is set by the path's turning points, and the previous
+    series, which sweeps the whole range, wipes out those before it. So the reading at
+    ``index`` meets the muscle in the state the uninterrupted run left it in; and every move
+    is one step of the protocol's own grid, which the loading servo follows as it did in the
+    run (a jump across a series, to a turning point, can leave the drive at its torque limit
+    and the force out of tolerance). Where a reading sits in a wide friction loop, the drive's
+    transient decides where the muscle stops (README, "Protocols and scenes"), so the approach
+    keeps the run's own dwells: it is the run again, unrecorded. The first series of a
+    protocol starts as it did.
 
     Returns:
         The new schedule and the index to start it at (the first approach step).
@@ -228,24 +231,14 @@ def with_approach(readings: list[Reading], index: int,
         return readings, index
     r = readings[index]
     first = index
-    while first > 0 and (readings[first - 1].protocol, readings[first - 1].series) == \
-            (r.protocol, r.series):
+    series = {r.series, r.series - 1}
+    while first > 0 and readings[first - 1].protocol == r.protocol and \
+            readings[first - 1].series in series:
         first -= 1
     if first == index:
         return readings, index
-    path = readings[first:index]
-    keep = [path[0]]
-    direction = 0.0
-    for j in range(1, len(path)):
-        d = float(np.sign(path[j].set_value - path[j - 1].set_value))
-        if d == 0.0:
-            continue
-        if direction and d != direction:         # the sweep reversed at the reading before
-            keep.append(path[j - 1])
-        direction = d
-    if path[-1] is not keep[-1]:
-        keep.append(path[-1])
-    approach = [dataclasses.replace(k, dwell_s=dwell_s, ramp_from_v=None, pre_voltage_v=None,
+    approach = [dataclasses.replace(k, dwell_s=k.dwell_s if dwell_s is None else dwell_s,
+                                    ramp_from_v=None, pre_voltage_v=None,
                                     record_s=0.0, sample_period_s=0.0, lead_s=0.0,
-                                    recorded=False) for k in keep]
+                                    recorded=False) for k in readings[first:index]]
     return readings[:index] + approach + readings[index:], index

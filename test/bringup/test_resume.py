@@ -33,20 +33,20 @@ def test_resume_starts_at_the_first_reading_the_bag_lacks(tmp_path: pathlib.Path
     assert (got, total) == (taken, len(READINGS)) and total == 42
 
 
-@pytest.mark.parametrize('index, turning', [
+@pytest.mark.parametrize('index, path', [
     (14, []),                        # a series start: no approach
-    (17, [14, 16]),                  # up the sweep: its start and the reading before
-    (24, [14, 21, 23]),              # past the top (6 V at steps 6 and 7): start, top, before
+    (17, [14, 15, 16]),              # up the sweep: the series' readings before it
+    (24, list(range(14, 24))),       # past the top: up, the top and down again
     (0, []),
 ])
-def test_approach_takes_the_series_turning_points(index: int, turning: list[int]) -> None:
+def test_approach_walks_the_series_path(index: int, path: list[int]) -> None:
     readings, start = with_approach(READINGS, index)
     assert start == index and readings[:index] == READINGS[:index]
-    approach = readings[index:index + len(turning)]
+    approach = readings[index:index + len(path)]
     assert [(r.series, r.step) for r in approach] == \
-        [(READINGS[j].series, READINGS[j].step) for j in turning]
+        [(READINGS[j].series, READINGS[j].step) for j in path]
     assert all(not r.recorded and r.record_s == 0.0 for r in approach)
-    assert readings[index + len(turning):] == READINGS[index:]
+    assert readings[index + len(path):] == READINGS[index:]
 
 
 def test_a_broken_bag_is_one_error(tmp_path: pathlib.Path) -> None:

@@ -143,3 +143,36 @@ def test_resume_after_an_interrupted_run(tmp_path: pathlib.Path) -> None:
     worst_m = max(abs(p.contraction - ref[(p.series, p.step)].contraction) for p in rest)
     print(f'resumed against uninterrupted: {worst_n:.3f} N, {worst_m * 1e3:.4f} mm')
     assert worst_n < 4.0 and worst_m < 0.32e-3     # 0.2 % FS, 0.32 mm (issue 17's bounds)
+
+
+@pytest.fixture(scope='module')
+def campaign_quick_points(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """The readings of one uninterrupted campaign_quick (seed 0): (protocol, series, step) ->
+    point."""
+    bag = tmp_path_factory.mktemp('whole') / 'bag'
+    assert run_scene(load_scene('campaign_quick'), str(bag), domain_id=next_domain(),
+                     quiet=True).code == 0
+    return {(p.protocol, p.series, p.step): p for p in bag_messages(bag, '/protocol/point')}
+
+
+@pytest.mark.parametrize('start', range(10, 156, 10))
+def test_campaign_quick_resumes_at_every_tenth_reading(tmp_path: pathlib.Path, start: int,
+                                                       campaign_quick_points: dict) -> None:
+    """Cut at any reading, the campaign goes on: the loading servo is taken back along the
+    series' path (not across it), and every resumed reading lands on the uninterrupted run's
+    (issue 17's bounds)."""
+    import dataclasses
+    scene = load_scene('campaign_quick')
+    resumed = dataclasses.replace(scene, parameters={
+        **scene.parameters, 'sequencer': {**scene.parameters.get('sequencer', {}),
+                                          'resume_from_reading': start}})
+    bag = tmp_path / 'resumed'
+    res = run_scene(resumed, str(bag), domain_id=next_domain(), quiet=True)
+    assert res.code == 0, res.summary
+    rest = bag_messages(bag, '/protocol/point')
+    assert len(rest) == len(campaign_quick_points) - start
+    ref = campaign_quick_points
+    worst_n = max(abs(p.force - ref[(p.protocol, p.series, p.step)].force) for p in rest)
+    worst_m = max(abs(p.contraction - ref[(p.protocol, p.series, p.step)].contraction)
+                  for p in rest)
+    assert worst_n < 4.0 and worst_m < 0.32e-3, (worst_n, worst_m)
