@@ -118,13 +118,16 @@ def _rebuild(records: list[Any], out: pathlib.Path, kept: dict[str, int]) -> dic
     writer = Writer(out, version=9, storage_plugin=StoragePlugin.MCAP)
     writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
     writer.open()
+    for rec in records:          # a whole file's summary repeats them: a damaged chunk's too
+        if isinstance(rec, Schema):
+            schemas.setdefault(rec.id, rec)
+        elif isinstance(rec, Channel):
+            channels.setdefault(rec.id, rec)
     try:
         for rec in records:
-            if isinstance(rec, Schema):
-                schemas[rec.id] = rec
-            elif isinstance(rec, Channel):
-                channels[rec.id] = rec
-            elif rec.channel_id in channels:
+            if isinstance(rec, (Schema, Channel)):
+                continue
+            if rec.channel_id in channels and channels[rec.channel_id].schema_id in schemas:
                 ch = channels[rec.channel_id]
                 if rec.channel_id not in conns:
                     schema = schemas[ch.schema_id]

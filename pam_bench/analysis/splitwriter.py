@@ -25,6 +25,7 @@ import os
 import pathlib
 import shutil
 import struct
+import zlib
 from collections.abc import Callable
 from typing import Any
 
@@ -227,6 +228,41 @@ def _put_records(writer: Any) -> Callable[[list[tuple[Any, int, bytes]]], None] 
     return put
 
 
+_CRC_AT = 1 + 8 + 8 + 8 + 8
+"""Offset of a Chunk record's uncompressed CRC from the record's start: opcode, record length,
+message start and end time, uncompressed size."""
+
+
+def with_chunk_crcs(writer: Any) -> bool:
+    """Make the open rosbags ``Writer``'s MCAP storage write each chunk's uncompressed CRC
+    (rosbags writes 0: no check). Its ``close_chunk`` is wrapped: the CRC-32 of the chunk's
+    records, then the chunk written as rosbags writes it, then the 4 bytes put in place. A
+    reader that validates CRCs (``mcap``'s, and ``bag-repair``) then finds a damaged chunk
+    that still decompresses. False when the storage is not the one this was written against
+    (the chunks stay without CRC); ``test_splitwriter`` names the internals it needs."""
+    storage: Any = getattr(writer, 'storage', None)
+    if type(storage).__name__ != 'McapWriter' or not all(
+            hasattr(storage, a) for a in ('chunk', 'bio', 'close_chunk')):
+        return False
+    close = storage.close_chunk
+
+    def close_chunk() -> None:
+        crc = zlib.crc32(storage.chunk.bio.getbuffer())
+        bio = storage.bio
+        start = bio.tell()
+        close()
+        end = bio.tell()
+        bio.seek(start + _CRC_AT)
+        bio.write(_CRC.pack(crc))
+        bio.seek(end)
+
+    storage.close_chunk = close_chunk
+    return True
+
+
+_CRC = struct.Struct('<I')
+
+
 def direct_write(writer: Any) -> DirectWrite | None:
     """A write of one message, ``write(connection, stamp, data)``, into an open rosbags
     ``Writer`` with MCAP storage, byte-equal to ``Writer.write`` (``_put_records``; a
@@ -397,6 +433,7 @@ class SplitWriter:
         if self.compress:
             w.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
         w.open()
+        with_chunk_crcs(w)
         for key, value in self.custom.items():
             w.set_custom_data(key, value)
         self._current = {t: w.add_connection(t, msgtype, **kw)

@@ -80,6 +80,9 @@ def connect(scheduler: str | None = None, workers: int | None = None,
             client = Client(address, security=_security(tls), timeout='15s')
         except (OSError, TimeoutError) as exc:
             raise ClusterError(f'cannot reach the scheduler at {address}: {exc}') from None
+        except (ValueError, TypeError) as exc:       # distributed's parse of the address
+            raise ClusterError(f'scheduler address {address!r}: {exc} (write '
+                               'tcp://HOST:PORT or tls://HOST:PORT)') from None
         try:
             yield client
         finally:

@@ -35,7 +35,7 @@ from pam_bench.config.protocols import protocol_schedule
 from pam_bench.config.topics import EVENT_TOPICS, step_topics
 from pam_bench.models.constants import SUB_STEP_S
 from pam_bench.sim.faults import Fault, parse_faults
-from pam_bench.vocabulary.errors import ParameterError
+from pam_bench.vocabulary.errors import ParameterError, shorten
 from pam_bench.vocabulary.params import (
     check_known,
     deep_merge,
@@ -159,6 +159,7 @@ class Scene:
                 out[name] = from_mapping(t.settings, values, f'{name}.')
             except ParameterError as exc:
                 raise ConfigError(f'scene {self.name}: {exc}') from None
+        _check_inputs(self.name, out)
         return out
 
     def set(self, path: str, value: Any) -> None:
@@ -216,7 +217,7 @@ def _typed(where: str, data: dict[str, Any], key: str, default: Any = None) -> A
     if value is None and key in ('parameters', 'protocol_overrides'):
         return default
     if (isinstance(value, bool) and kind is not bool) or not isinstance(value, kind):
-        raise ConfigError(f'{where}: key {key!r} must be {text}, got {value!r}')
+        raise ConfigError(f'{where}: key {key!r} must be {text}, got {shorten(value)}')
     return value
 
 
@@ -269,7 +270,8 @@ def _parse_scene(path: pathlib.Path, data: dict[str, Any], text: str) -> Scene:
         raise ConfigError(str(exc)) from None
     for name, values in parameters.items():
         if not isinstance(values, dict):
-            raise ConfigError(f'{where}: parameters.{name} must be a mapping, got {values!r}')
+            raise ConfigError(f'{where}: parameters.{name} must be a mapping, got '
+                              f'{shorten(values)}')
     protocol = _typed(where, data, 'protocol', '')
     overrides = dict(_typed(where, data, 'protocol_overrides', {}))
     if 'sequencer' in nodes:
@@ -287,6 +289,29 @@ def _parse_scene(path: pathlib.Path, data: dict[str, Any], text: str) -> Scene:
                   text, faults)
     _check_settings(scene, where)
     return scene
+
+
+def _check_inputs(scene: str, settings: dict[str, Any]) -> None:
+    """What the settings name besides plain values, read now rather than by a node once the
+    run has started: the sequencer's suspender rules, the torque servo's inverse model file.
+
+    Raises:
+        ConfigError: a bad rule or an unreadable or malformed model, named.
+    """
+    from pam_bench.control.inverse import InverseModel
+    from pam_bench.models.errors import ModelError
+    from pam_bench.protocol.suspenders import parse_rules
+    from pam_bench.vocabulary.errors import InputError
+    from pam_bench.vocabulary.yaml_io import load_yaml
+    try:
+        seq = settings.get('sequencer')
+        if seq is not None and seq.suspenders_yaml:
+            parse_rules(load_yaml(seq.suspenders_yaml, 'sequencer.suspenders_yaml'))
+        servo = settings.get('torque_servo')
+        if servo is not None and servo.inverse_model_file:
+            InverseModel.load(servo.inverse_model_file)
+    except (ParameterError, InputError, ModelError) as exc:
+        raise ConfigError(f'scene {scene}: {exc}') from None
 
 
 def _check_settings(scene: Scene, where: str) -> None:

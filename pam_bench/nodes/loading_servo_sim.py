@@ -28,6 +28,8 @@ latest command and the latest muscle force held over its own sub-steps.
 
 from __future__ import annotations
 
+import math
+import time
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticStatus
@@ -70,6 +72,8 @@ class LoadingServoSim(BenchNode):
         self.muscle_topics = ([topics.muscle_samples(i) for i in (1, 2)]
                               if self.muscles == 2 else [topics.muscle_samples(ch)])
         self._was_saturated = False
+        self._touches = 0                       # torque-limit touches since the last report
+        self._last_report = -math.inf       # monotonic s of that report
         self.pulley_pub = self.create_step_publisher(JointState, topics.PULLEY_STATE)
         self.state_pub = self.create_step_publisher(JointState, topics.LOAD_STATE)
         self.law_pub = self.create_step_publisher(DriveLaw, topics.PULLEY_LAW)
@@ -110,6 +114,26 @@ class LoadingServoSim(BenchNode):
         """Publish the law of the first exchange."""
         self._publish_law(t_ns)
 
+    SATURATION_REPORT_S = 1.0
+    """Wall seconds between two reports of the torque limit (the drive touches it many times
+    a second while it holds a force against a pulling muscle)."""
+
+    def _saturation_edge(self, saturated: bool) -> None:
+        """A touch of the torque limit (or the end of one): one diagnostic and log line per
+        ``SATURATION_REPORT_S`` at most, with the number of touches since the last."""
+        self._touches += saturated
+        now = time.monotonic()
+        if now - self._last_report < self.SATURATION_REPORT_S:
+            return
+        self._last_report = now
+        if saturated:
+            self.diagnose(DiagnosticStatus.WARN, 'loading servo at its torque limit ('
+                          f'{self._touches} touch(es) since the last report)',
+                          touches=self._touches)
+            self._touches = 0
+        else:
+            self.diagnose(DiagnosticStatus.OK, 'loading servo within its torque limit')
+
     def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
         """Replay the muscle's sub-steps, take the command, publish the next law."""
         i, r = self.model.p.gear_ratio, self.model.r
@@ -127,9 +151,7 @@ class LoadingServoSim(BenchNode):
             out = self.model.replay(list(m.step), list(m.force))
             if out.saturated != self._was_saturated:
                 self._was_saturated = out.saturated
-                self.diagnose(DiagnosticStatus.WARN if out.saturated else DiagnosticStatus.OK,
-                              'loading servo ' + ('at its torque limit' if out.saturated
-                                                  else 'within its torque limit'))
+                self._saturation_edge(out.saturated)
             positions = [out.pulley_angle_rad, out.contraction_m]
             names = ['pulley', f'muscle_{self.channel}']
             velocity = [out.pulley_rate_rad_s, out.pulley_rate_rad_s * r]

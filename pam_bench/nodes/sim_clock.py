@@ -17,6 +17,7 @@ ticks are paced to the wall clock.
 from __future__ import annotations
 
 import collections
+import math
 import os
 import time
 from typing import Any
@@ -40,7 +41,7 @@ from pam_bench.sim.lockstep import (
     request_ns,
 )
 
-__all__ = ['SimClock', 'windowed_rate', 'ETA_WINDOW_S', 'main']
+__all__ = ['SimClock', 'windowed_rate', 'eta_text', 'ETA_WINDOW_S', 'main']
 
 ETA_WINDOW_S = 30.0      # s of wall time the ETA's rate is taken over
 
@@ -62,6 +63,14 @@ def windowed_rate(history: collections.deque[tuple[float, float]], wall_s: float
         history.popleft()
     w0, s0 = history[0]
     return (sim_s - s0) / (wall_s - w0) if wall_s > w0 else 0.0
+
+
+def eta_text(remaining_sim_s: float, rate: float) -> str:
+    """``  ETA N s wall`` for ``remaining_sim_s`` at ``rate`` sim s per wall s; '' while the
+    rate is not known yet (never ``inf``)."""
+    if rate <= 0 or not math.isfinite(rate):
+        return ''
+    return f'  ETA {max(remaining_sim_s, 0.0) / rate:6.1f} s wall'
 
 
 class SimClock(BenchNode):
@@ -255,9 +264,8 @@ class SimClock(BenchNode):
         total = self.expected_total_s
         recent = windowed_rate(self.rate_history, wall, t)
         if total > 0:
-            eta = (total - t) / recent if recent > 0 else float('inf')
             print(f'[sim {t:9.2f} / {total:9.2f} s  {100 * t / total:5.1f} %]  wall {wall:7.1f} '
-                  f's  x{rtf:6.1f} real time  ETA {eta:6.1f} s wall', flush=True)
+                  f's  x{rtf:6.1f} real time' + eta_text(total - t, recent or rtf), flush=True)
         else:
             print(f'[sim {t:9.2f} s]  wall {wall:7.1f} s  x{rtf:6.1f} real time', flush=True)
 

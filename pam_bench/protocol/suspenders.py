@@ -15,7 +15,7 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
-from pam_bench.vocabulary.errors import ParameterError
+from pam_bench.vocabulary.errors import ParameterError, shorten
 from pam_bench.vocabulary.params import check_known
 
 __all__ = ['Rule', 'Suspenders', 'parse_rules', 'INPUTS']
@@ -54,7 +54,7 @@ def parse_rules(data: Any) -> list[Rule]:
     if data in (None, ''):
         return []
     if not isinstance(data, list):
-        raise ParameterError(f'suspenders: a list of rules, got {data!r}')
+        raise ParameterError(f'suspenders: a list of rules, got {shorten(data)}')
     rules = []
     keys = [f.name for f in dataclasses.fields(Rule)]
     for i, item in enumerate(data):

@@ -22,7 +22,7 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
-from pam_bench.vocabulary.errors import ParameterError
+from pam_bench.vocabulary.errors import ParameterError, shorten
 from pam_bench.vocabulary.params import check_known
 
 __all__ = ['Fault', 'KINDS', 'SENSOR_KINDS', 'parse_faults', 'sensor_value']
@@ -57,7 +57,7 @@ def parse_faults(data: Any, nodes: list[str]) -> list[Fault]:
     if data in (None, []):
         return []
     if not isinstance(data, list):
-        raise ParameterError(f'faults: a list, got {data!r}')
+        raise ParameterError(f'faults: a list, got {shorten(data)}')
     out = []
     keys = [f.name for f in dataclasses.fields(Fault)]
     for i, item in enumerate(data):

@@ -18,7 +18,7 @@ import math
 from collections.abc import Iterable, Mapping
 from typing import Any, TypeVar
 
-from pam_bench.vocabulary.errors import ParameterError
+from pam_bench.vocabulary.errors import ParameterError, shorten
 
 __all__ = ['field', 'section', 'from_mapping', 'to_mapping', 'merged', 'with_path', 'get_path',
            'describe', 'ParamInfo', 'param_infos', 'flat_infos', 'sections', 'validate',
@@ -113,13 +113,13 @@ def _check_value(prefix: str, info: ParamInfo, value: Any) -> Any:
     default = info.default
     if isinstance(default, bool):
         if not isinstance(value, bool):
-            raise ParameterError(f'parameter {key!r}: expected true/false, got {value!r}')
+            raise ParameterError(f'parameter {key!r}: expected true/false, got {shorten(value)}')
         return value
     if isinstance(default, str):
         if not isinstance(value, str):
-            raise ParameterError(f'parameter {key!r}: expected a string, got {value!r}')
+            raise ParameterError(f'parameter {key!r}: expected a string, got {shorten(value)}')
         if info.choices and value not in info.choices:
-            raise ParameterError(f'parameter {key!r}: {value!r} is not one of '
+            raise ParameterError(f'parameter {key!r}: {shorten(value)} is not one of '
                                  f'{", ".join(info.choices)} ({hint(value, info.choices)})')
         return value
     if isinstance(default, list):
@@ -127,22 +127,23 @@ def _check_value(prefix: str, info: ParamInfo, value: Any) -> Any:
             if not isinstance(value, (list, tuple)) or not all(isinstance(v, str)
                                                                for v in value):
                 raise ParameterError(f'parameter {key!r}: expected a list of strings, got '
-                                     f'{value!r}')
+                                     f'{shorten(value)}')
             return [str(v) for v in value]
         if not isinstance(value, (list, tuple)) or not all(
                 isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
-            raise ParameterError(f'parameter {key!r}: expected a list of numbers, got {value!r}')
+            raise ParameterError(f'parameter {key!r}: expected a list of numbers, got '
+                                 f'{shorten(value)}')
         vals = [float(v) for v in value]
         for v in vals:
             _check_range(key, info, v)
         return vals
     if isinstance(default, int):
         if not isinstance(value, int) or isinstance(value, bool):
-            raise ParameterError(f'parameter {key!r}: expected an integer, got {value!r}')
+            raise ParameterError(f'parameter {key!r}: expected an integer, got {shorten(value)}')
         _check_range(key, info, value)
         return value
     if not isinstance(value, (int, float)) or isinstance(value, bool):
-        raise ParameterError(f'parameter {key!r}: expected a number, got {value!r}')
+        raise ParameterError(f'parameter {key!r}: expected a number, got {shorten(value)}')
     value = float(value)
     _check_range(key, info, value)
     return value
@@ -150,7 +151,7 @@ def _check_value(prefix: str, info: ParamInfo, value: Any) -> Any:
 
 def _check_range(key: str, info: ParamInfo, value: float) -> None:
     if not math.isfinite(value):
-        raise ParameterError(f'parameter {key!r}: {value!r} is not a finite number')
+        raise ParameterError(f'parameter {key!r}: {shorten(value)} is not a finite number')
     if info.low is not None and value < info.low:
         raise ParameterError(f'parameter {key!r}: {value} is below its minimum {info.low} '
                              f'{info.unit}')
@@ -223,7 +224,7 @@ def from_mapping(cls: type[T], values: Mapping[str, Any] | None, prefix: str = '
             kwargs[k] = from_mapping(sec, v, f'{prefix}{k}.')
         else:
             raise ParameterError(f'parameter {prefix}{k!r}: expected a mapping of '
-                                 f'{sec.__name__} settings, got {v!r}')
+                                 f'{sec.__name__} settings, got {shorten(v)}')
     return cls(**kwargs)
 
 

@@ -108,3 +108,30 @@ def test_dead_node_ends_the_run_with_a_reason(tmp_path: pathlib.Path, ros_domain
     assert statuses[-1].state == 3 and 'muscle_1' in statuses[-1].reason      # ABORTED
     time.sleep(0.5)
     assert node_processes(ros_domain) == []
+
+
+def test_a_killed_lockstep_run_loses_about_a_second(tmp_path: pathlib.Path,
+                                                    ros_domain: int) -> None:
+    """SIGKILL of every process leaves no metadata; the chunks the recorder closes once a wall
+    second are on disk, and bag-repair makes a valid bag of them (the README: a killed run
+    loses at most its last second). The separate processes of a sparse protocol write less
+    than a chunk's megabyte in seconds: before, nothing reached the disk."""
+    from pam_bench.analysis.bag_repair import repair_bag
+    bag = tmp_path / 'bag'
+    proc, lines = start_run('isometric', bag, extra=('--processes',), progress_lines=1)
+    try:
+        assert proc.poll() is None, ''.join(lines)
+        time.sleep(1.5)                  # past the first flush (a wall second into the run)
+        for pid in [proc.pid, *node_processes(ros_domain)]:
+            os.kill(pid, signal.SIGKILL)
+        proc.wait(timeout=10)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        for pid in node_processes(ros_domain):
+            os.kill(pid, signal.SIGKILL)
+    part = list(bag.glob('.part_*/*.mcap'))
+    assert part and part[0].stat().st_size > 0, 'nothing on disk after seconds of a run'
+    report = repair_bag(bag)
+    assert report.needed and report.kept.get('/load_cell_1/force', 0) > 100, report
+    assert bag_info(str(bag))['topics']['/load_cell_1/force']['count'] > 100

@@ -34,10 +34,11 @@ def test_resume_starts_at_the_first_reading_the_bag_lacks(tmp_path: pathlib.Path
 
 
 @pytest.mark.parametrize('index, path', [
-    (14, []),                        # a series start: no approach
-    (17, [14, 15, 16]),              # up the sweep: the series' readings before it
-    (24, list(range(14, 24))),       # past the top: up, the top and down again
-    (0, []),
+    (0, []),                         # the protocol's start: nothing before it
+    (5, list(range(0, 5))),          # in the first series: its readings before it
+    (14, list(range(0, 14))),        # a series start: the whole series before
+    (17, list(range(0, 17))),        # the series before, then this one's up to it
+    (30, list(range(14, 30))),       # two series before: only the last one counts
 ])
 def test_approach_walks_the_series_path(index: int, path: list[int]) -> None:
     readings, start = with_approach(READINGS, index)
