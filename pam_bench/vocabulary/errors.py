@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import reprlib
 
-__all__ = ['PamBenchError', 'ParameterError', 'InputError', 'OutputError', 'shorten']
+__all__ = ['PamBenchError', 'ParameterError', 'InputError', 'OutputError', 'shorten', 'quoted']
 
 
 class PamBenchError(Exception):
@@ -44,6 +44,13 @@ def shorten(value: object, limit: int = QUOTE_CHARS) -> str:
     if len(text) <= limit:
         return text
     return f'{text[:limit]}...'
+
+
+def quoted(name: str, limit: int = QUOTE_CHARS) -> str:
+    """A key or name a user wrote, quoted as ``'name'`` with control characters escaped and
+    cut to ``limit`` characters (a message stays one line)."""
+    text = repr(name[:limit])
+    return text if len(name) <= limit else text[:-1] + '...' + text[-1]
 
 
 _REPR = reprlib.Repr()

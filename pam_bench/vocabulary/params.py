@@ -18,7 +18,7 @@ import math
 from collections.abc import Iterable, Mapping
 from typing import Any, TypeVar
 
-from pam_bench.vocabulary.errors import ParameterError, shorten
+from pam_bench.vocabulary.errors import ParameterError, quoted, shorten
 
 __all__ = ['field', 'section', 'from_mapping', 'to_mapping', 'merged', 'with_path', 'get_path',
            'describe', 'ParamInfo', 'param_infos', 'flat_infos', 'sections', 'validate',
@@ -191,7 +191,8 @@ def check_known(keys: Iterable[str], known: Iterable[str], where: str, prefix: s
     if not unknown:
         return
     key = unknown[0]
-    raise ParameterError(f"{where}: unknown key '{prefix}{key}' ({hint(key, known, prefix)})")
+    raise ParameterError(f'{where}: unknown key {quoted(prefix + str(key))} '
+                         f'({hint(str(key), known, prefix)})')
 
 
 def from_mapping(cls: type[T], values: Mapping[str, Any] | None, prefix: str = '') -> T:
@@ -210,7 +211,7 @@ def from_mapping(cls: type[T], values: Mapping[str, Any] | None, prefix: str = '
     fields = {f.name: f for f in dataclasses.fields(cls)}   # type: ignore[arg-type]
     unknown = sorted(set(values) - set(fields))
     if unknown:
-        raise ParameterError(f"unknown setting '{prefix}{unknown[0]}' "
+        raise ParameterError(f'unknown setting {quoted(prefix + str(unknown[0]))} '
                              f'({hint(unknown[0], fields, prefix)})')
     kwargs = {}
     for k, v in values.items():
@@ -269,15 +270,15 @@ def _split(cls: type, path: str, prefix: str) -> tuple[list[str], type]:
             done = '.'.join(parts[:i])
             known = [p for p in leaf_paths(here)]
             full = f'{prefix}{done + "." if done else ""}'
-            raise ParameterError(f"unknown setting '{prefix}{path}' "
+            raise ParameterError(f'unknown setting {quoted(prefix + path)} '
                                  f'({hint(".".join(parts[i:]), known, full)})')
         sec = _section_of(fields[part])
         last = i == len(parts) - 1
         if sec is None and not last:
-            raise ParameterError(f"unknown setting '{prefix}{path}': "
+            raise ParameterError(f'unknown setting {quoted(prefix + path)}: '
                                  f"'{prefix}{'.'.join(parts[:i + 1])}' is a value, not a section")
         if sec is not None and last:
-            raise ParameterError(f"setting '{prefix}{path}' is a section: name one of its "
+            raise ParameterError(f'setting {quoted(prefix + path)} is a section: name one of its '
                                  f'values ({", ".join(leaf_paths(sec))})')
         if sec is not None:
             here = sec

@@ -12,7 +12,7 @@ from ruamel.yaml import YAML
 from pam_bench.analysis.bag_repair import repair_bag
 from pam_bench.analysis.splitwriter import SplitWriter
 from pam_bench.analysis.types import bench_typestore
-from test.helpers import bag_payloads
+from test.helpers import bag_payloads, node_executable
 
 FORCE = '/load_cell_1/force'
 STATUS = '/protocol/status'
@@ -177,7 +177,8 @@ def test_mcap_core_decodes_a_split_compressed_bag(tmp_path: pathlib.Path) -> Non
     bag = tmp_path / 'bag'
     _write(bag, 3000, max_duration_ns=10**9)
     files = [str(bag / f) for f in _meta(bag)['relative_file_paths']]
-    out = subprocess.run(['node', str(JS / 'read_mcap.mjs'), *files], capture_output=True,
+    out = subprocess.run([node_executable(), str(JS / 'read_mcap.mjs'), *files],
+                         capture_output=True,
                          text=True, check=True, timeout=60).stdout
     rows = [json.loads(line) for line in out.splitlines()]
     forces = [(int(r['log_time']), r['message']['wrench']['force']['z']) for r in rows
