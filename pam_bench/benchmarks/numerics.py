@@ -19,7 +19,7 @@ from pam_bench.analysis.bagread import read_bags  # noqa: E402
 from pam_bench.analysis.servo_bag import read_servo_states  # noqa: E402
 from pam_bench.benchmarks.fidelity import fidelity_table  # noqa: E402
 from pam_bench.benchmarks.study import Study  # noqa: E402
-from pam_bench.benchmarks.tables import Row, commit_of, pct, table  # noqa: E402
+from pam_bench.benchmarks.tables import RESULTS, Row, commit_of, pct, table  # noqa: E402
 from pam_bench.benchmarks.work_precision import work_precision  # noqa: E402
 from pam_bench.bringup.runner import run_scene  # noqa: E402
 from pam_bench.config.paths import config_dir  # noqa: E402
@@ -106,9 +106,10 @@ def plot_work_precision(rows: list[dict[str, Any]], root: pathlib.Path) -> str:
     np.atleast_1d(axes)[0].set_ylabel('relative error')
     name = 'bench_work_precision.png'
     fig.tight_layout()
-    fig.savefig(root / name, dpi=100)
+    (root / RESULTS).mkdir(parents=True, exist_ok=True)
+    fig.savefig(root / RESULTS / name, dpi=100)
     plt.close(fig)
-    return name
+    return f'{RESULTS}/{name}'
 
 
 def work_precision_section(r: dict[str, Any], root: pathlib.Path) -> list[str]:

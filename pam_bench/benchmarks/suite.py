@@ -20,6 +20,7 @@ from typing import Any
 from pam_bench.benchmarks.errors import UsageError
 from pam_bench.benchmarks.report import render
 from pam_bench.benchmarks.studies import STUDIES
+from pam_bench.benchmarks.tables import RESULTS
 from pam_bench.vocabulary.params import hint
 
 __all__ = ['run_benchmarks', 'render_report']
@@ -51,7 +52,8 @@ def run_benchmarks(quick: bool, root: pathlib.Path, scenes: list[str] | None = N
     head = {'machine': {'platform': platform.platform(), 'cpus': os.cpu_count(),
                         'python': platform.python_version()},
             'date': now, 'commit': _commit(), 'quick': quick}
-    path = root / 'bench.json'
+    path = root / RESULTS / 'bench.json'
+    path.parent.mkdir(parents=True, exist_ok=True)
     report: dict[str, Any] = {}
     if only and path.exists():
         report = json.loads(path.read_text(encoding='utf-8'))
@@ -96,12 +98,13 @@ def run_benchmarks(quick: bool, root: pathlib.Path, scenes: list[str] | None = N
 
 
 def render_report(root: pathlib.Path) -> pathlib.Path:
-    """Write BENCHMARKS.md from ``root``/bench.json (and docs/long_runs.md); return its path.
+    """Write BENCHMARKS.md from ``root``/results/bench.json (and the titles of
+    docs/long_runs.md); return its path.
 
     Raises:
-        FileNotFoundError: no bench.json in ``root``.
+        FileNotFoundError: no results/bench.json in ``root``.
     """
-    report = json.loads((root / 'bench.json').read_text(encoding='utf-8'))
+    report = json.loads((root / RESULTS / 'bench.json').read_text(encoding='utf-8'))
     md = root / 'BENCHMARKS.md'
     md.write_text(render(report, root), encoding='utf-8')
     return md

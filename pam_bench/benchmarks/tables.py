@@ -9,11 +9,14 @@ from typing import Any
 
 import yaml
 
-__all__ = ['Row', 'table', 'methods', 'commit_of', 'pct', 'LONG_RUNS']
+__all__ = ['Row', 'table', 'methods', 'commit_of', 'pct', 'LONG_RUNS', 'RESULTS']
 
 Row = Sequence[Any]
 LONG_RUNS = pathlib.Path('docs') / 'long_runs.md'
-"""Hand-written runs too long for every `pam-bench bench`, included whole at the end."""
+"""Hand-written runs too long for every `pam-bench bench`, and dated notes: BENCHMARKS.md lists
+their titles at the end."""
+RESULTS = pathlib.Path('results')
+"""Where the raw figures (``bench.json``) and the report's plots lie, under the report's root."""
 
 
 def table(headers: Sequence[str], rows: Iterable[Row]) -> list[str]:

@@ -71,7 +71,7 @@ def batch_child() -> None:
     more node processes than cores, the default policy lets every message wake-up preempt the
     running process, and each preemption is a context switch the exchange pays for; SCHED_BATCH
     (Linux, no privilege needed) keeps the nice level and drops that wake-up preemption
-    (BENCHMARKS.md, Long runs, "Lock-step processes under SCHED_BATCH"). Wall-clock runs keep
+    (docs/long_runs.md, "Lock-step processes under SCHED_BATCH"). Wall-clock runs keep
     the default policy (or their SCHED_FIFO control loop).
     """
     die_with_parent()

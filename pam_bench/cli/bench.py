@@ -88,9 +88,9 @@ def _cmd_bench(args: argparse.Namespace) -> int:
             print(f'{study.key:16s} {study.text}')
         return 0
     if args.render:
-        print(f'wrote {render_report(root)} from {root / "bench.json"}')
+        print(f'wrote {render_report(root)} from {root / "results" / "bench.json"}')
         return 0
     only = [s for part in args.only or [] for s in part.split(',') if s]
     run_benchmarks(args.quick, root, args.scene or None, only or None)
-    print(f'wrote {root / "BENCHMARKS.md"} and {root / "bench.json"}')
+    print(f'wrote {root / "BENCHMARKS.md"} and {root / "results" / "bench.json"}')
     return 0

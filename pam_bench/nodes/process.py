@@ -73,7 +73,7 @@ def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
     ``poll_period_s``. Returns when ``should_stop()`` is true after a tick. SIGINT and SIGTERM
     end the loop between ticks, never inside one (a tick cut between its publishes would leave
     a device's outputs half sent), and then raise KeyboardInterrupt. rclpy's timer against
-    this loop: ``BENCHMARKS.md``, "The torque servo on a wall clock".
+    this loop: ``BENCHMARKS.md``, "The bench on a wall clock".
     """
     from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
     from rclpy.signals import SignalHandlerGuardCondition

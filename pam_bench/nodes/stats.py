@@ -24,7 +24,7 @@ its publishers (s). Fast DDS's readers acknowledge when the writer's heartbeat a
 by default), so the wait often runs its whole budget even with every subscriber there, and a
 subscriber that has gone without the writer knowing yet never acknowledges: one budget per
 node, or per process (``ack_until_s``), not per publisher, which cost a stopping emulator 0.5 s
-per measured topic (BENCHMARKS.md, Long runs, "make test made shorter")."""
+per measured topic (docs/long_runs.md, "make test made shorter")."""
 
 
 class Stats(NodeCore):

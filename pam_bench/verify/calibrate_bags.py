@@ -20,11 +20,10 @@ one bench, so the friction follows the recorded path, in one of two ways (``repl
   record from its own settled start, the valve's pressure loop integrated exactly (ZOH)
   every 10th sample period. About four times faster, and the choice for a bench whose drive
   is not 004's.
-Records are compared at every 10th sample. At the true parameters of a drawn bench, the
-static replay was up to 25 mm (isobaric), 5 N (isometric) and 1.2 N RMS (records) away from
-a protocol run of the time-stepped bench, and biased the fitted bladder and friction
-stiffnesses by 3-12 % (BENCHMARKS.md, 'Calibrating the bench to recordings'): a record's
-start depends on the friction state the records before it left.
+Records are compared at every 10th sample. The static replay is not the time-stepped bench:
+how far apart the two are at a drawn bench's true parameters, and what that does to a fit, is
+in BENCHMARKS.md, 'Calibrating the bench to recordings' (a record's start depends on the
+friction state the records before it left).
 
 Residuals are scaled to the bench's tolerances (issue 18): forces in units of 1 % of the load
 cell's 2000 N range (20 N), contractions in 0.5 mm. ``scipy.optimize.least_squares`` (trust
@@ -38,9 +37,9 @@ such a parameter at its starting value instead of letting the model's small erro
 anywhere in its range: one residual ``PRIOR_WEIGHT`` (z - z_0) per parameter, so moving a
 parameter across its whole range costs as much as one reading a tolerance off; an identified
 parameter's readings outweigh it by hundreds to thousands (Tikhonov regularisation, a Gaussian
-prior of one range's width). Without it, the gain's rise went to -97 % on a recording that does
-not reach past x_m, and the calibrated bench missed the original bag by 10.7 mm on the reading
-that does. A parameter is flagged too when the prior still holds more than
+prior of one range's width). Without it, a parameter the recordings do not reach (the gain's
+rise past x_m on a grid that stops before x_m) wanders to a bound, and the calibrated bench
+misses the readings that do reach it. A parameter is flagged too when the prior still holds more than
 ``PRIOR_SHARE_FLAG`` of its variance: with J the data's Jacobian in z and w the prior weight,
 w^2 [(J^T J + w^2 I)^-1]_ii > 0.01 (the recordings, not the prior, must fix it; the standard
 error from the residuals alone cannot tell, since residuals near zero make every error small).

@@ -9,8 +9,8 @@ Force (003 Eq. 12): F = p dV / dL - s_r A_in / dL - 0.641 N m / dL, with the sec
 initial state as printed: dV = V(L) - V(l0), dL = l0 - L = x. As x -> 0 the secant tends to
 the tangent -dV/dL of Eq. 6, but the 1 / dL terms diverge there, so the law is fitted and
 scored on readings with x >= 5 mm only. ``TANGENT`` is the same law with the tangent -dV/dL at
-L (Eq. 6) in place of the secant, kept as a named variant (BENCHMARKS.md, 'Static force
-models').
+L (Eq. 6) in place of the secant, kept as a named variant (BENCHMARKS.md, 'The
+straight-fibre muscle', its law table).
 
 Length (003 Eq. 17-18): L = L0 - a L0 / (1 + exp(-b (D0 / s_r) p))^6.214, with
 a = 0.0126 + 14882 q - 2e8 q^2 and b = 2e-5 - 0.5375 q + 11777 q^2, q = D0 / s_r (m per N/m:
