@@ -2,7 +2,8 @@
 
 ``pam-bench run isometric --wallclock`` runs as a lab runs it (its own process group, the
 recorder at its defaults: zstd chunks, files under 1 GB) for ``SOAK_S`` (``--quick``:
-``QUICK_SOAK_S``) and is then stopped with SIGINT, as Ctrl-C stops it. Every ``SAMPLE_S`` the study reads
+``QUICK_SOAK_S``) and is then stopped with SIGINT, as Ctrl-C stops it. Every ``SAMPLE_S``
+the study reads
 ``/proc`` for each process of the run: resident memory (RSS) and CPU time, and the bag's
 bytes. From the samples: the RSS slope per process (least squares over the samples after the
 first minute, MB/h), the CPU share, the bag's growth (GB/h, compressed as written, and

@@ -16,7 +16,8 @@ Static force (quasi-static: the muscle's own mass and the gas inertia are neglec
   shaped to 004's isometric figures (section 2.3): 284.3 N/V at x = 0 and a minimum of
   17.4 N/V at 95 mm over 0..110 mm (k_v = 0.1 MPa/V turns N/Pa into N/V: 1e5 g). A gain that
   only falls (the ideal braid's, and this law with g_m = g_r = 0) cannot have a minimum inside
-  the range: it keeps falling to 110 mm (BENCHMARKS.md, 'Calibration against 004'). Past x_m the gain
+  the range: it keeps falling to 110 mm (BENCHMARKS.md, 'Calibration against 004'). Past x_m
+  the gain
   rises gently and linearly (g_r; n > 1 makes the falling branch flat at x_m, so the gain is
   continuous and has its minimum there); the muscle stays stable as long as its stiffness
   -dF/dx = k_bl - g_r e stays positive there, which ``MuscleModel`` checks at the valve's

@@ -39,7 +39,8 @@ parameter across its whole range costs as much as one reading a tolerance off; a
 parameter's readings outweigh it by hundreds to thousands (Tikhonov regularisation, a Gaussian
 prior of one range's width). Without it, a parameter the recordings do not reach (the gain's
 rise past x_m on a grid that stops before x_m) wanders to a bound, and the calibrated bench
-misses the readings that do reach it. A parameter is flagged too when the prior still holds more than
+misses the readings that do reach it. A parameter is flagged too when the prior still holds
+more than
 ``PRIOR_SHARE_FLAG`` of its variance: with J the data's Jacobian in z and w the prior weight,
 w^2 [(J^T J + w^2 I)^-1]_ii > 0.01 (the recordings, not the prior, must fix it; the standard
 error from the residuals alone cannot tell, since residuals near zero make every error small).
