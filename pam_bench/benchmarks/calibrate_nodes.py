@@ -34,7 +34,7 @@ GOAL_CONTRACTION_M = 0.5e-3
 
 
 def _run(overlay: dict[str, Any], out: pathlib.Path, name: str) -> tuple[pathlib.Path, float]:
-    from pam_bench.bringup.runner import run_scene
+    from pam_bench.bringup.runner import Layout, RunOptions, run_scene
     from pam_bench.config.scene import apply_overlay, load_scene
     path = out / f'{name}.yaml'
     path.write_text(yaml.safe_dump(overlay, sort_keys=False), encoding='utf-8')
@@ -43,7 +43,7 @@ def _run(overlay: dict[str, Any], out: pathlib.Path, name: str) -> tuple[pathlib
     bag = out / name
     shutil.rmtree(bag, ignore_errors=True)
     t0 = time.perf_counter()
-    res = run_scene(scene, str(bag), one_process=True, quiet=True)
+    res = run_scene(scene, str(bag), RunOptions(layout=Layout.COMPOSED, quiet=True))
     if res.code != 0:
         raise RuntimeError(f'campaign_quick with {name} ended with code {res.code}')
     return bag, time.perf_counter() - t0

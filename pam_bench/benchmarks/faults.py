@@ -19,7 +19,7 @@ from typing import Any
 
 from pam_bench.benchmarks.study import Study
 from pam_bench.benchmarks.tables import Row, commit_of, table
-from pam_bench.bringup.runner import run_scene
+from pam_bench.bringup.runner import Layout, RunOptions, run_scene
 from pam_bench.config.scene import load_scene
 
 __all__ = ['STUDY', 'SCENE', 'READINGS', 'CASES', 'measure_faults', 'faults_section',
@@ -67,7 +67,7 @@ def _case(kind: str, out: pathlib.Path) -> dict[str, Any]:
     path.write_text(SCENE.format(fault=fault), encoding='utf-8')
     scene = load_scene(str(path))
     bag = out / f'fault_{kind}'
-    res = run_scene(scene, str(bag), wallclock=True, quiet=True)
+    res = run_scene(scene, str(bag), RunOptions(layout=Layout.WALL_CLOCK, quiet=True))
     status = topic_messages(bag, '/protocol/status')
     points = topic_messages(bag, '/protocol/point')
     t_fault = _stamp(status[0]) + round(scene.faults[0].at_s * 1e9) if status else 0

@@ -11,6 +11,7 @@ from pam_bench.benchmarks.pingpong import pingpong_rate
 from pam_bench.benchmarks.runs import scene_run
 from pam_bench.benchmarks.study import Study
 from pam_bench.benchmarks.tables import Row, commit_of, pct, table
+from pam_bench.vocabulary.run import Layout
 
 __all__ = ['STUDY', 'measure', 'section', 'results', 'PARTICIPANTS']
 
@@ -29,12 +30,13 @@ def measure(quick: bool, out: pathlib.Path, scenes: list[str] | None) -> dict[st
     rows = []
     for name in ('demo', 'servo_sin_t', 'campaign_quick') + (() if quick else ('campaign',)):
         for one in (False, True):
-            print(f'  {name}, {"one process" if one else "separate processes"} ...', flush=True)
+            layout = Layout.COMPOSED if one else Layout.PROCESSES
+            print(f'  {name}, {layout.value} ...', flush=True)
             if quick and name != 'demo' and not one:
                 continue             # separate processes: the demo shows them (the rest, about
                 #                      25 s, in the full run)
             row = scene_run(name, out, one_process=one)
-            row['layout'] = 'one process' if one else 'separate processes'
+            row['layout'] = layout.value
             if name.startswith('servo'):
                 from pam_bench.twin.servo_bench import tracking_metrics
                 from pam_bench.twin.servo_setup import servo_run_of_bag
@@ -47,10 +49,10 @@ def measure(quick: bool, out: pathlib.Path, scenes: list[str] | None) -> dict[st
                         'rows': rows}}
 
 
-def _layout_row(r: dict[str, Any], scene: str, layout: str) -> dict[str, Any] | None:
+def _layout_row(r: dict[str, Any], scene: str, layout: Layout) -> dict[str, Any] | None:
     """The layouts study's row of ``scene`` in ``layout``, if it was measured."""
     for row in r.get('layouts', {}).get('rows', []):
-        if row['scene'] == scene and row['layout'] == layout:
+        if row['scene'] == scene and Layout.parse(row['layout']) is layout:
             return row
     return None
 
@@ -62,26 +64,26 @@ def results(r: dict[str, Any]) -> list[Row]:
     commit = commit_of(r, 'layouts')
     pp = r['layouts']['pingpong_round_trips_per_s']
     rows: list[Row] = []
-    for layout, goal in (('one process', '>= 1x real time'),
-                         ('separate processes', '>= 0.3x real time')):
+    for layout, goal in ((Layout.COMPOSED, '>= 1x real time'),
+                         (Layout.PROCESSES, '>= 0.3x real time')):
         row = _layout_row(r, 'servo_sin_t', layout)
         if row:
             rms = (f", torque RMS {row['torque_rms_error_nm']:.4f} N m"
                    if 'torque_rms_error_nm' in row else '')
-            rows.append((f'`servo_sin_t` (8 s, 1 ms exchanges), {layout}', goal,
+            rows.append((f'`servo_sin_t` (8 s, 1 ms exchanges), {layout.value}', goal,
                          f"{row['real_time_factor']:.2f}x ({row['lockstep_rate_steps_per_s']:.0f}"
                          f' exchanges/s{rms})', commit))
-    row = _layout_row(r, 'campaign_quick', 'one process')
+    row = _layout_row(r, 'campaign_quick', Layout.COMPOSED)
     if row:
-        rows.append(('`campaign_quick` wall time with start-up, one process', '<= 6 s',
+        rows.append(('`campaign_quick` wall time with start-up, composed', '<= 6 s',
                      f"{row['wall_s_total']:.1f} s ({row['real_time_factor']:.0f}x in "
                      'lock-step)', commit))
-    row = _layout_row(r, 'campaign', 'one process')
+    row = _layout_row(r, 'campaign', Layout.COMPOSED)
     if row:
-        rows.append(('full `campaign` lock-step, one process', '<= 150 s (>= 146x)',
+        rows.append(('full `campaign` lock-step, composed', '<= 150 s (>= 146x)',
                      f"{row['wall_s_lockstep']:.0f} s ({row['real_time_factor']:.0f}x)",
                      commit))
-    row = _layout_row(r, 'demo', 'separate processes')
+    row = _layout_row(r, 'demo', Layout.PROCESSES)
     if row:
         rows.append(('demo lock-step against the ping-pong floor, separate processes',
                      '>= 0.3', f"{row['lockstep_rate_steps_per_s'] / pp:.3f} "
@@ -89,7 +91,7 @@ def results(r: dict[str, Any]) -> list[Row]:
                      'trips/s)', commit))
     fan = r['layouts'].get('fanout_exchanges_per_s', {})
     for scene, n in (('demo', '7'), ('servo_sin_t', '10')):
-        row = _layout_row(r, scene, 'separate processes')
+        row = _layout_row(r, scene, Layout.PROCESSES)
         if row and n in fan:
             rows.append((f'lock-step with no work, {n} separate-process participants (the '
                          f'floor under {scene})', '-', f"{fan[n]:.0f} exchanges/s ({scene}: "
@@ -111,7 +113,8 @@ def section(r: dict[str, Any], root: pathlib.Path) -> list[str]:
     return [f'rclpy ping-pong floor in the same run: {pp:.0f} round trips/s.', ''] + floor + table(
         ['scene', 'layout', 'sim time', 'exchanges', 'exchanges/s', 'real-time factor',
          'wall s (lock-step)', 'wall s with start-up', 'round trips per exchange'],
-        [(row['scene'], row['layout'], f"{row['sim_s']:.0f} s", row['exchange_steps'],
+        [(row['scene'], Layout.parse(row['layout']).value, f"{row['sim_s']:.0f} s",
+          row['exchange_steps'],
           f"{row['lockstep_rate_steps_per_s']:.0f}", f"{row['real_time_factor']:.2f}x",
           f"{row['wall_s_lockstep']:.1f}", f"{row['wall_s_total']:.1f}",
           pct(row['round_trips_per_exchange'], 1)) for row in lay['rows']]) + _best_case(r)
@@ -127,14 +130,14 @@ def _best_case(r: dict[str, Any]) -> list[str]:
     lay = r['layouts']
     fan = lay.get('fanout_exchanges_per_s', {})
     cpus = r.get('machine', {}).get('cpus', 2)
-    rows = {(row['scene'], row['layout']): row for row in lay['rows']}
+    rows = {(row['scene'], Layout.parse(row['layout'])): row for row in lay['rows']}
     parts = []
     counted = False
     for scene, n in PARTICIPANTS.items():
-        one = rows.get((scene, 'one process'))
+        one = rows.get((scene, Layout.COMPOSED))
         if n not in fan or one is None:
             continue
-        sep = rows.get((scene, 'separate processes'))
+        sep = rows.get((scene, Layout.PROCESSES))
         step_s = one['sim_s'] / one['exchange_steps']
         floor_s = 1.0 / fan[n]                       # wall s per no-work exchange
         work_s = 1.0 / one['lockstep_rate_steps_per_s'] / cpus

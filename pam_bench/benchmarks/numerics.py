@@ -21,7 +21,7 @@ from pam_bench.benchmarks.fidelity import fidelity_table  # noqa: E402
 from pam_bench.benchmarks.study import Study  # noqa: E402
 from pam_bench.benchmarks.tables import RESULTS, Row, commit_of, pct, table  # noqa: E402
 from pam_bench.benchmarks.work_precision import work_precision  # noqa: E402
-from pam_bench.bringup.runner import run_scene  # noqa: E402
+from pam_bench.bringup.runner import RunOptions, run_scene  # noqa: E402
 from pam_bench.config.paths import config_dir  # noqa: E402
 from pam_bench.config.scene import load_scene  # noqa: E402
 from pam_bench.control.inverse import InverseModel  # noqa: E402
@@ -38,7 +38,7 @@ def _ros_sweep(out: pathlib.Path, quick: bool) -> dict[str, Any]:
     for h in reversed(iso_steps):
         sc = dataclasses.replace(load_scene('isometric_quick'), exchange_step_s=h)
         bag = out / f'iso_{h}'
-        res = run_scene(sc, str(bag), quiet=True)
+        res = run_scene(sc, str(bag), RunOptions(quiet=True))
         f = read_bags([bag]).points['isometric_quick'].force_n
         ref = f if ref is None else ref
         rows.append({'scene': 'isometric_quick', 'exchange_step_s': h, 'wall_s': res.wall_s,
@@ -50,7 +50,7 @@ def _ros_sweep(out: pathlib.Path, quick: bool) -> dict[str, Any]:
     for h in (0.001, 0.002, 0.005):
         sc = dataclasses.replace(load_scene('servo_sin_t'), exchange_step_s=h, duration_s=dur)
         bag = out / f'servo_{h}'
-        res = run_scene(sc, str(bag), quiet=True)
+        res = run_scene(sc, str(bag), RunOptions(quiet=True))
         s = read_servo_states(bag)
         t = s['t_s'] - s['t_s'][0]
         if sref is None:

@@ -21,7 +21,7 @@ from typing import Any
 
 from pam_bench.benchmarks.study import Study
 from pam_bench.benchmarks.tables import table
-from pam_bench.bringup.runner import run_scene
+from pam_bench.bringup.runner import Layout, RunOptions, run_scene
 from pam_bench.config.scene import load_scene
 from pam_bench.nodes.profiling import ENV
 
@@ -92,8 +92,9 @@ def profile_scene(name: str, duration_s: float, one_process: bool) -> dict[str, 
         old = os.environ.get(ENV)
         os.environ[ENV] = str(prof)
         try:
-            res = run_scene(scene, str(pathlib.Path(tmp) / 'bag'), quiet=True,
-                            one_process=one_process)
+            layout = Layout.COMPOSED if one_process else Layout.PROCESSES
+            res = run_scene(scene, str(pathlib.Path(tmp) / 'bag'),
+                            RunOptions(layout=layout, quiet=True))
         finally:
             if old is None:
                 os.environ.pop(ENV, None)
@@ -103,7 +104,8 @@ def profile_scene(name: str, duration_s: float, one_process: bool) -> dict[str, 
     n = max(res.steps, 1)
     per = {p: {c: 1e6 * s / n for c, s in by.items()} for p, by in split.items()}
     total = {c: sum(p[c] for p in per.values()) for c in CAUSES}
-    return {'scene': name, 'layout': 'one process' if one_process else 'separate processes',
+    layout = Layout.COMPOSED if one_process else Layout.PROCESSES
+    return {'scene': name, 'layout': layout.value,
             'exchanges': res.steps, 'wall_s': res.wall_s,
             'wall_us_per_exchange': 1e6 * res.wall_s / n, 'us_per_exchange': total,
             'processes': per}
@@ -121,7 +123,8 @@ def measure(quick: bool, out: pathlib.Path, scenes: list[str] | None) -> dict[st
 def section(r: dict[str, Any], root: pathlib.Path) -> list[str]:
     """Microseconds per exchange by cause, per profiled run."""
     head = ['scene', 'layout', 'wall us / exchange (profiled)'] + list(CAUSES)
-    return table(head, [(p['scene'], p['layout'], f"{p['wall_us_per_exchange']:.0f}")
+    return table(head, [(p['scene'], Layout.parse(p['layout']).value,
+                         f"{p['wall_us_per_exchange']:.0f}")
                         + tuple(f"{p['us_per_exchange'][c]:.0f}" for c in CAUSES)
                         for p in r['profile']])
 

@@ -6,7 +6,7 @@ import pathlib
 import time
 from typing import Any
 
-from pam_bench.bringup.runner import run_scene
+from pam_bench.bringup.runner import Layout, RunOptions, run_scene
 from pam_bench.config.scene import load_scene
 
 __all__ = ['scene_run', 'scene_bag']
@@ -21,9 +21,11 @@ def scene_run(name: str, out: pathlib.Path, one_process: bool = False) -> dict[s
     """Run scene ``name`` into ``out`` (``scene_bag``) and return its timing row."""
     t0 = time.perf_counter()
     bag = scene_bag(name, out, one_process)
-    res = run_scene(load_scene(name), str(bag), quiet=True, one_process=one_process)
+    res = run_scene(load_scene(name), str(bag),
+                    RunOptions(layout=Layout.COMPOSED if one_process else Layout.PROCESSES,
+                               quiet=True))
     wall = time.perf_counter() - t0
-    row = {'scene': name, 'layout': 'composed' if one_process else 'separate processes',
+    row = {'scene': name, 'layout': (Layout.COMPOSED if one_process else Layout.PROCESSES).value,
            'code': res.code, 'exchange_steps': res.steps, 'sim_s': res.sim_s,
            'wall_s_lockstep': res.wall_s, 'wall_s_total': wall,
            'real_time_factor': res.sim_s / res.wall_s if res.wall_s else 0.0,

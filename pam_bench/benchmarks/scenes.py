@@ -16,6 +16,7 @@ from pam_bench.benchmarks.runs import scene_bag, scene_run
 from pam_bench.benchmarks.study import Study
 from pam_bench.benchmarks.tables import Row, commit_of, pct, table
 from pam_bench.verify.reference_check import run_against_twin
+from pam_bench.vocabulary.run import Layout
 
 __all__ = ['STUDY', 'measure']
 
@@ -110,7 +111,7 @@ def _extraction(out: pathlib.Path, names: list[str], quick: bool) -> dict[str, A
 
 def _layout(s: dict[str, Any]) -> str:
     """The layout a scene row ran in (rows from before composed was the default lack it)."""
-    return str(s.get('layout', 'separate processes'))
+    return Layout.parse(str(s.get('layout', Layout.PROCESSES.value))).value
 
 
 def scenes_section(r: dict[str, Any], root: pathlib.Path) -> list[str]:
@@ -192,7 +193,7 @@ def results(r: dict[str, Any]) -> list[Row]:
     commit = commit_of(r, 'scenes')
     for s in r.get('scenes', []):
         if s['scene'] in ('campaign', 'campaign_quick'):
-            composed = _layout(s) == 'composed'
+            composed = _layout(s) == Layout.COMPOSED.value
             goal = ('-' if s['scene'] != 'campaign' else
                     '<= 30 s (>= 730x real time)' if composed else '>= 36x real time')
             rows.append((f"`{s['scene']}` through the nodes, {_layout(s)}", goal,

@@ -43,15 +43,16 @@ def servo_scenes() -> list[str]:
 
 def _ros_run(scene: Scene, controller: ServoMode, duration_s: float | None,
              tmp: pathlib.Path, one_process: bool = False) -> tuple[ServoRun, float, float]:
-    from pam_bench.bringup.runner import run_scene
+    from pam_bench.bringup.runner import Layout, RunOptions, run_scene
     params = {k: dict(v) for k, v in scene.parameters.items()}
     params.setdefault('torque_servo', {})['controller'] = controller.value
     sc = dataclasses.replace(scene, parameters=params,
                              duration_s=duration_s or scene.duration_s)
     out = tmp / f'{scene.name}_{controller.value}'
     from pam_bench.cluster.layer import worker_domain
-    res = run_scene(sc, str(out), quiet=True, one_process=one_process,
-                    domain_id=worker_domain())
+    res = run_scene(sc, str(out),
+                    RunOptions(layout=Layout.COMPOSED if one_process else Layout.PROCESSES,
+                               quiet=True, domain_id=worker_domain()))
     if res.code != 0:
         raise RuntimeError(f'scene {scene.name} ({controller.value}) failed: exit {res.code}')
     return servo_run_of_bag(out, 2 if 'valve_2' in scene.nodes else 1), res.wall_s, res.sim_s

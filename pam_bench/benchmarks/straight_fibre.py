@@ -11,7 +11,7 @@ from pam_bench.analysis.bagread import read_bags
 from pam_bench.analysis.extract import model_comparison
 from pam_bench.benchmarks.study import Study
 from pam_bench.benchmarks.tables import Row, commit_of, table
-from pam_bench.bringup.runner import run_scene
+from pam_bench.bringup.runner import RunOptions, run_scene
 from pam_bench.config.scene import load_scene
 from pam_bench.verify.prototype import prototype_figures
 
@@ -29,7 +29,7 @@ def measure_straight_fibre(out: pathlib.Path) -> dict[str, Any]:
         print(f'  {name} ...', flush=True)
         bag = out / name
         t0 = time.perf_counter()
-        res = run_scene(load_scene(name), str(bag), quiet=True)
+        res = run_scene(load_scene(name), str(bag), RunOptions(quiet=True))
         runs.append({'scene': name, 'code': res.code, 'sim_s': res.sim_s,
                      'wall_s': time.perf_counter() - t0})
         points = read_bags([bag]).points

@@ -21,7 +21,7 @@ import numpy as np
 from pam_bench.analysis.delivery import delivery_table
 from pam_bench.benchmarks.study import Study
 from pam_bench.benchmarks.tables import Row, commit_of, table
-from pam_bench.bringup.runner import RunResult, run_scene
+from pam_bench.bringup.runner import Layout, RunOptions, RunResult, run_scene
 from pam_bench.config.scene import Scene, load_scene
 from pam_bench.config.settings import LiveViewSettings
 from pam_bench.verify.wallclock import compare_readings
@@ -60,8 +60,10 @@ def _with(scene: Scene, node: str, params: dict[str, Any]) -> Scene:
 def _readings(name: str, out: pathlib.Path) -> dict[str, Any]:
     scene = load_scene(name)
     print(f'  {name}: lock-step, then wall clock ...', flush=True)
-    lock = run_scene(scene, str(out / f'{name}_lock'), one_process=True, quiet=True)
-    wall = run_scene(scene, str(out / f'{name}_wall'), wallclock=True, quiet=True)
+    lock = run_scene(scene, str(out / f'{name}_lock'),
+                     RunOptions(layout=Layout.COMPOSED, quiet=True))
+    wall = run_scene(scene, str(out / f'{name}_wall'),
+                     RunOptions(layout=Layout.WALL_CLOCK, quiet=True))
     d = compare_readings(out / f'{name}_wall', out / f'{name}_lock')
     lost, written = _lost(wall)
     seq = wall.stats.get('sequencer', {}).get('periods', {})
@@ -81,7 +83,7 @@ def _servo(out: pathlib.Path, quick: bool = False) -> list[dict[str, Any]]:
     if quick:
         scene = dataclasses.replace(scene, duration_s=QUICK_SERVO_S)
     print('  servo_sin_t: lock-step reference ...', flush=True)
-    run_scene(scene, str(out / 'servo_lock'), one_process=True, quiet=True)
+    run_scene(scene, str(out / 'servo_lock'), RunOptions(layout=Layout.COMPOSED, quiet=True))
     ref = servo_run_of_bag(out / 'servo_lock', 2)
     rows = []
     for i, (label, params, separate, live) in enumerate(SERVO_SETUPS):
@@ -89,9 +91,9 @@ def _servo(out: pathlib.Path, quick: bool = False) -> list[dict[str, Any]]:
             continue
         print(f'  servo_sin_t on the wall clock: {label} ...', flush=True)
         bag = out / f'servo_wall_{i}'
-        res = run_scene(_with(scene, 'torque_servo', params), str(bag), wallclock=True,
-                        device_processes=separate, quiet=True,
-                        live=LiveViewSettings(port=0) if live else None)
+        res = run_scene(_with(scene, 'torque_servo', params), str(bag),
+                        RunOptions(layout=Layout.WALL_CLOCK, device_processes=separate,
+                                   quiet=True, live=LiveViewSettings(port=0) if live else None))
         run = servo_run_of_bag(bag, 2)
         m = np.interp(ref.t_s, run.t_s, run.measured)
         keep = (ref.t_s >= 1.0) & (ref.t_s <= run.t_s[-1])

@@ -214,6 +214,7 @@ def _replayed(args: argparse.Namespace) -> tuple[Any, dict[str, Any] | None]:
     from pam_bench.analysis.baginfo import run_of_bag
     from pam_bench.analysis.errors import BagError
     from pam_bench.config.scene import load_scene, settings_of_params_file
+    from pam_bench.vocabulary.run import Layout
     try:
         run = run_of_bag(args.replay)
     except BagError as exc:
@@ -223,11 +224,13 @@ def _replayed(args: argparse.Namespace) -> tuple[Any, dict[str, Any] | None]:
         path.write_text(run['scene_text'], encoding='utf-8')
         scene = load_scene(str(path))
     args.seed = int(run['seed'])
-    layout = run.get('layout', '')
-    if layout == 'separate processes':
-        args.processes = True
-    elif layout == 'wall clock':
-        args.wallclock = True
+    layout = str(run.get('layout', ''))
+    try:
+        args.processes = Layout.parse(layout) is Layout.PROCESSES
+        args.wallclock = Layout.parse(layout) is Layout.WALL_CLOCK
+    except ValueError:
+        raise BagError(f'cannot replay: {args.replay} names an unknown layout '
+                       f'{shorten(layout)}') from None
     print(f'replaying {args.replay}: scene {run["scene"]}, seed {args.seed}, {layout}, '
           f'recorded at commit {run["commit"][:12]}' + (' (dirty)' if run.get('dirty') else ''))
     params = run.get('parameters')
@@ -257,7 +260,7 @@ def _resume_start(scene: Any, bag: str) -> tuple[int, int]:
 
 def _cmd_run(args: argparse.Namespace) -> int:
     from pam_bench.analysis.splitwriter import check_room
-    from pam_bench.bringup.runner import run_scene
+    from pam_bench.bringup.runner import Layout, RunOptions, run_scene
     from pam_bench.vocabulary.outputs import check_output, clear_output
     settings = None
     if args.replay:
@@ -299,11 +302,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
     print(f'scene {scene.name}: {scene.description}\n  exchange step {scene.exchange_step_s} s, '
           f'nodes {", ".join(scene.nodes)}, bag {out}', flush=True)
     try:
-        res = run_scene(scene, str(out), seed=args.seed, realtime=args.realtime,
-                        one_process=not args.processes, wallclock=args.wallclock,
-                        device_processes=args.device_processes, settings=settings,
-                        netns=tuple(args.netns.split(':', 1)) if args.netns else None,
-                        live=live_settings(args, args.live) if args.live is not None else None)
+        layout = (Layout.WALL_CLOCK if args.wallclock else Layout.PROCESSES if args.processes
+                  else Layout.COMPOSED)
+        res = run_scene(scene, str(out), RunOptions(
+            seed=args.seed, layout=layout, realtime=args.realtime,
+            device_processes=args.device_processes, settings=settings,
+            netns=tuple(args.netns.split(':', 1)) if args.netns else None,
+            live=live_settings(args, args.live) if args.live is not None else None))
         code = res.code
     except KeyboardInterrupt:
         print(_interrupted(out), file=sys.stderr)
@@ -380,10 +385,10 @@ def _cmd_live(args: argparse.Namespace) -> int:
 
 
 def _cmd_emulate(args: argparse.Namespace) -> int:
-    from pam_bench.bringup.runner import run_scene
+    from pam_bench.bringup.runner import Layout, RunOptions, run_scene
     from pam_bench.config.scene import load_scene
-    res = run_scene(load_scene(args.scene), '', seed=args.seed, wallclock=True,
-                    devices_only=True)
+    res = run_scene(load_scene(args.scene), '',
+                    RunOptions(layout=Layout.WALL_CLOCK, seed=args.seed, devices_only=True))
     return 0 if res.code in (0, 130) else res.code
 
 

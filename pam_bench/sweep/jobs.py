@@ -55,12 +55,13 @@ def _protocol_result(scene: Any, job: Job, engine: str, figures: list[str]) -> d
         out: dict[str, Any] = {'run': {'sim_s': run.sim_s, 'exit_code': run.exit_code}}
     else:
         from pam_bench.analysis.bagread import read_bags
+        from pam_bench.bringup.runner import RunOptions
         from pam_bench.bringup.runner import run_scene as run_nodes
         from pam_bench.cluster.layer import worker_domain
         with tempfile.TemporaryDirectory(prefix='pam_bench_sweep_') as tmp:
             bag = pathlib.Path(tmp) / 'bag'
-            res = run_nodes(scene, str(bag), seed=job.seed, quiet=True,
-                            domain_id=worker_domain())
+            res = run_nodes(scene, str(bag),
+                            RunOptions(seed=job.seed, quiet=True, domain_id=worker_domain()))
             data = read_bags([str(bag)])
         out = {'run': {'sim_s': res.sim_s, 'exit_code': res.code}}
     out.update(gain_summary(data.points))
@@ -97,12 +98,13 @@ def _servo_result(scene: Any, job: Job, engine: str, duration_s: float | None
                         st['muscle_1'].muscle, seed=job.seed)
         code = 0
     else:
+        from pam_bench.bringup.runner import RunOptions
         from pam_bench.bringup.runner import run_scene as run_nodes
         from pam_bench.cluster.layer import worker_domain
         with tempfile.TemporaryDirectory(prefix='pam_bench_sweep_') as tmp:
             bag = pathlib.Path(tmp) / 'bag'
             res = run_nodes(dataclasses.replace(scene, duration_s=sim), str(bag),
-                            seed=job.seed, quiet=True, domain_id=worker_domain())
+                            RunOptions(seed=job.seed, quiet=True, domain_id=worker_domain()))
             run = servo_run_of_bag(bag, 2 if 'valve_2' in scene.nodes else 1)
             code = res.code
     return {'servo': tracking_metrics(run), 'run': {'sim_s': sim, 'exit_code': code}}

@@ -58,7 +58,7 @@ def test_a_failing_study_is_reported_and_the_rest_run(tmp_path, monkeypatch) -> 
     report = suite.run_benchmarks(True, tmp_path)
     assert report['second'] == {'x': 1}
     assert 'drawn muscle refused' in report['failed']['first']['error']
-    assert json.loads((tmp_path / 'bench.json').read_text())['failed']['first']
+    assert json.loads((tmp_path / 'results' / 'bench.json').read_text())['failed']['first']
 
 
 def test_a_quick_run_leaves_out_a_study_marked_full_only(tmp_path, monkeypatch) -> None:

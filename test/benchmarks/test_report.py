@@ -62,19 +62,21 @@ def test_key_results_come_from_the_data_with_each_commit() -> None:
 def test_render_opens_with_key_results_has_what_the_data_holds_and_long_runs(
         tmp_path: pathlib.Path) -> None:
     (tmp_path / 'docs').mkdir()
-    (tmp_path / LONG_RUNS).write_text('## Long runs\n\nhand-written text\n')
+    (tmp_path / LONG_RUNS).write_text('## Long runs\n\nhand-written text\n\n'
+                                      '### A dated note (2026-12-05)\n\nmore text\n')
     md = render(_made_up(), tmp_path)
     heads = [line for line in md.splitlines() if line.startswith('## ')]
     assert heads[:3] == ['## Key results', f"## {methods()['calibration']['title']}",
                          f"## {methods()['lockstep']['title']}"]
-    assert heads[-1] == '## Long runs' and 'hand-written text' in md
+    assert heads[-1] == '## Long runs and dated notes' and 'hand-written text' not in md
+    assert md.rstrip().endswith('- Long runs\n- A dated note (2026-12-05)')
     assert len(heads) == 4                       # no section for what the data lacks
     assert '| isometric gain at x = 0 mm | 281.5 N/V |' in md
 
 
 def test_the_committed_report_renders(tmp_path: pathlib.Path) -> None:
     """Whatever bench.json holds now renders (its figures are not asserted)."""
-    r = json.loads((REPO / 'bench.json').read_text(encoding='utf-8'))
+    r = json.loads((REPO / 'results' / 'bench.json').read_text(encoding='utf-8'))
     assert render(r, tmp_path).startswith('# pam_bench benchmarks')
 
 

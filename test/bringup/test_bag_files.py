@@ -63,7 +63,7 @@ def test_a_disk_filling_up_ends_the_run_with_a_valid_bag_and_one_line(
     recorder closes the bag with what it holds and the run ends with exit code 2."""
     from pam_bench.analysis import splitwriter
     from pam_bench.analysis.baginfo import bag_info
-    from pam_bench.bringup.runner import run_scene
+    from pam_bench.bringup.runner import RunOptions, run_scene
     from pam_bench.config.scene import load_scene
     calls = [0]
 
@@ -73,7 +73,7 @@ def test_a_disk_filling_up_ends_the_run_with_a_valid_bag_and_one_line(
 
     monkeypatch.setattr(splitwriter, 'free_bytes', free)
     bag = tmp_path / 'bag'
-    res = run_scene(load_scene('demo'), str(bag), quiet=True)
+    res = run_scene(load_scene('demo'), str(bag), RunOptions(quiet=True))
     err = capsys.readouterr().err
     assert res.code == 2
     lines = [ln for ln in err.splitlines() if 'disk full' in ln]

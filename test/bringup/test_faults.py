@@ -13,7 +13,7 @@ import pytest
 
 from pam_bench.analysis.baginfo import bag_info
 from pam_bench.benchmarks.faults import CASES, READINGS, SCENE
-from pam_bench.bringup.runner import run_scene
+from pam_bench.bringup.runner import Layout, RunOptions, run_scene
 from pam_bench.config.scene import Scene, load_scene
 from test.conftest import next_domain
 from test.helpers import bag_messages
@@ -28,8 +28,8 @@ def clean_readings(tmp_path_factory: pytest.TempPathFactory) -> dict[tuple[int, 
     path = tmp_path_factory.mktemp('clean')
     scene = dataclasses.replace(load_scene_text(SCENE.format(fault=CASES['sensor_drift'][0]),
                                                 path / 'clean.yaml'), faults=[])
-    res = run_scene(scene, str(path / 'lock'), one_process=True, quiet=True,
-                    domain_id=next_domain())
+    res = run_scene(scene, str(path / 'lock'),
+                    RunOptions(layout=Layout.COMPOSED, quiet=True, domain_id=next_domain()))
     assert res.code == 0, res.summary
     return {(p.series, p.step): p for p in bag_messages(path / 'lock', '/protocol/point')}
 
@@ -46,7 +46,7 @@ def test_an_injected_fault_is_detected_and_survived_or_resumable(
     fault, survives, words = CASES[kind]
     scene = load_scene_text(SCENE.format(fault=fault), tmp_path / f'{kind}.yaml')
     assert scene.faults and scene.faults[0].kind == kind
-    res = run_scene(scene, str(tmp_path / 'bag'), wallclock=True, quiet=True)
+    res = run_scene(scene, str(tmp_path / 'bag'), RunOptions(layout=Layout.WALL_CLOCK, quiet=True))
     bag = tmp_path / 'bag'
     status = bag_messages(bag, '/protocol/status')
     points = bag_messages(bag, '/protocol/point')

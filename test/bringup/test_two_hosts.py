@@ -16,7 +16,7 @@ import subprocess
 
 import pytest
 
-from pam_bench.bringup.runner import run_scene
+from pam_bench.bringup.runner import RunOptions, run_scene
 from pam_bench.config.scene import load_scene
 from test.helpers import canonical_payloads
 
@@ -66,10 +66,10 @@ def test_the_bench_across_two_namespaces_records_the_one_host_bag(
         tmp_path: pathlib.Path, ros_domain: int, two_hosts: tuple[str, str, str, str]) -> None:
     a, b, va, vb = two_hosts
     scene = load_scene('demo')
-    here = run_scene(scene, str(tmp_path / 'one_host'), quiet=True)
+    here = run_scene(scene, str(tmp_path / 'one_host'), RunOptions(quiet=True))
     assert here.code == 0
     before = _counters(a, va)
-    split = run_scene(scene, str(tmp_path / 'two_hosts'), quiet=True, netns=(a, b))
+    split = run_scene(scene, str(tmp_path / 'two_hosts'), RunOptions(quiet=True, netns=(a, b)))
     assert split.code == 0, split.summary
     after = _counters(a, va)
     assert after[0] - before[0] > 1000 and after[1] - before[1] > 1000   # it went over the pair

@@ -13,7 +13,7 @@ import time
 import pytest
 
 from pam_bench.analysis.delivery import delivery_table
-from pam_bench.bringup.runner import run_scene
+from pam_bench.bringup.runner import Layout, RunOptions, run_scene
 from pam_bench.config.scene import load_scene
 from pam_bench.verify.wallclock import CONTRACTION_BOUND_M, FORCE_BOUND_N, compare_readings
 from test.helpers import bag_messages
@@ -39,9 +39,10 @@ def settled_scene(tmp_path: pathlib.Path) -> pathlib.Path:
 def test_wallclock_readings_land_on_the_lockstep_ones(tmp_path: pathlib.Path, ros_domain: int,
                                                       settled_scene: pathlib.Path) -> None:
     scene = load_scene(str(settled_scene))
-    lock = run_scene(scene, str(tmp_path / 'lock'), one_process=True, quiet=True)
+    lock = run_scene(scene, str(tmp_path / 'lock'), RunOptions(layout=Layout.COMPOSED, quiet=True))
     assert lock.code == 0
-    wall = run_scene(scene, str(tmp_path / 'wall'), wallclock=True, quiet=True)
+    wall = run_scene(scene, str(tmp_path / 'wall'),
+                     RunOptions(layout=Layout.WALL_CLOCK, quiet=True))
     assert wall.code == 0, wall.summary
     diff = compare_readings(tmp_path / 'wall', tmp_path / 'lock')
     assert diff.matched == 6 and diff.only_a == diff.only_b == 0
@@ -216,7 +217,8 @@ def test_a_recorder_that_cannot_start_ends_the_run_at_once(tmp_path: pathlib.Pat
     bag = tmp_path / 'taken'
     bag.mkdir()
     t0 = time.monotonic()
-    res = run_scene(load_scene(str(settled_scene)), str(bag), wallclock=True, quiet=True)
+    res = run_scene(load_scene(str(settled_scene)), str(bag),
+                    RunOptions(layout=Layout.WALL_CLOCK, quiet=True))
     assert res.code == 2
     assert 'recorder: error' in res.summary and 'exists' in res.summary, res.summary
     assert time.monotonic() - t0 < 10.0

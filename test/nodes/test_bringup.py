@@ -9,7 +9,7 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 from rosbags.rosbag2 import Reader
 
-from pam_bench.bringup.runner import run_scene
+from pam_bench.bringup.runner import Layout, RunOptions, run_scene
 from pam_bench.config.scene import load_scene
 from pam_bench.config.topics import EVENT_TOPICS, STEP_TOPICS
 from pam_bench.models.muscle import MuscleModel
@@ -29,8 +29,9 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, pathlib.Path]:
     out = {}
     for name, one in [('proc_a', False), ('proc_b', False), ('one', True)]:
         bag = tmp_path_factory.mktemp('bags') / name
-        res = run_scene(load_scene(str(SCENE)), str(bag), seed=3, one_process=one,
-                        domain_id=next_domain(), quiet=True)
+        res = run_scene(load_scene(str(SCENE)), str(bag),
+                        RunOptions(layout=Layout.COMPOSED if one else Layout.PROCESSES, seed=3,
+                                   domain_id=next_domain(), quiet=True))
         assert res.code == 0, res
         assert res.steps == STEPS
         out[name] = bag

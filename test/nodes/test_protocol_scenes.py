@@ -7,7 +7,7 @@ import pathlib
 import numpy as np
 import pytest
 
-from pam_bench.bringup.runner import run_scene
+from pam_bench.bringup.runner import Layout, RunOptions, run_scene
 from pam_bench.config.scene import load_scene
 from pam_bench.protocol.schedules import Direction
 from test.conftest import next_domain
@@ -19,8 +19,8 @@ HERE = pathlib.Path(__file__).resolve().parents[1]
 @pytest.fixture(scope='module')
 def isometric_bag(tmp_path_factory: pytest.TempPathFactory) -> pathlib.Path:
     bag = tmp_path_factory.mktemp('iso') / 'bag'
-    res = run_scene(load_scene('isometric_quick'), str(bag), domain_id=next_domain(),
-                    quiet=True)
+    res = run_scene(load_scene('isometric_quick'), str(bag),
+                    RunOptions(domain_id=next_domain(), quiet=True))
     assert res.code == 0, res
     return bag
 
@@ -53,7 +53,7 @@ def test_isometric_quick_force_is_near_linear_in_u(isometric_bag: pathlib.Path) 
 def test_step_response_records_at_1khz(tmp_path: pathlib.Path, ros_domain: int) -> None:
     bag = tmp_path / 'bag'
     res = run_scene(load_scene(str(HERE / 'config_step.yaml')), str(bag),
-                    domain_id=ros_domain, quiet=True)
+                    RunOptions(domain_id=ros_domain, quiet=True))
     assert res.code == 0, res
     recs = bag_messages(bag, '/protocol/step_response')
     assert len(recs) == 2
@@ -87,8 +87,9 @@ def test_nodes_match_the_numpy_twin(name: str, one_process: bool, tmp_path: path
     quiet = dataclasses.replace(scene, parameters={'load_cell_1': {'load_cell':
                                                                    {'noise': False}}})
     bag = tmp_path / 'bag'
-    res = run_scene(quiet, str(bag), domain_id=next_domain(), quiet=True,
-                    one_process=one_process)
+    res = run_scene(quiet, str(bag),
+                    RunOptions(layout=Layout.COMPOSED if one_process else Layout.PROCESSES,
+                               domain_id=next_domain(), quiet=True))
     assert res.code == 0, res
     twin = run_protocol(scene.protocol, scene.exchange_step_s,
                         overrides=scene.protocol_overrides, sub_step_s=scene.sub_step_s,
@@ -120,7 +121,7 @@ def test_resume_after_an_interrupted_run(tmp_path: pathlib.Path) -> None:
     scene = load_scene('isometric_quick')
     first = tmp_path / 'first'
     res = run_scene(dataclasses.replace(scene, duration_s=60.0), str(first),
-                    domain_id=next_domain(), quiet=True)
+                    RunOptions(domain_id=next_domain(), quiet=True))
     assert res.code == 0, res
     taken = bag_messages(first, '/protocol/point')
     start, total = resume_reading(scene, first)
@@ -129,7 +130,7 @@ def test_resume_after_an_interrupted_run(tmp_path: pathlib.Path) -> None:
     resumed = dataclasses.replace(scene, parameters={'sequencer': {'resume_from_reading':
                                                                    start}})
     second = tmp_path / 'second'
-    res = run_scene(resumed, str(second), domain_id=next_domain(), quiet=True)
+    res = run_scene(resumed, str(second), RunOptions(domain_id=next_domain(), quiet=True))
     assert res.code == 0, res
     rest = bag_messages(second, '/protocol/point')
     assert len(rest) == total - start
@@ -137,7 +138,7 @@ def test_resume_after_an_interrupted_run(tmp_path: pathlib.Path) -> None:
     keys = {(p.series, p.step) for p in taken}
     assert not keys & {(p.series, p.step) for p in rest}
     whole = tmp_path / 'whole'                  # the uninterrupted run, same seed
-    assert run_scene(scene, str(whole), one_process=True, quiet=True).code == 0
+    assert run_scene(scene, str(whole), RunOptions(layout=Layout.COMPOSED, quiet=True)).code == 0
     ref = {(p.series, p.step): p for p in bag_messages(whole, '/protocol/point')}
     worst_n = max(abs(p.force - ref[(p.series, p.step)].force) for p in rest)
     worst_m = max(abs(p.contraction - ref[(p.series, p.step)].contraction) for p in rest)
@@ -150,8 +151,8 @@ def campaign_quick_points(tmp_path_factory: pytest.TempPathFactory) -> dict:
     """The readings of one uninterrupted campaign_quick (seed 0): (protocol, series, step) ->
     point."""
     bag = tmp_path_factory.mktemp('whole') / 'bag'
-    assert run_scene(load_scene('campaign_quick'), str(bag), domain_id=next_domain(),
-                     quiet=True).code == 0
+    assert run_scene(load_scene('campaign_quick'), str(bag),
+                     RunOptions(domain_id=next_domain(), quiet=True)).code == 0
     return {(p.protocol, p.series, p.step): p for p in bag_messages(bag, '/protocol/point')}
 
 
@@ -167,7 +168,7 @@ def test_campaign_quick_resumes_at_every_tenth_reading(tmp_path: pathlib.Path, s
         **scene.parameters, 'sequencer': {**scene.parameters.get('sequencer', {}),
                                           'resume_from_reading': start}})
     bag = tmp_path / 'resumed'
-    res = run_scene(resumed, str(bag), domain_id=next_domain(), quiet=True)
+    res = run_scene(resumed, str(bag), RunOptions(domain_id=next_domain(), quiet=True))
     assert res.code == 0, res.summary
     rest = bag_messages(bag, '/protocol/point')
     assert len(rest) == len(campaign_quick_points) - start

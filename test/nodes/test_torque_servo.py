@@ -15,7 +15,7 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
 from pam_bench.analysis.servo_bag import read_servo_states
-from pam_bench.bringup.runner import run_scene
+from pam_bench.bringup.runner import RunOptions, run_scene
 from pam_bench.config.scene import load_scene
 from pam_bench.nodes.torque_servo import TorqueServoNode
 from test.conftest import next_domain
@@ -26,7 +26,7 @@ def test_short_servo_scene_tracks_the_torque(tmp_path: pathlib.Path, ros_domain:
     """servo_sin_t for 1.5 s through the ten separate-process nodes: both muscles pull, the
     measured torque follows 5 sin t, the pair stays taut."""
     scene = dataclasses.replace(load_scene('servo_sin_t'), duration_s=1.5)
-    res = run_scene(scene, str(tmp_path / 'bag'), domain_id=next_domain(), quiet=True)
+    res = run_scene(scene, str(tmp_path / 'bag'), RunOptions(domain_id=next_domain(), quiet=True))
     assert res.code == 0, res
     s = read_servo_states(tmp_path / 'bag')
     assert len(s['t_s']) == 1500                        # one state per 1 ms control period
