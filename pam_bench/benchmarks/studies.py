@@ -9,6 +9,7 @@ from pam_bench.benchmarks import (
     exchange_step,
     faults,
     figures_004,
+    fuzz,
     layouts,
     lockstep,
     numerics,
@@ -30,7 +31,7 @@ STUDIES: tuple[Study, ...] = (
     figures_004.STUDY, lockstep.STUDY, layouts.STUDY, profile.STUDY, exchange_step.STUDY,
     settle.STUDY, record_exchange.STUDY, scenes.STUDY, numerics.STUDY, wallclock.STUDY,
     faults.STUDY, straight_fibre.STUDY, calibrate.STUDY, calibrate_nodes.STUDY,
-    servo_compare.STUDY, soak.STUDY, sweep_scaling.STUDY, dynamics.STUDY)
+    servo_compare.STUDY, soak.STUDY, sweep_scaling.STUDY, dynamics.STUDY, fuzz.STUDY)
 """Every study; ``pam-bench bench --only KEY`` runs some."""
 
 
