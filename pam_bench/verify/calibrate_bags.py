@@ -56,6 +56,7 @@ small differences in the transient (the dwell, the settling's sub-step, a drive 
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -75,12 +76,15 @@ from pam_bench.models.valve import ValveParams
 from pam_bench.twin.bench import SingleMuscleBench
 from pam_bench.twin.quasistatic import QuasiStaticBench
 from pam_bench.verify.calibrate import fit_report, fit_summary
+from pam_bench.verify.calibrate_init import initial_values
+from pam_bench.verify.calibrate_verdict import noise_levels, verdict
 from pam_bench.vocabulary.errors import ParameterError
 
 __all__ = ['FREE_BAGS', 'BOUND_REASONS', 'Observations', 'observations_from_bags',
            'observations_from_twin',
            'predict', 'calibrate_bags', 'overlay_of', 'FORCE_SCALE_N', 'CONTRACTION_SCALE_M',
-           'PATH_WIDTH_M', 'path_sensitive', 'calibrate_bag']
+           'PATH_WIDTH_M', 'path_sensitive', 'calibrate_bag', 'run_start', 'Mapper', 'reached',
+           'coarse']
 
 FORCE_SCALE_N = 20.0            # 1 % of the load cell's range
 CONTRACTION_SCALE_M = 0.5e-3
@@ -338,20 +342,197 @@ def _rms_of(obs: Observations, pred: tuple[np.ndarray, list[np.ndarray]],
     return out
 
 
+Mapper = Callable[[Callable[[Any], Any], Any], Any]
+"""A map-like callable: ``map``, or ``cluster.layer.map_on(client)``."""
+STARTS_SEED = 2026
+REFINE_NFEV = 30
+"""Evaluations of each start's local fit (on the static replay, the fast one)."""
+STOP_SHARE = 0.25
+"""A local fit stops once every protocol's RMS is within this share of its noise level
+(``calibrate_verdict``): the parameters then sit well inside the noise's reach, and the
+evaluations after it would only chase the noise."""
+FTOL = 1e-6
+"""Relative change of the cost at which a local fit has converged: past it, noise."""
+XTOL = 1e-8
+"""Relative step in z (the unit interval over each parameter's bounds) that ends a fit."""
+BEST_COST_REL = 0.02
+COARSE_READINGS = 400
+"""Past this many readings, a first fit runs on every k-th series only (``coarse``), and the
+fit on all of them starts where it ended."""
+"""A start reached the best cost when its cost is within this share of it."""
+
+
+@dataclasses.dataclass(frozen=True)
+class _Problem:
+    """One fit: what it replays and in which coordinates (z in [0, 1] over the bounds)."""
+
+    obs: Observations
+    valve: ValveParams
+    muscle: MuscleParams
+    servo: LoadingServoParams | None
+    free: tuple[tuple[str, str, float, float], ...]
+    left_out: tuple[int, ...]
+    replay: str
+
+    @property
+    def lower(self) -> np.ndarray:
+        return np.array([lo for _, _, lo, _ in self.free])
+
+    @property
+    def span(self) -> np.ndarray:
+        return np.array([hi - lo for _, _, lo, hi in self.free])
+
+    def models(self, z: np.ndarray) -> tuple[ValveParams, MuscleParams]:
+        return _models(self.lower + z * self.span, self.valve, self.muscle, self.free)
+
+    def data(self, z: np.ndarray, replay: str | None = None) -> np.ndarray | None:
+        """Scaled data residuals at z (None where the models refuse it)."""
+        try:
+            v, m = self.models(z)
+            return _residuals(self.obs, predict(self.obs, v, m, self.servo,
+                                                replay or self.replay), self.left_out)
+        except (ModelError, ParameterError):
+            return None
+
+
+def _kind_rms(problem: _Problem, residuals: np.ndarray) -> dict[str, float]:
+    """RMS per protocol kind (N or mm) of a residual vector laid out as ``_residuals``."""
+    kept = [r[0] for i, r in enumerate(problem.obs.readings) if i not in problem.left_out]
+    out: dict[str, float] = {}
+    for kind in ('isometric', 'isotonic', 'isobaric'):
+        mask = np.array([k == kind for k in kept], bool)
+        if mask.any():
+            scale = FORCE_SCALE_N if kind == 'isometric' else CONTRACTION_SCALE_M * 1e3
+            out[kind] = float(np.sqrt(np.mean(residuals[:len(kept)][mask] ** 2))) * scale
+    rec = residuals[len(kept):]
+    if len(rec):
+        out['step_records'] = float(np.sqrt(np.mean(rec ** 2))) * FORCE_SCALE_N
+    return out
+
+
+def _local_fit(problem: _Problem, z_start: np.ndarray, z_prior: np.ndarray, max_nfev: int,
+               workers: Mapper | None, replay: str | None = None,
+               stop_at: dict[str, float] | None = None) -> Any:
+    """``least_squares`` from ``z_start`` with the weak prior at ``z_prior``; it stops early
+    once every protocol's RMS is within ``stop_at`` (N or mm)."""
+    n_data = len(problem.obs.readings) - len(problem.left_out) + sum(
+        len(r[4][::RECORD_STRIDE]) for r in problem.obs.records)
+    n_res = n_data + len(z_start)
+
+    def res(z: np.ndarray) -> np.ndarray:
+        data = problem.data(z, replay)
+        if data is None:
+            return np.full(n_res, 1e3)
+        return np.concatenate([data, PRIOR_WEIGHT * (z - z_prior)])
+
+    def callback(intermediate_result: Any) -> None:
+        rms = _kind_rms(problem, np.asarray(intermediate_result.fun)[:n_data])
+        if stop_at is not None and rms and all(v <= stop_at.get(k, 0.0) for k, v in
+                                               rms.items()):
+            raise StopIteration
+
+    return least_squares(res, z_start, bounds=(0.0, 1.0), diff_step=1e-3, max_nfev=max_nfev,
+                         x_scale=1.0, callback=callback, ftol=FTOL, xtol=XTOL,
+                         **({'workers': workers} if workers is not None else {}))
+
+
+def run_start(job: tuple[_Problem, np.ndarray]) -> tuple[np.ndarray, float]:
+    """One start of the multi-start (a cluster job): a local fit on the static replay from the
+    start, without a prior; returns its z and its data cost (half the sum of squares)."""
+    problem, z = job
+    _compiled_core()
+    sol = _local_fit(problem, z, z, REFINE_NFEV, None, replay='static')
+    data = problem.data(sol.x, 'static')
+    cost = 0.5 * float(data @ data) if data is not None else math.inf
+    return sol.x, cost
+
+
+def _space_filling(n: int, d: int, seed: int) -> np.ndarray:
+    """``n`` starts over [0, 1]^d, a Latin hypercube (scipy.stats.qmc)."""
+    from scipy.stats import qmc
+    return qmc.LatinHypercube(d=d, seed=seed).random(n)
+
+
+def _hints(problem: _Problem, values: dict[str, float], at_bound: Sequence[str]) -> list[str]:
+    """What the user could change, from what the fit saw."""
+    out = []
+    iso_x = [h for k, _, h, _ in problem.obs.readings if k == 'isometric']
+    xm = values.get('gain_min_contraction_m', problem.muscle.gain_min_contraction_m)
+    if iso_x and max(iso_x) < xm:
+        out.append(f'a longer grid (isometric positions past x_m = {xm * 1e3:.0f} mm)')
+    if at_bound:
+        out.append(f'a freed parameter ({", ".join(at_bound)} at the end of its fit interval: '
+                   '--set its range, or FREE_BAGS)')
+    return out
+
+
+def reached(obs: Observations) -> dict[str, str]:
+    """The free parameters no observation can show, each with why: they keep their start
+    (fitting them would only spend evaluations on a flat direction). The gain's rise acts past
+    x_m only (x_m itself at least the lower end of its interval), the stretch stiffness below
+    x = 0 only, the valve's loop only in step records."""
+    xs = [h if k == 'isometric' else v for k, _, h, v in obs.readings]
+    xm = next(lo for _, n, lo, _ in FREE_BAGS if n == 'gain_min_contraction_m')
+    out = {}
+    if not any(x > xm for x in xs):
+        out['gain_rise_n_per_pa_m'] = f'no reading past {xm * 1e3:.0f} mm, where x_m can begin'
+    if not any(x < 0.0 for x in xs):
+        out['stretch_stiffness_n_per_m'] = 'no reading below x = 0 (the muscle stretched)'
+    if not obs.records:
+        out['natural_frequency_rad_s'] = out['damping_ratio'] = 'no step records'
+    return out
+
+
+def _series(readings: Sequence[tuple[str, float, float, float]]) -> list[list[int]]:
+    """Indices of the readings, grouped in series (a run of consecutive readings at one held
+    value: x or F, or u for isobaric)."""
+    out: list[list[int]] = []
+    key = None
+    for i, (kind, u, held, _) in enumerate(readings):
+        k = (kind, u if kind == 'isobaric' else held)
+        if k != key:
+            out.append([])
+            key = k
+        out[-1].append(i)
+    return out
+
+
+def coarse(obs: Observations, most: int = COARSE_READINGS) -> Observations:
+    """At most about ``most`` readings: every k-th whole series (a series keeps its own path,
+    so its friction loop), and every step record."""
+    series = _series(obs.readings)
+    if len(obs.readings) <= most or len(series) < 2:
+        return obs
+    k = math.ceil(len(obs.readings) / most)
+    keep = [i for j, s in enumerate(series) if j % k == 0 for i in s]
+    return Observations([obs.readings[i] for i in keep], list(obs.records))
+
+
 def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
                    muscle: MuscleParams | None = None,
                    servo: LoadingServoParams | None = None,
                    max_nfev: int = 60, only: Sequence[str] | None = None,
-                   replay: str = 'stepped',
-                   workers: Callable[[Callable[[Any], Any], Any], Any] | None = None
+                   replay: str = 'stepped', workers: Mapper | None = None,
+                   start: str = 'data', starts: int = 8, map_starts: Mapper | None = None
                    ) -> dict[str, Any]:
-    """Fit ``FREE_BAGS`` (or the names in ``only``) to the observations from ``valve`` /
-    ``muscle`` (default: the bench's defaults), the readings replayed ``replay`` ('stepped'
-    or 'static', module docstring). Returns the fitted models (``valve``,
-    ``muscle``), ``values``, ``stderr``, ``correlation``, ``flags``, ``rms_before`` /
-    ``rms_after`` per protocol kind, ``left_out`` (the readings ``path_sensitive`` leaves out:
-    kind, u V, held value), ``cost``, ``evaluations`` and ``fit_s``. ``workers``: a map-like
-    callable the finite-difference Jacobian's columns are evaluated through (scipy's
+    """Fit ``FREE_BAGS`` (or the names in ``only``) to the observations and say whether the fit
+    found the muscle (``verify.calibrate_verdict``).
+
+    The fit starts from values read off the data (``start='data'``,
+    ``verify.calibrate_init``; 'defaults': from ``valve`` and ``muscle``, the bench's
+    defaults when None), runs a local fit with the readings replayed ``replay`` ('stepped' or
+    'static', module docstring), and when the residual is not at the noise level, tries
+    ``starts`` more starts spread over the fit intervals (a Latin hypercube; each a local fit
+    on the static replay, through ``map_starts``: the cluster), refines the best with the
+    replay asked for and keeps whichever fit is better.
+
+    Returns the fitted models (``valve``, ``muscle``), ``values``, ``stderr``,
+    ``correlation``, ``flags``, ``rms_before`` / ``rms_after`` per protocol kind,
+    ``verdict`` (``Verdict.as_dict``), ``noise``, ``start`` (name -> initial value) and
+    ``start_from`` (name -> what it was read from), ``starts`` (tried, reaching the best),
+    ``left_out`` (the readings ``path_sensitive`` leaves out: kind, u V, held value),
+    ``cost``, ``evaluations`` and ``fit_s``. ``workers``: a map-like callable the
+    finite-difference Jacobian's columns are evaluated through (scipy's
     ``least_squares(workers=...)``; ``cluster.layer.map_on`` puts them on the cluster).
 
     Raises:
@@ -359,33 +540,63 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
     """
     if not obs.readings and not obs.records:
         raise ModelError('the bags hold no static readings and no step records to fit')
-    valve, muscle = valve or ValveParams(), muscle or MuscleParams()
-    free = [f for f in FREE_BAGS if only is None or f[1] in only]
-    lower = np.array([lo for _, _, lo, _ in free])
-    upper = np.array([hi for _, _, _, hi in free])
-    span = upper - lower
-    start = np.array([1.0 if n == 'friction_stiffness_scale'
-                      else getattr(valve if m == 'valve' else muscle, n)
-                      for m, n, _, _ in free], float)
-    z0 = np.clip((start - lower) / span, 0.0, 1.0)
-    left_out = path_sensitive(obs, valve, muscle, servo)
-    pred0 = predict(obs, valve, muscle, servo, replay)
-    n_res = len(_residuals(obs, pred0, left_out)) + len(z0)
-
-    def res(z: np.ndarray) -> np.ndarray:
-        try:
-            v, m = _models(lower + z * span, valve, muscle, free)
-            data = _residuals(obs, predict(obs, v, m, servo, replay), left_out)
-        except (ModelError, ParameterError):
-            return np.full(n_res, 1e3)
-        return np.concatenate([data, PRIOR_WEIGHT * (z - z0)])
-
     t0 = time.perf_counter()
-    sol = least_squares(res, z0, bounds=(0.0, 1.0), diff_step=1e-3, max_nfev=max_nfev,
-                        x_scale=1.0, **({'workers': workers} if workers is not None else {}))
-    fit_s = time.perf_counter() - t0
-    theta = lower + sol.x * span
+    base_v, base_m = valve or ValveParams(), muscle or MuscleParams()
+    wanted = tuple(f for f in FREE_BAGS if only is None or f[1] in only)
+    bounds = {n: (lo, hi) for _, n, lo, hi in wanted}
+    initial = {n: 1.0 if n == 'friction_stiffness_scale'
+               else float(getattr(base_v if m == 'valve' else base_m, n))
+               for m, n, _, _ in wanted}
+    why: dict[str, str] = {}
+    if start == 'data':
+        def models_of(values: dict[str, float]) -> tuple[ValveParams, MuscleParams]:
+            sub = tuple(f for f in wanted if f[1] in values)
+            return _models(np.array([values[f[1]] for f in sub]), base_v, base_m, sub)
+        initial, why = initial_values(obs.readings, obs.records, base_v, base_m, initial,
+                                      bounds, models_of)
+    unseen = reached(obs)
+    held = {n: initial[n] for n in unseen if n in initial}
+    valve, muscle = _models(np.array(list(held.values())), base_v, base_m,
+                            tuple(f for f in wanted if f[1] in held))
+    free = tuple(f for f in wanted if f[1] not in held)
     names = [n for _, n, _, _ in free]
+    lower = np.array([lo for _, _, lo, _ in free])
+    span = np.array([hi - lo for _, _, lo, hi in free])
+    z0 = np.clip((np.array([initial[n] for n in names]) - lower) / span, 0.0, 1.0)
+    v0, m0 = _models(lower + z0 * span, valve, muscle, free)
+    left_out = tuple(path_sensitive(obs, v0, m0, servo))
+    problem = _Problem(obs, valve, muscle, servo, free, left_out, replay)
+    pred0 = predict(obs, v0, m0, servo, replay)
+    noise = noise_levels(obs.readings, obs.records, servo)
+    stop_at = {k: STOP_SHARE * t for k, t in verdict(_rms_of(obs, pred0, left_out),
+                                                      noise).tolerance.items()}
+    evaluations = 0
+    z_first = z0
+    small = coarse(obs)
+    if small is not obs:
+        part = dataclasses.replace(problem, obs=small, left_out=tuple(
+            path_sensitive(small, v0, m0, servo)))
+        sol = _local_fit(part, z0, z0, max_nfev, workers, stop_at=stop_at)
+        evaluations += int(sol.nfev)
+        z_first = sol.x
+    sol = _local_fit(problem, z_first, z0, max_nfev, workers, stop_at=stop_at)
+    evaluations += int(sol.nfev)
+    best_of: tuple[int, int] = (0, 0)
+    first = verdict(rms_by_kind(obs, *problem.models(sol.x), servo, left_out, replay), noise)
+    if not first.converged and starts > 0:
+        zs = _space_filling(starts, len(names), STARTS_SEED)
+        results = list((map_starts or map)(run_start, [(problem, z) for z in zs]))
+        costs = np.array([c for _, c in results])
+        best = int(np.argmin(costs))
+        best_of = (int(np.sum(costs <= costs[best] * (1.0 + BEST_COST_REL) + 1e-9)), starts)
+        refined = _local_fit(problem, results[best][0], results[best][0], max_nfev, workers,
+                             stop_at=stop_at)
+        evaluations += int(refined.nfev) + starts * REFINE_NFEV
+        mine = problem.data(sol.x)
+        theirs = problem.data(refined.x)
+        if theirs is not None and (mine is None or theirs @ theirs < mine @ mine):
+            sol = refined
+    theta = lower + sol.x * span
     summary = fit_summary(names, theta, sol, span, rel_flag=0.05)
     data_jac = sol.jac[:-len(names)]
     prior_share = np.diag(np.linalg.inv(data_jac.T @ data_jac + PRIOR_WEIGHT ** 2
@@ -393,12 +604,23 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
     summary['flags'] = [n for n, share in zip(names, prior_share, strict=True)
                         if n in summary['flags'] or share > PRIOR_SHARE_FLAG]
     summary['report'] = fit_report(summary)
+    for n, value in held.items():           # not fitted: kept at the start, and flagged
+        summary['names'].append(n)
+        summary['values'][n] = float(value)
+        summary['stderr'][n] = math.nan
+        summary['flags'].append(n)
+        summary['report'][n] = f'{value:.6g}, held: {unseen[n]}'
     v, m = _models(theta, valve, muscle, free)
+    rms_after = rms_by_kind(obs, v, m, servo, left_out, replay)
+    verd = verdict(rms_after, noise, _hints(problem, summary['values'], summary['at_bound']))
     return {**summary, 'valve': v, 'muscle': m,
-            'rms_before': _rms_of(obs, pred0, left_out),
-            'rms_after': rms_by_kind(obs, v, m, servo, left_out, replay),
+            'rms_before': _rms_of(obs, pred0, left_out), 'rms_after': rms_after,
+            'verdict': verd.as_dict(), 'noise': noise,
+            'start': {n: float(initial[n]) for n in names}, 'start_from': why,
+            'held': {n: f'{held[n]:.6g}: {unseen[n]}' for n in held},
+            'starts': {'tried': best_of[1], 'at_best': best_of[0]},
             'left_out': [obs.readings[i][:3] for i in left_out], 'cost': float(sol.cost),
-            'evaluations': int(sol.nfev), 'fit_s': fit_s}
+            'evaluations': evaluations, 'fit_s': time.perf_counter() - t0}
 
 
 def calibrate_bag(job: tuple[str, int, str]) -> dict[str, Any]:
