@@ -6,11 +6,13 @@ import argparse
 import contextlib
 import json
 import pathlib
+import sys
 from typing import Any
 
 from pam_bench.cli.cluster_args import add_cluster_args, cluster_of
 from pam_bench.cli.errors import UsageError
 from pam_bench.cli.numbers import integer, number
+from pam_bench.verify.calibrate_verdict import NOT_CONVERGED, Verdict
 from pam_bench.vocabulary.outputs import (
     check_output_file,
     staged_output,
@@ -65,6 +67,12 @@ def register(sub: Any) -> None:
     p.add_argument('--each', action='store_true', help='bags: calibrate each bag on its own '
                    '(one job per bag on the cluster; --out is then a folder, one overlay per '
                    'bag)')
+    p.add_argument('--start', choices=('data', 'defaults'), default='data',
+                   help='bags: start the fit from values read off the data (default) or from '
+                   "the bench's defaults")
+    p.add_argument('--starts', type=integer(0, 1000), default=8,
+                   help='bags: more starts spread over the fit intervals when the first fit '
+                   'does not reach the noise level (0: none)')
     p.add_argument('--json', action='store_true')
     add_cluster_args(p)
     p.set_defaults(func=_cmd_calibrate)
@@ -122,33 +130,48 @@ def _calibrate_bags(args: argparse.Namespace) -> int:
           f'{len(obs.records)} step records (the Jacobian on the cluster) ...', flush=True)
     with connect(**cluster_of(args)) as client:
         res = calibrate_bags(obs, max_nfev=args.max_evaluations, replay=args.replay,
-                             workers=map_on(client))
+                             workers=map_on(client), start=args.start, starts=args.starts,
+                             map_starts=map_on(client))
     if args.json:
         print(json.dumps({k: v for k, v in res.items() if k not in ('valve', 'muscle')},
-                         indent=2))
+                         indent=2, default=str))
     else:
         _print_fit(res)
+    verdict = Verdict(**res['verdict'])
     if args.out:
         overlay = overlay_of(res['valve'], res['muscle'])
-        write_output_file(args.out, VERB, f"# {' '.join(args.bags)}: muscle and valve fitted "
-                          'to these recordings\n' + yaml.safe_dump(overlay, sort_keys=False))
-        print(f'overlay written to {args.out} (pam-bench run SCENE --params {args.out})')
-    return 0
+        mark = '' if verdict.converged else '# NOT CONVERGED: ' + verdict.line() + '\n'
+        write_output_file(args.out, VERB, f"{mark}# {' '.join(args.bags)}: muscle and valve "
+                          'fitted to these recordings\n' + yaml.safe_dump(overlay,
+                                                                            sort_keys=False))
+        print(f'overlay written to {args.out} (pam-bench run SCENE --params {args.out})'
+              + ('' if verdict.converged else ', marked not converged'))
+    print(verdict.line(), file=sys.stdout if verdict.converged else sys.stderr)
+    return 0 if verdict.converged else NOT_CONVERGED
 
 
 def _print_fit(res: dict[str, Any]) -> None:
     from pam_bench.verify.calibrate_bags import PATH_WIDTH_M
-    print('RMS error per protocol (N for forces, mm for contractions), before -> after:')
+    print('started from (read off the data where it shows them):')
+    for n, v in res['start'].items():
+        print(f"  {n:28s} {v:12.6g}  {res['start_from'].get(n, 'the bench default')}")
+    print('RMS error per protocol (N for forces, mm for contractions), before -> after, '
+          'against the noise level:')
+    tol = res['verdict']['tolerance']
     for k, after in res['rms_after'].items():
-        print(f"  {k:14s} {res['rms_before'][k]:9.3f} -> {after:9.3f}")
-    print(f"fit: {res['evaluations']} evaluations in {res['fit_s']:.1f} s")
+        print(f"  {k:14s} {res['rms_before'][k]:9.3f} -> {after:9.3f}  (noise level "
+              f"{tol[k]:.3g})")
+    tried, best = res['starts']['tried'], res['starts']['at_best']
+    print(f"fit: {res['evaluations']} evaluations in {res['fit_s']:.1f} s"
+          + (f'; {best} of {tried} starts reached the best cost' if tried else ''))
     if res['left_out']:
         print(f"left out (friction loop wider than {PATH_WIDTH_M * 1e3:.0f} mm, the drive's "
               'transient places them): ' + ', '.join(
                   f'{k} {u:g} V {h:g} N' for k, u, h in dict.fromkeys(res['left_out'])))
     for n in res['names']:
         print(f"  {n:28s} {res['report'][n]}")
-    corr, names = res['correlation'], res['names']
+    corr = res['correlation']
+    names = res['names'][:len(corr)]
     pairs = [(names[i], names[j], corr[i][j]) for i in range(len(names))
              for j in range(i + 1, len(names)) if abs(corr[i][j]) > 0.9]
     for a, b, c in pairs:
@@ -160,22 +183,23 @@ def _calibrate_each(args: argparse.Namespace) -> int:
     with contextlib.ExitStack() as stack:
         out = (stack.enter_context(staged_output(args.out, VERB, args.overwrite, args.bags))
                if args.out else None)
-        failed = _calibrate_jobs(args, out)
-    print(f'{len(args.bags) - failed} of {len(args.bags)} bags calibrated'
-          + (f'; overlays in {args.out}' if args.out else ''))
-    return 1 if failed else 0
+        failed, loose = _calibrate_jobs(args, out)
+    print(f'{len(args.bags) - failed} of {len(args.bags)} bags calibrated, {loose} not '
+          'converged' + (f'; overlays in {args.out}' if args.out else ''))
+    return 1 if failed else NOT_CONVERGED if loose else 0
 
 
-def _calibrate_jobs(args: argparse.Namespace, out: pathlib.Path | None) -> int:
+def _calibrate_jobs(args: argparse.Namespace, out: pathlib.Path | None) -> tuple[int, int]:
     """Run ``--each``'s jobs, print a line per bag, write its overlay into ``out``; returns
-    how many failed."""
+    how many failed and how many did not converge."""
     import yaml
 
     from pam_bench.cluster.layer import run_jobs
     from pam_bench.verify.calibrate_bags import calibrate_bag, overlay_of
-    jobs = [(b, args.max_evaluations, args.replay) for b in args.bags]
+    jobs = [(b, args.max_evaluations, args.replay, args.start, args.starts)
+            for b in args.bags]
     results = run_jobs(calibrate_bag, jobs, label='calibrate', **cluster_of(args))
-    failed = 0
+    failed = loose = 0
     for r in results:
         bag = pathlib.Path(r.item[0])
         if not r.ok:
@@ -183,13 +207,16 @@ def _calibrate_jobs(args: argparse.Namespace, out: pathlib.Path | None) -> int:
             print(f'{bag.name}: error: {r.error}')
             continue
         res = r.value
-        print(f'{bag.name}: ' + ', '.join(f'{k} {v:.3f}' for k, v in res['rms_after'].items())
-              + f" ({res['evaluations']} evaluations, {r.seconds:.0f} s)")
+        verdict = Verdict(**res['verdict'])
+        loose += not verdict.converged
+        print(f"{bag.name}: {verdict.line()} ({res['evaluations']} evaluations, "
+              f'{r.seconds:.0f} s)')
         if out is not None:
-            write_output_file(out / f'{bag.name}.yaml', VERB, f'# {bag}: fitted to this bag\n'
-                              + yaml.safe_dump(overlay_of(res['valve'], res['muscle']),
-                                               sort_keys=False))
-    return failed
+            mark = '' if verdict.converged else '# NOT CONVERGED: ' + verdict.line() + '\n'
+            write_output_file(out / f'{bag.name}.yaml', VERB, f'{mark}# {bag}: fitted to this '
+                              'bag\n' + yaml.safe_dump(overlay_of(res['valve'], res['muscle']),
+                                                       sort_keys=False))
+    return failed, loose
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:

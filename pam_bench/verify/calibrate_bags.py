@@ -39,11 +39,15 @@ parameter across its whole range costs as much as one reading a tolerance off; a
 parameter's readings outweigh it by hundreds to thousands (Tikhonov regularisation, a Gaussian
 prior of one range's width). Without it, a parameter the recordings do not reach (the gain's
 rise past x_m on a grid that stops before x_m) wanders to a bound, and the calibrated bench
-misses the readings that do reach it. A parameter is flagged too when the prior still holds
-more than
-``PRIOR_SHARE_FLAG`` of its variance: with J the data's Jacobian in z and w the prior weight,
-w^2 [(J^T J + w^2 I)^-1]_ii > 0.01 (the recordings, not the prior, must fix it; the standard
-error from the residuals alone cannot tell, since residuals near zero make every error small).
+misses the readings that do reach it. A parameter is flagged too when the data alone leave
+it more than ``PRIOR_SHARE_FLAG`` of the prior's variance: with J the data's Jacobian in z and
+w the prior weight, w^2 [(J^T J + delta I)^-1]_ii > 0.01, delta tiny (``DATA_ONLY``). Without
+the prior on the others: a parameter the data fix only jointly with one the prior holds (the
+gain curve's exponent when the grid stops short of x_m, which leaves g_m and x_m to the prior)
+is not fixed by the recordings either: a parameter whose data-only correlation with a flagged
+one reaches ``JOINT_CORRELATION`` is flagged too (the near-degenerate directions the replay's
+small differences keep from being exactly degenerate). The standard error from the residuals
+alone cannot tell, since residuals near zero make every error small.
 
 Readings no replay can place are left out of the fit and listed: a reading at
 held load whose friction loop, at the starting parameters, is wider than ``PATH_WIDTH_M`` in
@@ -94,7 +98,9 @@ DWELL_S = 3.0                   # 004's dwell
 TRANSIENT_S = 1.0               # at the bench's sub-step, then the slow settling
 SETTLE_SUB_STEP_S = 0.02
 PRIOR_WEIGHT = 1.0              # a parameter's whole range costs one reading a tolerance off
-PRIOR_SHARE_FLAG = 0.01         # posterior variance over prior variance that flags
+PRIOR_SHARE_FLAG = 0.01         # data-only variance over prior variance that flags
+DATA_ONLY = 1e-6                # the ridge that keeps J^T J invertible (module docstring)
+JOINT_CORRELATION = 0.95        # fixed only jointly with a flagged parameter: flagged too
 PATH_WIDTH_M = 8.0e-3           # friction loop wider than 16 contraction tolerances
 PATH_PROBE_N = 100.0            # load offset the loop's two sides are approached from
 
@@ -508,6 +514,25 @@ def coarse(obs: Observations, most: int = COARSE_READINGS) -> Observations:
     return Observations([obs.readings[i] for i in keep], list(obs.records))
 
 
+def _unfixed(names: list[str], data_jac: np.ndarray, flags: Sequence[str]) -> list[str]:
+    """The parameters the data do not fix (module docstring): those already flagged, those
+    the data alone leave more than ``PRIOR_SHARE_FLAG`` of the prior's variance, and then,
+    until none is added, those the data fix only together with a flagged one (data-only
+    correlation ``JOINT_CORRELATION`` or more)."""
+    inv = np.linalg.inv(data_jac.T @ data_jac + DATA_ONLY * np.eye(len(names)))
+    share = np.diag(inv) * PRIOR_WEIGHT ** 2
+    sd = np.sqrt(np.maximum(np.diag(inv), 1e-300))
+    corr = inv / np.outer(sd, sd)
+    out = {i for i, n in enumerate(names) if n in flags or share[i] > PRIOR_SHARE_FLAG}
+    grew = True
+    while grew:
+        more = {i for i in range(len(names)) if i not in out and any(
+            abs(corr[i, j]) >= JOINT_CORRELATION for j in out)}
+        out |= more
+        grew = bool(more)
+    return [n for i, n in enumerate(names) if i in out]
+
+
 def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
                    muscle: MuscleParams | None = None,
                    servo: LoadingServoParams | None = None,
@@ -599,10 +624,7 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
     theta = lower + sol.x * span
     summary = fit_summary(names, theta, sol, span, rel_flag=0.05)
     data_jac = sol.jac[:-len(names)]
-    prior_share = np.diag(np.linalg.inv(data_jac.T @ data_jac + PRIOR_WEIGHT ** 2
-                                        * np.eye(len(names)))) * PRIOR_WEIGHT ** 2
-    summary['flags'] = [n for n, share in zip(names, prior_share, strict=True)
-                        if n in summary['flags'] or share > PRIOR_SHARE_FLAG]
+    summary['flags'] = _unfixed(names, data_jac, summary['flags'])
     summary['report'] = fit_report(summary)
     for n, value in held.items():           # not fitted: kept at the start, and flagged
         summary['names'].append(n)
@@ -623,17 +645,18 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
             'evaluations': evaluations, 'fit_s': time.perf_counter() - t0}
 
 
-def calibrate_bag(job: tuple[str, int, str]) -> dict[str, Any]:
+def calibrate_bag(job: tuple[str, int, str, str, int]) -> dict[str, Any]:
     """One job of ``pam-bench calibrate --each``: (bag folder, largest number of
-    evaluations, replay) -> ``calibrate_bags``' result for that bag alone.
+    evaluations, replay, start, starts) -> ``calibrate_bags``' result for that bag alone (its
+    starts run one after the other in the job).
 
     Raises:
         BagError: the bag cannot be read.
     """
     from pam_bench.analysis.bagread import read_bags
-    bag, max_nfev, replay = job
+    bag, max_nfev, replay, start, starts = job
     return calibrate_bags(observations_from_bags(read_bags([bag])), max_nfev=max_nfev,
-                          replay=replay)
+                          replay=replay, start=start, starts=starts)
 
 
 def overlay_of(valve: ValveParams, muscle: MuscleParams) -> dict[str, Any]:
