@@ -73,6 +73,9 @@ def register(sub: Any) -> None:
     p.add_argument('--starts', type=integer(0, 1000), default=8,
                    help='bags: more starts spread over the fit intervals when the first fit '
                    'does not reach the noise level (0: none)')
+    p.add_argument('--law', metavar='NAME', help='bags: the muscle is this force law of the zoo '
+                   "(or a plug-in's; pam-bench plugins lists them) instead of the bench's "
+                   'McKibben law: its parameters, the friction and the valve fitted')
     p.add_argument('--json', action='store_true')
     add_cluster_args(p)
     p.set_defaults(func=_cmd_calibrate)
@@ -131,7 +134,7 @@ def _calibrate_bags(args: argparse.Namespace) -> int:
     with connect(**cluster_of(args)) as client:
         res = calibrate_bags(obs, max_nfev=args.max_evaluations, replay=args.replay,
                              workers=map_on(client), start=args.start, starts=args.starts,
-                             map_starts=map_on(client))
+                             map_starts=map_on(client), law=args.law)
     if args.json:
         print(json.dumps({k: v for k, v in res.items() if k not in ('valve', 'muscle')},
                          indent=2, default=str))
@@ -139,7 +142,7 @@ def _calibrate_bags(args: argparse.Namespace) -> int:
         _print_fit(res)
     verdict = Verdict(**res['verdict'])
     if args.out:
-        overlay = overlay_of(res['valve'], res['muscle'])
+        overlay = overlay_of(res['valve'], res['muscle'], res['laws'])
         mark = '' if verdict.converged else '# NOT CONVERGED: ' + verdict.line() + '\n'
         write_output_file(args.out, VERB, f"{mark}# {' '.join(args.bags)}: muscle and valve "
                           'fitted to these recordings\n' + yaml.safe_dump(overlay,
@@ -161,6 +164,9 @@ def _print_fit(res: dict[str, Any]) -> None:
     for k, after in res['rms_after'].items():
         print(f"  {k:14s} {res['rms_before'][k]:9.3f} -> {after:9.3f}  (noise level "
               f"{tol[k]:.3g})")
+    if res.get('law_zoo'):
+        print('the law zoo fitted statically to the isometric readings (RMS, N): ' + ', '.join(
+            f'{k} {v:.3g}' for k, v in res['law_zoo'].items()))
     tried, best = res['starts']['tried'], res['starts']['at_best']
     print(f"fit: {res['evaluations']} evaluations in {res['fit_s']:.1f} s"
           + (f'; {best} of {tried} starts reached the best cost' if tried else ''))
@@ -196,7 +202,7 @@ def _calibrate_jobs(args: argparse.Namespace, out: pathlib.Path | None) -> tuple
 
     from pam_bench.cluster.layer import run_jobs
     from pam_bench.verify.calibrate_bags import calibrate_bag, overlay_of
-    jobs = [(b, args.max_evaluations, args.replay, args.start, args.starts)
+    jobs = [(b, args.max_evaluations, args.replay, args.start, args.starts, args.law)
             for b in args.bags]
     results = run_jobs(calibrate_bag, jobs, label='calibrate', **cluster_of(args))
     failed = loose = 0
@@ -213,9 +219,9 @@ def _calibrate_jobs(args: argparse.Namespace, out: pathlib.Path | None) -> tuple
               f'{r.seconds:.0f} s)')
         if out is not None:
             mark = '' if verdict.converged else '# NOT CONVERGED: ' + verdict.line() + '\n'
+            overlay = overlay_of(res['valve'], res['muscle'], res['laws'])
             write_output_file(out / f'{bag.name}.yaml', VERB, f'{mark}# {bag}: fitted to this '
-                              'bag\n' + yaml.safe_dump(overlay_of(res['valve'], res['muscle']),
-                                                       sort_keys=False))
+                              'bag\n' + yaml.safe_dump(overlay, sort_keys=False))
     return failed, loose
 
 

@@ -293,13 +293,15 @@ def _parse_scene(path: pathlib.Path, data: dict[str, Any], text: str) -> Scene:
 
 def _check_inputs(scene: str, settings: dict[str, Any]) -> None:
     """What the settings name besides plain values, read now rather than by a node once the
-    run has started: the sequencer's suspender rules, the torque servo's inverse model file.
+    run has started: the sequencer's suspender rules, the torque servo's inverse model file, the
+    force law a muscle holds.
 
     Raises:
         ConfigError: a bad rule or an unreadable or malformed model, named.
     """
     from pam_bench.control.inverse import InverseModel
     from pam_bench.models.errors import ModelError
+    from pam_bench.models.laws.zoo import force_law
     from pam_bench.protocol.suspenders import parse_rules
     from pam_bench.vocabulary.errors import InputError
     from pam_bench.vocabulary.yaml_io import load_yaml
@@ -310,6 +312,9 @@ def _check_inputs(scene: str, settings: dict[str, Any]) -> None:
         servo = settings.get('torque_servo')
         if servo is not None and servo.inverse_model_file:
             InverseModel.load(servo.inverse_model_file)
+        for name, st in settings.items():
+            if name.startswith('muscle_') and st.muscle.kind == 'law':
+                force_law(st.muscle.law)
     except (ParameterError, InputError, ModelError) as exc:
         raise ConfigError(f'scene {scene}: {exc}') from None
 

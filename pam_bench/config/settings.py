@@ -11,6 +11,7 @@ read the objects. A leaf is addressed by its path, ``muscle_1.muscle.gain_expone
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 from pam_bench.control.torque_servo import ServoMode, SignalKind, TorqueServoParams
 from pam_bench.models.constants import PULLEY_PITCH_DIAMETER_M, SUB_STEP_S
@@ -72,6 +73,21 @@ class ValveSettings(DeviceSettings):
     valve: ValveParams = section(ValveParams, 'the valve model (models.valve)')
 
 
+def _law_settings() -> type:
+    """A settings dataclass with one section per force law the bench can hold (the zoo's and
+    the plug-ins', ``models.laws.zoo.all_laws``), named by the law: ``laws.LAW.PARAMETER``."""
+    from pam_bench.models.laws.zoo import all_laws
+    fields = [(law.name, law.settings, section(law.settings, f'{law.name} ({law.seed})'))
+              for law in all_laws()]
+    cls = dataclasses.make_dataclass('LawSettings', fields)
+    cls.__module__ = __name__
+    cls.__doc__ = 'The parameters of every force law, by law (models.laws).'
+    return cls
+
+
+LawSettings = _law_settings()
+
+
 @dataclasses.dataclass
 class MuscleSettings(DeviceSettings):
     """muscle_sim."""
@@ -84,6 +100,8 @@ class MuscleSettings(DeviceSettings):
         'straight_fibre (models.straight_fibre_muscle)')
     settle: SettleParams = section(SettleParams, 'when a settled muscle is held for the rest '
                                    'of an exchange (models.coupling)')
+    laws: Any = section(LawSettings, 'the parameters of every force law the bench can hold '
+                        '(muscle.kind law, muscle.law names it; models.laws, plug-ins too)')
 
 
 @dataclasses.dataclass

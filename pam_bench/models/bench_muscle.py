@@ -3,12 +3,14 @@ care (the valve asks a volume, the coupled solve asks force and stiffness).
 
 - ``mckibben``: 004's muscle, ``pam_bench.models.muscle`` (parameters ``muscle.*``);
 - ``straight_fibre``: 000's muscle, ``pam_bench.models.straight_fibre_muscle`` (parameters
-  ``straight_fibre.*``).
+  ``straight_fibre.*``);
+- ``law``: a force law of the zoo or a plug-in (``muscle.law``), ``pam_bench.models.law_muscle``
+  (its parameters ``laws.LAW.*``, the friction and geometry ``muscle.*``).
 """
 
 from __future__ import annotations
 
-from typing import Protocol
+from typing import Any, Protocol
 
 from pam_bench.models.muscle import MuscleModel, MuscleOutput, MuscleParams, MuscleTrial
 from pam_bench.models.straight_fibre_muscle import StraightFibreMuscle, StraightFibreParams
@@ -17,7 +19,7 @@ from pam_bench.vocabulary.params import hint
 
 __all__ = ['KINDS', 'BenchMuscle', 'make_muscle']
 
-KINDS = ('mckibben', 'straight_fibre')
+KINDS = ('mckibben', 'straight_fibre', 'law')
 
 
 class BenchMuscle(Protocol):
@@ -43,16 +45,25 @@ class BenchMuscle(Protocol):
 
 
 def make_muscle(muscle: MuscleParams | None = None,
-                straight_fibre: StraightFibreParams | None = None) -> BenchMuscle:
-    """The muscle ``muscle.kind`` names, built from its parameter set.
+                straight_fibre: StraightFibreParams | None = None,
+                laws: Any = None) -> BenchMuscle:
+    """The muscle ``muscle.kind`` names, built from its parameter set (``laws``: the
+    parameters of every force law, ``config.settings.LawSettings``; None: each law's
+    defaults).
 
     Raises:
-        ParameterError: an unknown kind (names the nearest), or a bad parameter set.
+        ParameterError: an unknown kind or law (names the nearest), or a bad parameter set.
     """
     muscle = muscle or MuscleParams()
     if muscle.kind == 'mckibben':
         return MuscleModel(muscle)
     if muscle.kind == 'straight_fibre':
         return StraightFibreMuscle(straight_fibre)
+    if muscle.kind == 'law':
+        from pam_bench.models.law_muscle import LawMuscle
+        from pam_bench.models.laws.zoo import force_law
+        law = force_law(muscle.law)
+        values = getattr(laws, law.name, None) if laws is not None else None
+        return LawMuscle(law, values if values is not None else law.settings(), muscle)
     raise ParameterError(f'muscle.kind: unknown muscle {muscle.kind!r} '
                          f'({hint(muscle.kind, KINDS)})')

@@ -89,9 +89,12 @@ class MuscleParams:
     'Calibration against 004'; docs/long_runs.md, 'The statics re-fitted').
     """
 
-    kind: str = field('mckibben', '-', 'muscle law on the bench: mckibben (these parameters) '
-                      'or straight_fibre (the straight_fibre.* parameters)',
-                      choices=('mckibben', 'straight_fibre'))
+    kind: str = field('mckibben', '-', 'muscle law on the bench: mckibben (these parameters), '
+                      'straight_fibre (the straight_fibre.* parameters) or law (the force law '
+                      'named by law, its parameters laws.LAW.*, these friction and geometry)',
+                      choices=('mckibben', 'straight_fibre', 'law'))
+    law: str = field('bench_mckibben', '-', 'with kind law: the force law of the zoo, or of a '
+                     'plug-in, the bench holds (pam-bench plugins lists them)')
     nominal_length_m: float = field(0.350, 'm', 'nominal length l_n (004)', 0.01, 10.0)
     nominal_diameter_m: float = field(0.020, 'm', 'nominal diameter d_n (004)', 0.001, 1.0)
     braid_angle_deg: float = field(20.0, 'deg', 'braid angle theta_0 at nominal length',

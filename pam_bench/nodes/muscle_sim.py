@@ -42,7 +42,7 @@ class MuscleSim(BenchNode):
         super().__init__(name, **kwargs)
         s: MuscleSettings = self.settings
         self.channel = s.channel
-        self.model = make_muscle(s.muscle, s.straight_fibre)
+        self.model = make_muscle(s.muscle, s.straight_fibre, s.laws)
         self.joint = f'muscle_{self.channel}'
         self.p_topic = topics.valve_samples(self.channel)
         self.law_topic = topics.PULLEY_LAW

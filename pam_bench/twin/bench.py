@@ -24,6 +24,7 @@ It is the reference the ROS runs are compared against and the engine of the cali
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 from pam_bench.models.bench_muscle import make_muscle
 from pam_bench.models.constants import SUB_STEP_S
@@ -61,11 +62,11 @@ class SingleMuscleBench:
                  servo: LoadingServoParams | None = None, seed: int = 0,
                  sub_step_s: float = SUB_STEP_S,
                  straight_fibre: StraightFibreParams | None = None,
-                 settle: SettleParams | None = None) -> None:
+                 settle: SettleParams | None = None, laws: Any = None) -> None:
         self.sub_step_s = sub_step_s
         self.settle = settle or SettleParams()
         self.valve = ValveModel(valve)
-        self.muscle = make_muscle(muscle, straight_fibre)
+        self.muscle = make_muscle(muscle, straight_fibre, laws)
         self.cell = LoadCellModel(load_cell, seed=seed)
         self.encoder = EncoderModel(encoder)
         self.servo = LoadingServoModel(servo)

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Any
 
 import numpy as np
 from scipy.optimize import brentq
@@ -52,10 +53,10 @@ class QuasiStaticBench:
     def __init__(self, valve: ValveParams | None = None, muscle: MuscleParams | None = None,
                  servo: LoadingServoParams | None = None,
                  straight_fibre: StraightFibreParams | None = None,
-                 overshoot: bool = False) -> None:
+                 overshoot: bool = False, laws: Any = None) -> None:
         self.overshoot = overshoot
         self.valve = ValveModel(valve)
-        self.muscle = make_muscle(muscle, straight_fibre)
+        self.muscle = make_muscle(muscle, straight_fibre, laws)
         self.servo = servo or LoadingServoParams()
         self.k_b = self.servo.belt_stiffness_n_per_m
         self.x_t = 0.0

@@ -1,29 +1,9 @@
 """Fit the bench's muscle and valve to a lab's own recordings (``pam-bench calibrate BAG``).
 
-The observations are what the extraction reads from the bags (``analysis.bagread``): every
-static reading in time order (isometric: force at held x and u; isotonic: contraction at held
-load and u; isobaric: contraction at held u and set load) and every step record (force
-samples after a valve step at held x). The prediction replays the static readings in order on
-one bench, so the friction follows the recorded path, in one of two ways (``replay``):
-- 'stepped' (the default): the time-stepped bench (``twin.bench``, 004's drive) for 004's
-  3 s dwell per reading, the first ``TRANSIENT_S`` at the bench's sub-step and the slow
-  settling of the drive's integral action at ``SETTLE_SUB_STEP_S`` (the sub-step law is
-  implicit, so the longer step stays stable). The drive's force loop, speed limit, inertia
-  and gear play decide where inside its friction loop a muscle stops after a new set value
-  (a step of 100 N moves a light, compliant muscle past its quasi-static point and the
-  friction keeps it there), and the position loop's transient shakes the friction at the
-  first pressure of an isometric series. The step records follow on the same bench (004's
-  campaign runs the step responses last): each settles at its start voltage and held x for
-  the dwell, then the valve steps and the bench runs at every 10th sample period;
-- 'static': the quasi-static bench (``twin.quasistatic``) with the valve's overshoot turning
-  points, the muscle end following the belt stretch at each; an ideal drive; each step
-  record from its own settled start, the valve's pressure loop integrated exactly (ZOH)
-  every 10th sample period. About four times faster, and the choice for a bench whose drive
-  is not 004's.
-Records are compared at every 10th sample. The static replay is not the time-stepped bench:
-how far apart the two are at a drawn bench's true parameters, and what that does to a fit, is
-in BENCHMARKS.md, 'Calibrating the bench to recordings' (a record's start depends on the
-friction state the records before it left).
+The readings and records are replayed on the simulated bench (``verify.calibrate_replay``:
+how, and how the residuals are scaled); the fit starts from values read off the data
+(``verify.calibrate_init``) and ends with a verdict against the noise
+(``verify.calibrate_verdict``).
 
 Residuals are scaled to the bench's tolerances (issue 18): forces in units of 1 % of the load
 cell's 2000 N range (20 N), contractions in 0.5 mm. ``scipy.optimize.least_squares`` (trust
@@ -68,41 +48,42 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares
 
-from pam_bench.analysis.bagread import BagData
-from pam_bench.models import compiled
-from pam_bench.models.constants import SUB_STEP_S
-from pam_bench.models.coupling import SETTLE_OFF
 from pam_bench.models.errors import ModelError
-from pam_bench.models.loading_servo import LoadingServoParams, LoadMode
+from pam_bench.models.laws.base import ForceLaw
+from pam_bench.models.loading_servo import LoadingServoParams
 from pam_bench.models.muscle import MuscleParams
-from pam_bench.models.sensors import LoadCellParams
 from pam_bench.models.valve import ValveParams
-from pam_bench.twin.bench import SingleMuscleBench
-from pam_bench.twin.quasistatic import QuasiStaticBench
 from pam_bench.verify.calibrate import fit_report, fit_summary
-from pam_bench.verify.calibrate_init import initial_values
+from pam_bench.verify.calibrate_init import initial_values, law_start
+from pam_bench.verify.calibrate_replay import (
+    CONTRACTION_SCALE_M,
+    FORCE_SCALE_N,
+    PATH_WIDTH_M,
+    RECORD_STRIDE,
+    Bench,
+    Observations,
+    _compiled_core,
+    observations_from_bags,
+    observations_from_twin,
+    path_sensitive,
+    predict,
+    residuals,
+    rms_by_kind,
+    rms_of,
+)
 from pam_bench.verify.calibrate_verdict import noise_levels, verdict
 from pam_bench.vocabulary.errors import ParameterError
 
-__all__ = ['FREE_BAGS', 'BOUND_REASONS', 'Observations', 'observations_from_bags',
-           'observations_from_twin',
-           'predict', 'calibrate_bags', 'overlay_of', 'FORCE_SCALE_N', 'CONTRACTION_SCALE_M',
-           'PATH_WIDTH_M', 'path_sensitive', 'calibrate_bag', 'run_start', 'Mapper', 'reached',
-           'coarse']
+__all__ = ['FREE_BAGS', 'BOUND_REASONS', 'Observations', 'Bench', 'observations_from_bags',
+           'observations_from_twin', 'predict', 'calibrate_bags', 'overlay_of',
+           'FORCE_SCALE_N', 'CONTRACTION_SCALE_M', 'PATH_WIDTH_M', 'path_sensitive',
+           'calibrate_bag', 'run_start', 'Mapper', 'reached', 'coarse', 'free_of_law',
+           'rms_by_kind']
 
-FORCE_SCALE_N = 20.0            # 1 % of the load cell's range
-CONTRACTION_SCALE_M = 0.5e-3
-RECORD_STRIDE = 10
-REPLAYS = ('stepped', 'static')
-DWELL_S = 3.0                   # 004's dwell
-TRANSIENT_S = 1.0               # at the bench's sub-step, then the slow settling
-SETTLE_SUB_STEP_S = 0.02
 PRIOR_WEIGHT = 1.0              # a parameter's whole range costs one reading a tolerance off
 PRIOR_SHARE_FLAG = 0.01         # data-only variance over prior variance that flags
 DATA_ONLY = 1e-6                # the ridge that keeps J^T J invertible (module docstring)
 JOINT_CORRELATION = 0.95        # fixed only jointly with a flagged parameter: flagged too
-PATH_WIDTH_M = 8.0e-3           # friction loop wider than 16 contraction tolerances
-PATH_PROBE_N = 100.0            # load offset the loop's two sides are approached from
 
 FREE_BAGS: tuple[tuple[str, str, float, float], ...] = (
     ('muscle', 'gain_n_per_pa', 1.0e-3, 6.0e-3),
@@ -144,208 +125,61 @@ BOUND_REASONS: dict[str, str] = {
 """The physical argument for each fit interval narrower than the declared range."""
 
 
-@dataclasses.dataclass
-class Observations:
-    """Readings in time order and step records, as the fit needs them (SI units).
-
-    ``readings``: (kind, u V, held or set load N or held x m, measured value: F N for
-    isometric, x m otherwise); ``records``: (x m, u0 V, u1 V, period s, force samples N).
-    """
-
-    readings: list[tuple[str, float, float, float]]
-    records: list[tuple[float, float, float, float, np.ndarray]]
+Free = tuple[tuple[str, str, float, float], ...]
+"""(model: 'valve', 'muscle' or 'law', name, lower, upper) of each free parameter; a law's
+parameter is named 'LAW.PARAMETER'."""
 
 
-def observations_from_bags(data: BagData) -> Observations:
-    """The static readings and step records of bags read by ``analysis.bagread``."""
-    rows = []
-    for name, p in data.points.items():
-        kind = next((k for k in ('isometric', 'isotonic', 'isobaric') if name.startswith(k)),
-                    None)
-        if kind is None:
-            continue
-        for i in range(len(p)):
-            if kind == 'isometric':
-                rows.append((p.t_s[i], kind, p.voltage_v[i], p.series_value[i], p.force_n[i]))
-            elif kind == 'isotonic':
-                rows.append((p.t_s[i], kind, p.voltage_v[i], p.series_value[i],
-                             p.contraction_m[i]))
-            else:
-                rows.append((p.t_s[i], kind, p.voltage_v[i], p.set_value[i],
-                             p.contraction_m[i]))
-    rows.sort(key=lambda r: r[0])
-    recs = [(r.contraction_m, r.voltage_initial_v, r.voltage_final_v, r.sample_period_s,
-             np.asarray(r.force_n, float)) for r in data.records]
-    return Observations([(k, float(u), float(h), float(v)) for _, k, u, h, v in rows], recs)
-
-
-def observations_from_twin(points: Sequence[Any], records: Sequence[Any]) -> Observations:
-    """The same from a numpy-twin run (``twin.protocol_run.TwinRun.points`` / ``records``)."""
-    rows = []
-    for pt in points:
-        r = pt.reading
-        kind = next((k for k in ('isometric', 'isotonic', 'isobaric')
-                     if r.protocol.startswith(k)), None)
-        if kind is None or not r.recorded or r.record_s > 0.0:
-            continue
-        value = pt.measurement.force_n if kind == 'isometric' else pt.measurement.contraction_m
-        rows.append((kind, float(pt.voltage_v), float(r.load_value), float(value)))
-    recs = [(rec.reading.load_value, rec.reading.pre_voltage_v, rec.reading.voltage_v,
-             rec.reading.sample_period_s, np.asarray(rec.samples, float)) for rec in records]
-    return Observations(rows, recs)
-
-
-def _replay_stepped(obs: Observations, valve: ValveParams, muscle: MuscleParams,
-                    servo: LoadingServoParams | None) -> tuple[np.ndarray, list[np.ndarray]]:
-    """The static readings, then the step records, in order on one time-stepped bench
-    (module docstring)."""
-    # every sub-step solved: a held span starts where a tolerance test flips, a step the
-    # finite-difference Jacobian would read as the parameters' effect
-    twin = SingleMuscleBench(valve, muscle, LoadCellParams(noise=False), servo=servo,
-                             settle=SETTLE_OFF)
-
-    def settle(mode: LoadMode, voltage_v: float, held: float) -> None:
-        twin.command_valve(voltage_v)
-        twin.command_load(mode, held)
-        twin.sub_step_s = SUB_STEP_S
-        twin.run(TRANSIENT_S, TRANSIENT_S)
-        twin.sub_step_s = SETTLE_SUB_STEP_S
-        twin.run(DWELL_S - TRANSIENT_S, DWELL_S)
-
-    out = np.empty(len(obs.readings))
-    for i, (kind, u, held, _) in enumerate(obs.readings):
-        position = kind == 'isometric'
-        settle(LoadMode.POSITION if position else LoadMode.FORCE, u, held)
-        out[i] = twin.f if position else twin.servo.angle * twin.servo.r
-    recs = []
-    for x, u0, u1, period, samples in obs.records:
-        settle(LoadMode.POSITION, u0, x)
-        twin.command_valve(u1)
-        h = period * RECORD_STRIDE
-        twin.sub_step_s = h
-        forces = [twin.f]
-        for _ in range(len(samples[::RECORD_STRIDE]) - 1):
-            twin.step(h)
-            forces.append(twin.f)
-        recs.append(np.array(forces))
-    return out, recs
-
-
-def _replay_static(obs: Observations, valve: ValveParams, muscle: MuscleParams,
-                   servo: LoadingServoParams | None) -> tuple[np.ndarray, list[np.ndarray]]:
-    """The static readings in order on one quasi-static bench, each step record from its own
-    settled start (module docstring)."""
-    bench = QuasiStaticBench(valve, muscle, servo, overshoot=True)
-    out = np.empty(len(obs.readings))
-    for i, (kind, u, held, _) in enumerate(obs.readings):
-        if kind == 'isometric':
-            out[i] = bench.hold_position(u, held).force_n
-        else:
-            out[i] = bench.hold_force(u, held).contraction_m
-    recs = []
-    for x, u0, u1, period, samples in obs.records:
-        b = QuasiStaticBench(valve, muscle, servo, overshoot=True)
-        n = len(samples[::RECORD_STRIDE])
-        recs.append(b.step_response(x, u0, u1, n * period * RECORD_STRIDE,
-                                    period * RECORD_STRIDE))
-    return out, recs
-
-
-def predict(obs: Observations, valve: ValveParams, muscle: MuscleParams,
-            servo: LoadingServoParams | None = None, replay: str = 'stepped'
-            ) -> tuple[np.ndarray, list[np.ndarray]]:
-    """(predicted reading values, predicted record samples); ``replay``: 'stepped' or
-    'static' (module docstring).
+def free_of_law(law: ForceLaw) -> Free:
+    """The free parameters of a fit with the force law ``law`` as the muscle: the law's own
+    (its declared bounds), the friction's stiffness scale and the valve's loop.
 
     Raises:
-        ModelError: an unknown ``replay``.
+        ModelError: a parameter of the law without a finite interval to fit in.
     """
-    if replay not in REPLAYS:
-        raise ModelError(f'unknown replay {replay!r}: one of {", ".join(REPLAYS)}')
-    _compiled_core()
-    return (_replay_stepped if replay == 'stepped' else _replay_static)(obs, valve, muscle,
-                                                                       servo)
+    rows = []
+    for n, lo, hi in zip(law.params, law.lower, law.upper, strict=True):
+        if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+            raise ModelError(f'force law {law.name}: parameter {n} has no finite interval '
+                             f'[{lo}, {hi}] to fit in')
+        rows.append(('law', f'{law.name}.{n}', float(lo), float(hi)))
+    return tuple(rows) + tuple(f for f in FREE_BAGS if f[0] == 'valve' or
+                               f[1] == 'friction_stiffness_scale')
 
 
-def _compiled_core() -> None:
-    """A replay is thousands of long exchanges: load the compiled core now (in each process
-    that evaluates; the reference runs where it does not load)."""
-    try:
-        compiled.warm_up()
-    except RuntimeError:
-        pass
-
-
-def path_sensitive(obs: Observations, valve: ValveParams, muscle: MuscleParams,
-                   servo: LoadingServoParams | None = None) -> list[int]:
-    """Indices of the readings at held load whose friction loop is wider than
-    ``PATH_WIDTH_M`` (module docstring): the contraction at (u, F) reached from F +
-    ``PATH_PROBE_N`` against from F - ``PATH_PROBE_N`` (at least 0), each on a fresh bench."""
-    out, width = [], {}
-    for i, (kind, u, held, _) in enumerate(obs.readings):
-        if kind == 'isometric':
-            continue
-        if (u, held) not in width:
-            xs = []
-            for start in (held + PATH_PROBE_N, max(held - PATH_PROBE_N, 0.0)):
-                b = QuasiStaticBench(valve, muscle, servo, overshoot=True)
-                b.hold_force(u, start)
-                xs.append(b.hold_force(u, held).contraction_m)
-            width[(u, held)] = abs(xs[0] - xs[1])
-        if width[(u, held)] > PATH_WIDTH_M:
-            out.append(i)
-    return out
-
-
-def _residuals(obs: Observations, pred: tuple[np.ndarray, list[np.ndarray]],
-               left_out: Sequence[int] = ()) -> np.ndarray:
-    values, recs = pred
-    scale = np.array([FORCE_SCALE_N if k == 'isometric' else CONTRACTION_SCALE_M
-                      for k, _, _, _ in obs.readings])
-    measured = np.array([v for _, _, _, v in obs.readings])
-    keep = np.ones(len(obs.readings), bool)
-    keep[list(left_out)] = False
-    parts = [((values - measured) / scale)[keep]]
-    for (_, _, _, _, samples), model in zip(obs.records, recs, strict=True):
-        parts.append((model - samples[::RECORD_STRIDE]) / FORCE_SCALE_N)
-    return np.concatenate(parts) if parts else np.zeros(0)
+def _bench(theta: np.ndarray, base: Bench, free: Sequence[tuple[str, str, float, float]]
+           ) -> Bench:
+    """``base`` with the values ``theta`` of the ``free`` parameters put in."""
+    v: dict[str, Any] = {}
+    m: dict[str, Any] = {}
+    laws: dict[str, dict[str, float]] = {}
+    for (model, name, _, _), value in zip(free, theta, strict=True):
+        if model == 'law':
+            law, param = name.split('.', 1)
+            laws.setdefault(law, {})[param] = float(value)
+        else:
+            (v if model == 'valve' else m)[name] = float(value)
+    scale = m.pop('friction_stiffness_scale', None)
+    if scale is not None:
+        m['friction_stiffness_n_per_m'] = [k * scale
+                                           for k in base.muscle.friction_stiffness_n_per_m]
+    new_laws = base.laws
+    if laws:
+        from pam_bench.config.settings import LawSettings
+        new_laws = dataclasses.replace(base.laws if base.laws is not None else LawSettings(),
+                                       **{law: dataclasses.replace(
+                                           getattr(base.laws or LawSettings(), law), **vals)
+                                           for law, vals in laws.items()})
+    return Bench(dataclasses.replace(base.valve, **v), dataclasses.replace(base.muscle, **m),
+                 base.servo, new_laws)
 
 
 def _models(theta: np.ndarray, valve: ValveParams, muscle: MuscleParams,
             free: Sequence[tuple[str, str, float, float]] = FREE_BAGS
             ) -> tuple[ValveParams, MuscleParams]:
-    v: dict[str, Any] = {}
-    m: dict[str, Any] = {}
-    for (model, name, _, _), value in zip(free, theta, strict=True):
-        (v if model == 'valve' else m)[name] = float(value)
-    scale = m.pop('friction_stiffness_scale', 1.0)
-    m['friction_stiffness_n_per_m'] = [k * scale for k in muscle.friction_stiffness_n_per_m]
-    return dataclasses.replace(valve, **v), dataclasses.replace(muscle, **m)
-
-
-def rms_by_kind(obs: Observations, valve: ValveParams, muscle: MuscleParams,
-                servo: LoadingServoParams | None = None,
-                left_out: Sequence[int] = (), replay: str = 'stepped') -> dict[str, float]:
-    """RMS of the prediction's error per protocol kind: N (isometric, records) or mm; the
-    readings ``left_out`` do not count."""
-    return _rms_of(obs, predict(obs, valve, muscle, servo, replay), left_out)
-
-
-def _rms_of(obs: Observations, pred: tuple[np.ndarray, list[np.ndarray]],
-            left_out: Sequence[int]) -> dict[str, float]:
-    values, recs = pred
-    out = {}
-    for kind in ('isometric', 'isotonic', 'isobaric'):
-        idx = [i for i, r in enumerate(obs.readings) if r[0] == kind and i not in left_out]
-        if idx:
-            err = values[idx] - np.array([obs.readings[i][3] for i in idx])
-            out[kind] = float(np.sqrt(np.mean(err ** 2)) * (1.0 if kind == 'isometric'
-                                                              else 1e3))
-    if recs:
-        err = np.concatenate([m - r[4][::RECORD_STRIDE]
-                              for m, r in zip(recs, obs.records, strict=True)])
-        out['step_records'] = float(np.sqrt(np.mean(err ** 2)))
-    return out
+    """The valve and muscle with the values ``theta`` of the ``free`` parameters."""
+    b = _bench(theta, Bench(valve, muscle), free)
+    return b.valve, b.muscle
 
 
 Mapper = Callable[[Callable[[Any], Any], Any], Any]
@@ -373,10 +207,8 @@ class _Problem:
     """One fit: what it replays and in which coordinates (z in [0, 1] over the bounds)."""
 
     obs: Observations
-    valve: ValveParams
-    muscle: MuscleParams
-    servo: LoadingServoParams | None
-    free: tuple[tuple[str, str, float, float], ...]
+    base: Bench
+    free: Free
     left_out: tuple[int, ...]
     replay: str
 
@@ -388,21 +220,20 @@ class _Problem:
     def span(self) -> np.ndarray:
         return np.array([hi - lo for _, _, lo, hi in self.free])
 
-    def models(self, z: np.ndarray) -> tuple[ValveParams, MuscleParams]:
-        return _models(self.lower + z * self.span, self.valve, self.muscle, self.free)
+    def bench(self, z: np.ndarray) -> Bench:
+        return _bench(self.lower + z * self.span, self.base, self.free)
 
     def data(self, z: np.ndarray, replay: str | None = None) -> np.ndarray | None:
         """Scaled data residuals at z (None where the models refuse it)."""
         try:
-            v, m = self.models(z)
-            return _residuals(self.obs, predict(self.obs, v, m, self.servo,
-                                                replay or self.replay), self.left_out)
+            return residuals(self.obs, predict(self.obs, self.bench(z), replay or self.replay),
+                             self.left_out)
         except (ModelError, ParameterError):
             return None
 
 
 def _kind_rms(problem: _Problem, residuals: np.ndarray) -> dict[str, float]:
-    """RMS per protocol kind (N or mm) of a residual vector laid out as ``_residuals``."""
+    """RMS per protocol kind (N or mm) of a residual vector laid out as ``residuals``."""
     kept = [r[0] for i, r in enumerate(problem.obs.readings) if i not in problem.left_out]
     out: dict[str, float] = {}
     for kind in ('isometric', 'isotonic', 'isobaric'):
@@ -463,12 +294,11 @@ def _hints(problem: _Problem, values: dict[str, float], at_bound: Sequence[str])
     """What the user could change, from what the fit saw."""
     out = []
     iso_x = [h for k, _, h, _ in problem.obs.readings if k == 'isometric']
-    xm = values.get('gain_min_contraction_m', problem.muscle.gain_min_contraction_m)
-    if iso_x and max(iso_x) < xm:
+    xm = values.get('gain_min_contraction_m', problem.base.muscle.gain_min_contraction_m)
+    if iso_x and max(iso_x) < xm and problem.base.muscle.kind == 'mckibben':
         out.append(f'a longer grid (isometric positions past x_m = {xm * 1e3:.0f} mm)')
     if at_bound:
-        out.append(f'a freed parameter ({", ".join(at_bound)} at the end of its fit interval: '
-                   '--set its range, or FREE_BAGS)')
+        out.append(f'a freed parameter ({", ".join(at_bound)} at the end of its fit interval)')
     return out
 
 
@@ -533,81 +363,114 @@ def _unfixed(names: list[str], data_jac: np.ndarray, flags: Sequence[str]) -> li
     return [n for i, n in enumerate(names) if i in out]
 
 
+def _law_zoo(obs: Observations, kv: float, l0: float) -> dict[str, float]:
+    """RMS (N) of every law of the zoo fitted statically to the isometric readings (the
+    extraction's fit: ``analysis.force_models``), best first: which law a bag looks like."""
+    from pam_bench.analysis.force_models import fit_force_models
+    from pam_bench.models.laws.zoo import all_laws
+    iso = [(u, x, f) for k, u, x, f in obs.readings if k == 'isometric']
+    if len(iso) < 4:
+        return {}
+    u, x, f = (np.array(c, float) for c in zip(*iso, strict=True))
+    fits = fit_force_models(kv * u, x, f, l0, tuple(all_laws()))
+    return dict(sorted(((m['model'], float(m['rmse_N'])) for m in fits), key=lambda t: t[1]))
+
+
 def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
                    muscle: MuscleParams | None = None,
                    servo: LoadingServoParams | None = None,
                    max_nfev: int = 60, only: Sequence[str] | None = None,
                    replay: str = 'stepped', workers: Mapper | None = None,
-                   start: str = 'data', starts: int = 8, map_starts: Mapper | None = None
-                   ) -> dict[str, Any]:
+                   start: str = 'data', starts: int = 8, map_starts: Mapper | None = None,
+                   law: str | None = None) -> dict[str, Any]:
     """Fit ``FREE_BAGS`` (or the names in ``only``) to the observations and say whether the fit
     found the muscle (``verify.calibrate_verdict``).
 
     The fit starts from values read off the data (``start='data'``,
     ``verify.calibrate_init``; 'defaults': from ``valve`` and ``muscle``, the bench's
     defaults when None), runs a local fit with the readings replayed ``replay`` ('stepped' or
-    'static', module docstring), and when the residual is not at the noise level, tries
-    ``starts`` more starts spread over the fit intervals (a Latin hypercube; each a local fit
-    on the static replay, through ``map_starts``: the cluster), refines the best with the
-    replay asked for and keeps whichever fit is better.
+    'static', ``verify.calibrate_replay``), and when the residual is not at the noise level,
+    tries ``starts`` more starts spread over the fit intervals (a Latin hypercube; each a local
+    fit on the static replay, through ``map_starts``: the cluster), refines the best with the
+    replay asked for and keeps whichever fit is better. With ``law`` the muscle is that force
+    law of the zoo or a plug-in (``muscle.kind: law``): its parameters, the friction's scale
+    and the valve's loop are fitted (``free_of_law``), the law's start from its static fit to
+    the isometric readings.
 
-    Returns the fitted models (``valve``, ``muscle``), ``values``, ``stderr``,
+    Returns the fitted bench (``valve``, ``muscle``, ``laws``), ``values``, ``stderr``,
     ``correlation``, ``flags``, ``rms_before`` / ``rms_after`` per protocol kind,
-    ``verdict`` (``Verdict.as_dict``), ``noise``, ``start`` (name -> initial value) and
-    ``start_from`` (name -> what it was read from), ``starts`` (tried, reaching the best),
-    ``left_out`` (the readings ``path_sensitive`` leaves out: kind, u V, held value),
-    ``cost``, ``evaluations`` and ``fit_s``. ``workers``: a map-like callable the
-    finite-difference Jacobian's columns are evaluated through (scipy's
-    ``least_squares(workers=...)``; ``cluster.layer.map_on`` puts them on the cluster).
+    ``verdict`` (``Verdict.as_dict``), ``noise``, ``law_zoo`` (every law's static RMS on the
+    isometric readings, best first), ``start`` (name -> initial value) and ``start_from``
+    (name -> what it was read from), ``held`` (name -> value: what no reading shows),
+    ``starts`` (tried, reaching the best), ``left_out`` (the readings ``path_sensitive``
+    leaves out: kind, u V, held value), ``cost``, ``evaluations`` and ``fit_s``. ``workers``:
+    a map-like callable the finite-difference Jacobian's columns are evaluated through
+    (scipy's ``least_squares(workers=...)``; ``cluster.layer.map_on`` puts them on the
+    cluster).
 
     Raises:
-        ModelError: the observations hold nothing to fit.
+        ModelError: the observations hold nothing to fit, or the law has no bounds.
+        ParameterError: an unknown law (named, with the nearest).
     """
     if not obs.readings and not obs.records:
         raise ModelError('the bags hold no static readings and no step records to fit')
     t0 = time.perf_counter()
-    base_v, base_m = valve or ValveParams(), muscle or MuscleParams()
-    wanted = tuple(f for f in FREE_BAGS if only is None or f[1] in only)
-    bounds = {n: (lo, hi) for _, n, lo, hi in wanted}
-    initial = {n: 1.0 if n == 'friction_stiffness_scale'
-               else float(getattr(base_v if m == 'valve' else base_m, n))
-               for m, n, _, _ in wanted}
+    base = Bench(valve or ValveParams(), muscle or MuscleParams(), servo)
     why: dict[str, str] = {}
-    if start == 'data':
-        def models_of(values: dict[str, float]) -> tuple[ValveParams, MuscleParams]:
-            sub = tuple(f for f in wanted if f[1] in values)
-            return _models(np.array([values[f[1]] for f in sub]), base_v, base_m, sub)
-        initial, why = initial_values(obs.readings, obs.records, base_v, base_m, initial,
-                                      bounds, models_of)
+    if law is not None:
+        from pam_bench.config.settings import LawSettings
+        from pam_bench.models.laws.zoo import force_law
+        the_law = force_law(law)
+        base = Bench(base.valve, dataclasses.replace(base.muscle, kind='law', law=law), servo,
+                     LawSettings())
+        wanted = free_of_law(the_law)
+        initial = {n: 1.0 if n == 'friction_stiffness_scale' else
+                   float(getattr(base.valve, n)) for m, n, _, _ in wanted if m != 'law'}
+        initial.update({f'{law}.{n}': v for n, v in zip(the_law.params, the_law.start,
+                                                          strict=True)})
+        est, why = law_start(the_law, obs.readings, obs.records, base.valve, base.muscle)
+        initial.update(est)
+    else:
+        wanted = tuple(f for f in FREE_BAGS if only is None or f[1] in only)
+        initial = {n: 1.0 if n == 'friction_stiffness_scale'
+                   else float(getattr(base.valve if m == 'valve' else base.muscle, n))
+                   for m, n, _, _ in wanted}
+        if start == 'data':
+            def models_of(values: dict[str, float]) -> tuple[ValveParams, MuscleParams]:
+                sub = tuple(f for f in wanted if f[1] in values)
+                return _models(np.array([values[f[1]] for f in sub]), base.valve,
+                               base.muscle, sub)
+            initial, why = initial_values(obs.readings, obs.records, base.valve, base.muscle,
+                                          initial, {n: (lo, hi) for _, n, lo, hi in wanted},
+                                          models_of)
     unseen = reached(obs)
     held = {n: initial[n] for n in unseen if n in initial}
-    valve, muscle = _models(np.array(list(held.values())), base_v, base_m,
-                            tuple(f for f in wanted if f[1] in held))
+    base = _bench(np.array(list(held.values())), base, tuple(f for f in wanted if f[1] in held))
     free = tuple(f for f in wanted if f[1] not in held)
     names = [n for _, n, _, _ in free]
     lower = np.array([lo for _, _, lo, _ in free])
     span = np.array([hi - lo for _, _, lo, hi in free])
     z0 = np.clip((np.array([initial[n] for n in names]) - lower) / span, 0.0, 1.0)
-    v0, m0 = _models(lower + z0 * span, valve, muscle, free)
-    left_out = tuple(path_sensitive(obs, v0, m0, servo))
-    problem = _Problem(obs, valve, muscle, servo, free, left_out, replay)
-    pred0 = predict(obs, v0, m0, servo, replay)
+    b0 = _bench(lower + z0 * span, base, free)
+    left_out = tuple(path_sensitive(obs, b0))
+    problem = _Problem(obs, base, free, left_out, replay)
+    pred0 = predict(obs, b0, replay)
     noise = noise_levels(obs.readings, obs.records, servo)
-    stop_at = {k: STOP_SHARE * t for k, t in verdict(_rms_of(obs, pred0, left_out),
+    stop_at = {k: STOP_SHARE * t for k, t in verdict(rms_of(obs, pred0, left_out),
                                                       noise).tolerance.items()}
     evaluations = 0
     z_first = z0
     small = coarse(obs)
     if small is not obs:
         part = dataclasses.replace(problem, obs=small, left_out=tuple(
-            path_sensitive(small, v0, m0, servo)))
+            path_sensitive(small, b0)))
         sol = _local_fit(part, z0, z0, max_nfev, workers, stop_at=stop_at)
         evaluations += int(sol.nfev)
         z_first = sol.x
     sol = _local_fit(problem, z_first, z0, max_nfev, workers, stop_at=stop_at)
     evaluations += int(sol.nfev)
     best_of: tuple[int, int] = (0, 0)
-    first = verdict(rms_by_kind(obs, *problem.models(sol.x), servo, left_out, replay), noise)
+    first = verdict(rms_by_kind(obs, problem.bench(sol.x), left_out, replay), noise)
     if not first.converged and starts > 0:
         zs = _space_filling(starts, len(names), STARTS_SEED)
         results = list((map_starts or map)(run_start, [(problem, z) for z in zs]))
@@ -623,8 +486,7 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
             sol = refined
     theta = lower + sol.x * span
     summary = fit_summary(names, theta, sol, span, rel_flag=0.05)
-    data_jac = sol.jac[:-len(names)]
-    summary['flags'] = _unfixed(names, data_jac, summary['flags'])
+    summary['flags'] = _unfixed(names, sol.jac[:-len(names)], summary['flags'])
     summary['report'] = fit_report(summary)
     for n, value in held.items():           # not fitted: kept at the start, and flagged
         summary['names'].append(n)
@@ -632,12 +494,21 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
         summary['stderr'][n] = math.nan
         summary['flags'].append(n)
         summary['report'][n] = f'{value:.6g}, held: {unseen[n]}'
-    v, m = _models(theta, valve, muscle, free)
-    rms_after = rms_by_kind(obs, v, m, servo, left_out, replay)
-    verd = verdict(rms_after, noise, _hints(problem, summary['values'], summary['at_bound']))
-    return {**summary, 'valve': v, 'muscle': m,
-            'rms_before': _rms_of(obs, pred0, left_out), 'rms_after': rms_after,
-            'verdict': verd.as_dict(), 'noise': noise,
+    fitted = _bench(theta, base, free)
+    rms_after = rms_by_kind(obs, fitted, left_out, replay)
+    zoo = _law_zoo(obs, base.valve.gain_pa_per_v, base.muscle.nominal_length_m)
+    hints = _hints(problem, summary['values'], summary['at_bound'])
+    if zoo:
+        best_law = next(iter(zoo))
+        mine_law = law or 'bench_mckibben'
+        if best_law != mine_law and zoo[best_law] < 0.5 * zoo.get(mine_law, math.inf):
+            hints.append(f'--law {best_law} (its static RMS on the isometric readings '
+                         f'{zoo[best_law]:.3g} N against {zoo.get(mine_law, math.inf):.3g} N '
+                         f'for {mine_law})')
+    verd = verdict(rms_after, noise, hints)
+    return {**summary, 'valve': fitted.valve, 'muscle': fitted.muscle, 'laws': fitted.laws,
+            'rms_before': rms_of(obs, pred0, left_out), 'rms_after': rms_after,
+            'verdict': verd.as_dict(), 'noise': noise, 'law_zoo': zoo, 'law': law,
             'start': {n: float(initial[n]) for n in names}, 'start_from': why,
             'held': {n: f'{held[n]:.6g}: {unseen[n]}' for n in held},
             'starts': {'tried': best_of[1], 'at_best': best_of[0]},
@@ -645,23 +516,30 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
             'evaluations': evaluations, 'fit_s': time.perf_counter() - t0}
 
 
-def calibrate_bag(job: tuple[str, int, str, str, int]) -> dict[str, Any]:
+def calibrate_bag(job: tuple[str, int, str, str, int, str | None]) -> dict[str, Any]:
     """One job of ``pam-bench calibrate --each``: (bag folder, largest number of
-    evaluations, replay, start, starts) -> ``calibrate_bags``' result for that bag alone (its
-    starts run one after the other in the job).
+    evaluations, replay, start, starts, law) -> ``calibrate_bags``' result for that bag alone
+    (its starts run one after the other in the job).
 
     Raises:
         BagError: the bag cannot be read.
     """
     from pam_bench.analysis.bagread import read_bags
-    bag, max_nfev, replay, start, starts = job
+    bag, max_nfev, replay, start, starts, law = job
     return calibrate_bags(observations_from_bags(read_bags([bag])), max_nfev=max_nfev,
-                          replay=replay, start=start, starts=starts)
+                          replay=replay, start=start, starts=starts, law=law)
 
 
-def overlay_of(valve: ValveParams, muscle: MuscleParams) -> dict[str, Any]:
+def overlay_of(valve: ValveParams, muscle: MuscleParams, laws: Any = None) -> dict[str, Any]:
     """The parameter overlay (``pam-bench run --params``, ``config.scene.apply_overlay``) that
-    puts ``valve`` and ``muscle`` on both sides of the bench."""
+    puts ``valve`` and ``muscle`` (and, for a muscle that holds a force law, that law's
+    parameters) on both sides of the bench."""
     m, v = dataclasses.asdict(muscle), dataclasses.asdict(valve)
-    return {'parameters': {**{f'muscle_{i}': {'muscle': dict(m)} for i in (1, 2)},
-                           **{f'valve_{i}': {'valve': dict(v)} for i in (1, 2)}}}
+    sides: dict[str, Any] = {}
+    for i in (1, 2):
+        sides[f'muscle_{i}'] = {'muscle': dict(m)}
+        if muscle.kind == 'law' and laws is not None:
+            sides[f'muscle_{i}']['laws'] = {muscle.law: dataclasses.asdict(
+                getattr(laws, muscle.law))}
+        sides[f'valve_{i}'] = {'valve': dict(v)}
+    return {'parameters': sides}

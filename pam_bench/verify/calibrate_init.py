@@ -38,10 +38,11 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from scipy.optimize import least_squares
 
+from pam_bench.models.laws.base import ForceLaw
 from pam_bench.models.muscle import MuscleModel, MuscleParams
 from pam_bench.models.valve import ValveParams
 
-__all__ = ['initial_values', 'isometric_lines', 'Start']
+__all__ = ['initial_values', 'law_start', 'isometric_lines', 'Start']
 
 Start = dict[str, float]
 """Parameter name (``FREE_BAGS``) -> initial value."""
@@ -284,3 +285,30 @@ def initial_values(readings: Sequence[tuple[str, float, float, float]],
 
 
 _GAIN_NAMES = ('gain_n_per_pa', 'gain_min_n_per_pa', 'gain_min_contraction_m', 'gain_exponent')
+
+
+def law_start(law: ForceLaw, readings: Sequence[tuple[str, float, float, float]],
+              records: Sequence[tuple[float, float, float, float, np.ndarray]],
+              valve: ValveParams, muscle: MuscleParams) -> tuple[Start, dict[str, str]]:
+    """Where a fit with the force law ``law`` starts: the law's parameters from its static fit
+    to the isometric readings (the extraction's, ``analysis.force_models``), named
+    'LAW.PARAMETER', and the valve's loop from the step fits (module docstring).
+
+    Returns:
+        The estimates the data allowed and what each was read from.
+    """
+    from pam_bench.analysis.force_models import fit_force_models
+    out: Start = {}
+    why: dict[str, str] = {}
+    iso = [(u, x, f) for kind, u, x, f in readings if kind == 'isometric']
+    if len(iso) > len(law.params):
+        u, x, f = (np.array(c, float) for c in zip(*iso, strict=True))
+        fits = fit_force_models(valve.gain_pa_per_v * u, x, f, muscle.nominal_length_m, (law,))
+        if fits:
+            for n, v in fits[0]['params'].items():
+                out[f'{law.name}.{n}'] = float(v)
+                why[f'{law.name}.{n}'] = 'the law fitted to the isometric readings'
+    est = _valve(records, valve, muscle)
+    out.update(est)
+    why.update({n: 'step fits (004 Eq. 2)' for n in est})
+    return out, why

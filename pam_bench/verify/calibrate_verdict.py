@@ -14,7 +14,7 @@ beside what the measurement itself scatters (``noise_levels``):
 
 Beside the noise stands the replay's own floor (``FLOOR``): how far the replay is from the
 time-stepped bench it stands for, at the true parameters and without noise (BENCHMARKS.md,
-'Calibrating the bench to recordings, across the bounds'). A protocol is at the noise level
+'Calibrating the bench to recordings'). A protocol is at the noise level
 when its RMS is within ``NOISE_FACTOR`` times its noise, or within the floor, whichever is
 larger. The fit is ``converged`` only when every protocol is; otherwise the verdict names the
 protocols above and what to try.

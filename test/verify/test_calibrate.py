@@ -73,7 +73,7 @@ def _exact_observations(valve, muscle):
     """campaign_quick's readings and records with the values the quasi-static bench gives
     for (valve, muscle): the model the fit uses, so the round trip must be exact."""
     from pam_bench.config.protocols import protocol_schedule
-    from pam_bench.verify.calibrate_bags import Observations, predict
+    from pam_bench.verify.calibrate_bags import Bench, Observations, predict
     readings, recs = [], []
     for r in protocol_schedule('campaign_quick', {})[0]:
         if r.record_s > 0.0:
@@ -83,7 +83,7 @@ def _exact_observations(valve, muscle):
             kind = r.protocol.split('_')[0]
             readings.append((kind, r.voltage_v, r.load_value, 0.0))
     obs = Observations(readings, recs)
-    values, model = predict(obs, valve, muscle, replay='static')
+    values, model = predict(obs, Bench(valve, muscle), replay='static')
     obs.readings = [(k, u, h, float(v)) for (k, u, h, _), v in zip(readings, values,
                                                                     strict=True)]
     for i, (x, u0, u1, period, samples) in enumerate(recs):
@@ -127,21 +127,21 @@ def test_replay_of_a_twin_run_at_its_true_parameters(replay: str, isotonic_mm: f
     from pam_bench.models.sensors import LoadCellParams
     from pam_bench.models.valve import ValveParams
     from pam_bench.twin.protocol_run import run_protocol
-    from pam_bench.verify.calibrate_bags import observations_from_twin, rms_by_kind
+    from pam_bench.verify.calibrate_bags import Bench, observations_from_twin, rms_by_kind
     valve, muscle = ValveParams(), MuscleParams()
     run = run_protocol('isotonic_quick', 3.0, valve=valve, muscle=muscle,
                        load_cell=LoadCellParams(noise=False))
     obs = observations_from_twin(run.points, run.records)
     assert len(obs.readings) == 42
-    assert rms_by_kind(obs, valve, muscle, replay=replay)['isotonic'] < isotonic_mm
+    assert rms_by_kind(obs, Bench(valve, muscle), replay=replay)['isotonic'] < isotonic_mm
 
 
 def test_an_unknown_replay_is_an_error() -> None:
     from pam_bench.models.errors import ModelError
     from pam_bench.models.valve import ValveParams
-    from pam_bench.verify.calibrate_bags import Observations, predict
+    from pam_bench.verify.calibrate_bags import Bench, Observations, predict
     with pytest.raises(ModelError, match="'stepd'"):
-        predict(Observations([], []), ValveParams(), MuscleParams(), replay='stepd')
+        predict(Observations([], []), Bench(ValveParams(), MuscleParams()), replay='stepd')
 
 
 def test_a_parameter_the_recordings_do_not_reach_stays_at_its_start_and_is_flagged() -> None:

@@ -142,3 +142,29 @@ def test_the_verdict_is_the_noise_level(rms: float, converged: bool) -> None:
     assert v.line().startswith('converged' if converged else 'not converged')
     if not converged:
         assert v.above == ('isometric',) and 'try' in v.line()
+
+
+def test_calibrate_with_a_law_of_the_zoo_recovers_it() -> None:
+    """A bench whose muscle is Chou-Hannaford's law (001 Eq. 3) with its own parameters:
+    ``calibrate --law chou_hannaford`` starts from the law fitted to the isometric readings,
+    recovers the law and says converged (the static replay, fast; without step records the
+    valve's loop is held at the bench's, so the readings are made with it)."""
+    from pam_bench.config.settings import LawSettings
+    from pam_bench.twin.quasistatic import QuasiStaticBench
+    laws = LawSettings()
+    laws = dataclasses.replace(laws, chou_hannaford=dataclasses.replace(
+        laws.chou_hannaford, D0_m=0.018, theta0_rad=0.40))
+    muscle = dataclasses.replace(MuscleParams(), kind='law', law='chou_hannaford')
+    qs = QuasiStaticBench(ValveParams(), muscle, overshoot=True, laws=laws)
+    readings = []
+    for x in (0.0, 0.03, 0.06):
+        for u in [*np.arange(0.0, 6.01, 0.5), *np.arange(6.0, -0.01, -0.5)]:
+            readings.append(('isometric', float(u), x, qs.hold_position(float(u), x).force_n))
+    res = calibrate_bags(Observations(readings, []), replay='static', law='chou_hannaford',
+                         max_nfev=40)
+    assert res['verdict']['converged'], res['verdict']
+    np.testing.assert_allclose(res['values']['chou_hannaford.D0_m'], 0.018, rtol=0.01)
+    np.testing.assert_allclose(res['values']['chou_hannaford.theta0_rad'], 0.40, rtol=0.01)
+    assert res['muscle'].kind == 'law'
+    assert res['laws'].chou_hannaford.D0_m == res['values']['chou_hannaford.D0_m']
+    assert 'chou_hannaford' in res['law_zoo']

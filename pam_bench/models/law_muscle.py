@@ -1,0 +1,68 @@
+"""A force law of the zoo (or a lab's plug-in law) as the bench's muscle.
+
+The law gives the friction-free backbone, F_bb(p, x) = law(theta, p, x, l_n) (N; gauge
+pressure p Pa, contraction x m, nominal length l_n m, ``models.laws.base``), and the bench
+adds what every bench muscle shares (``models.muscle.FrictionMuscle``): the braid's
+Maxwell-slip friction on s = x + c_t F_bb^+ (004 section 2.2, ``models.friction``) and the
+clamp F >= 0 (a muscle never pushes). The stiffness -dF_bb/dx is the law's central
+difference over +-``DX_M``; the chamber volume is the McKibben braid's (001 Eq. 1-2,
+``MuscleModel.volume``) from the muscle's geometry, which the valve's loop asks for. The
+friction parameters and the geometry are the muscle's (``muscle.*``), the law's parameters
+its own (``laws.LAW.*``).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from pam_bench.models.errors import ModelError
+from pam_bench.models.friction import MaxwellSlip
+from pam_bench.models.laws.base import ForceLaw
+from pam_bench.models.muscle import FrictionMuscle, MuscleModel, MuscleParams
+
+__all__ = ['LawMuscle', 'DX_M']
+
+DX_M = 1.0e-6
+"""Half-step of the central difference of the stiffness, m."""
+
+
+class LawMuscle(FrictionMuscle):
+    """The law ``law`` with its parameters ``values`` (a settings object of ``law.settings``)
+    on the bench (module docstring)."""
+
+    def __init__(self, law: ForceLaw, values: Any, params: MuscleParams | None = None) -> None:
+        self.p = params or MuscleParams()
+        self.law = law
+        self.theta = law.theta(values)
+        if not np.all(np.isfinite(self.theta)):
+            raise ModelError(f'force law {law.name}: parameters not finite: {self.theta}')
+        self._geometry = MuscleModel(self.p)
+        self.friction = MaxwellSlip(self.p.friction_stiffness_n_per_m,
+                                    self.p.friction_break_force_n,
+                                    self.p.friction_break_force_ratio)
+        self._l0 = self.p.nominal_length_m
+        self._offsets = np.array([0.0, -DX_M, DX_M])
+
+    def backbone_and_stiffness(self, pressure_pa: float, contraction_m: float
+                               ) -> tuple[float, float]:
+        """(F_bb N, -dF_bb/dx N/m) of the law (module docstring): the law evaluated once at
+        x and x -+ ``DX_M``."""
+        x = contraction_m + self._offsets
+        f = self.law.law(self.theta, np.full(3, pressure_pa), x, self._l0)
+        f0, fm, fp = float(f[0]), float(f[1]), float(f[2])
+        if not (math.isfinite(f0) and math.isfinite(fm) and math.isfinite(fp)):
+            raise ModelError(f'force law {self.law.name} gives {f0!r} at p = {pressure_pa!r} '
+                             f'Pa, x = {contraction_m!r} m')
+        return f0, -(fp - fm) / (2.0 * DX_M)
+
+    def reset(self, contraction_m: float = 0.0, pressure_pa: float = 0.0) -> None:
+        """Friction relaxed at the given state."""
+        tension = max(self.backbone(pressure_pa, contraction_m), 0.0)
+        self.friction.reset(contraction_m + self.p.slip_compliance_m_per_n * tension)
+
+    def volume(self, contraction_m: float) -> float:
+        """The McKibben braid's chamber volume at x, m^3."""
+        return self._geometry.volume(contraction_m)

@@ -1,0 +1,54 @@
+"""A force law of the zoo as the bench's muscle (``models.law_muscle``)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from pam_bench.models.bench_muscle import make_muscle
+from pam_bench.models.law_muscle import LawMuscle
+from pam_bench.models.laws.zoo import FORCE_LAWS, all_laws, force_law
+from pam_bench.models.muscle import MuscleModel, MuscleParams
+from pam_bench.vocabulary.errors import ParameterError
+from pam_bench.vocabulary.params import flat_infos
+
+
+@pytest.mark.parametrize('p, x', [(1e5, 0.0), (3e5, 0.02), (5e5, 0.05)])
+def test_without_friction_the_force_is_the_laws(p: float, x: float) -> None:
+    law = force_law('chou_hannaford')
+    muscle = LawMuscle(law, law.settings(), dataclasses.replace(MuscleParams(),
+                                                                hysteresis=False))
+    f, k, ff, _ = muscle.trial(p, x)
+    want = float(law.law(np.array(law.start), np.asarray(p), np.asarray(x), 0.35))
+    np.testing.assert_allclose(f, max(want, 0.0), rtol=1e-12)
+    assert ff == 0.0
+    # -dF/dx of 001 Eq. 3: (pi D0^2 p / 4) / sin^2 t0 * 6 (1 - k) cos^2 t0 / l0
+    d0, t0 = law.start
+    dfdx = math.pi * d0 ** 2 * p / 4 / math.sin(t0) ** 2 * 6 * (1 - x / 0.35) * \
+        math.cos(t0) ** 2 / 0.35
+    np.testing.assert_allclose(k, dfdx, rtol=1e-6)
+
+
+def test_the_volume_is_the_mckibben_braids() -> None:
+    law = force_law('kang')
+    m = LawMuscle(law, law.settings())
+    np.testing.assert_allclose(m.volume(0.03), MuscleModel().volume(0.03), rtol=1e-15)
+
+
+def test_a_scene_selects_a_law_by_name() -> None:
+    muscle = make_muscle(dataclasses.replace(MuscleParams(), kind='law', law='tondu_lopez'))
+    assert isinstance(muscle, LawMuscle) and muscle.law.name == 'tondu_lopez'
+    with pytest.raises(ParameterError, match="did you mean 'tondu_lopez'"):
+        make_muscle(dataclasses.replace(MuscleParams(), kind='law', law='tondu_lopz'))
+
+
+@pytest.mark.parametrize('law', FORCE_LAWS, ids=lambda law: law.name)
+def test_every_law_has_settings_with_its_start_and_bounds(law) -> None:
+    infos = flat_infos(law.settings)
+    assert [i.name for i in infos] == list(law.params)
+    assert [i.default for i in infos] == list(law.start)
+    np.testing.assert_array_equal(law.theta(law.settings()), law.start)
+    assert law in all_laws()
