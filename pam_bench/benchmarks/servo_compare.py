@@ -41,27 +41,29 @@ def servo_scenes() -> list[str]:
     return [n for n in scene_names() if 'torque_servo' in load_scene(n).nodes]
 
 
-def _ros_run(scene: Scene, controller: ServoMode, duration_s: float | None,
+def _ros_run(scene: Scene, controller: str, duration_s: float | None,
              tmp: pathlib.Path, one_process: bool = False) -> tuple[ServoRun, float, float]:
     from pam_bench.bringup.runner import Layout, RunOptions, run_scene
     params = {k: dict(v) for k, v in scene.parameters.items()}
-    params.setdefault('torque_servo', {})['controller'] = controller.value
+    params.setdefault('torque_servo', {})['controller'] = controller
     sc = dataclasses.replace(scene, parameters=params,
                              duration_s=duration_s or scene.duration_s)
-    out = tmp / f'{scene.name}_{controller.value}'
+    out = tmp / f'{scene.name}_{controller}'
     from pam_bench.cluster.layer import worker_domain
     res = run_scene(sc, str(out),
                     RunOptions(layout=Layout.COMPOSED if one_process else Layout.PROCESSES,
                                quiet=True, domain_id=worker_domain()))
     if res.code != 0:
-        raise RuntimeError(f'scene {scene.name} ({controller.value}) failed: exit {res.code}')
+        raise RuntimeError(f'scene {scene.name} ({controller}) failed: exit {res.code}')
     return servo_run_of_bag(out, 2 if 'valve_2' in scene.nodes else 1), res.wall_s, res.sim_s
 
 
 def compare_servo(out_dir: pathlib.Path, engine: str = 'numpy', scenes: list[str] | None = None,
                   duration_s: float | None = None, one_process: bool = True,
-                  cluster: dict[str, Any] | None = None) -> list[dict[str, Any]]:
-    """Run every scene x controller; write out_dir/metrics.json and one PNG per scene.
+                  cluster: dict[str, Any] | None = None,
+                  controllers: list[str] | None = None) -> list[dict[str, Any]]:
+    """Run every scene x controller (the built-ins, then ``controllers``: plug-ins' names);
+    write out_dir/metrics.json and one PNG per scene.
 
     ``engine``: 'numpy' (the twin) or 'ros' (the nodes; composed in one process with
     ``one_process``, which gives the same bags faster). The runs are jobs of the execution
@@ -72,8 +74,10 @@ def compare_servo(out_dir: pathlib.Path, engine: str = 'numpy', scenes: list[str
     label = 'ros, composed' if engine == 'ros' and one_process else engine
     out_dir.mkdir(parents=True, exist_ok=True)
     names = scenes or servo_scenes()
-    tasks = [(name, ctl) for name in names for ctl in ServoMode]
-    results: dict[tuple[str, ServoMode], tuple[ServoRun, float, float]] = {}
+    ctls = [m.value for m in ServoMode] + [c for c in controllers or []
+                                           if c not in {m.value for m in ServoMode}]
+    tasks = [(name, ctl) for name in names for ctl in ctls]
+    results: dict[tuple[str, str], tuple[ServoRun, float, float]] = {}
     with tempfile.TemporaryDirectory(prefix='pam_bench_servo_') as tmp:
         jobs = [(engine, name, ctl, duration_s, tmp, one_process) for name, ctl in tasks]
         for r in run_jobs(_one_job, jobs, label=f'servo-compare ({label})',
@@ -81,17 +85,17 @@ def compare_servo(out_dir: pathlib.Path, engine: str = 'numpy', scenes: list[str
             if r.ok:
                 results[r.item[1], r.item[2]] = r.value
             else:
-                print(f'{r.item[1]}: {r.item[2].value}: error: {r.error}', flush=True)
+                print(f'{r.item[1]}: {r.item[2]}: error: {r.error}', flush=True)
     rows: list[dict[str, Any]] = []
     for name in names:
         setup = scene_servo_setup(load_scene(name))
         runs = {}
-        for ctl in ServoMode:
+        for ctl in ctls:
             if (name, ctl) not in results:
                 continue
             run, wall, sim = results[name, ctl]
             runs[ctl] = run
-            rows.append({'scene': name, 'controller': ctl.value, 'engine': label,
+            rows.append({'scene': name, 'controller': ctl, 'engine': label,
                          **tracking_metrics(run), 'sim_s': sim, 'wall_s': wall,
                          'real_time_factor': sim / wall if wall else 0.0,
                          **forward_model_rms(run, setup)})
@@ -101,13 +105,13 @@ def compare_servo(out_dir: pathlib.Path, engine: str = 'numpy', scenes: list[str
     return rows
 
 
-def _one_job(job: tuple[str, str, ServoMode, float | None, str, bool]
+def _one_job(job: tuple[str, str, str, float | None, str, bool]
              ) -> tuple[ServoRun, float, float]:
     engine, name, ctl, duration_s, tmp, one_process = job
     return one_run(engine, name, ctl, duration_s, tmp, one_process)
 
 
-def one_run(engine: str, name: str, ctl: ServoMode, duration_s: float | None, tmp: str,
+def one_run(engine: str, name: str, ctl: str, duration_s: float | None, tmp: str,
             one_process: bool) -> tuple[ServoRun, float, float]:
     """One scene with one controller: (its run, wall s, sim s)."""
     scene = load_scene(name)
@@ -118,7 +122,7 @@ def one_run(engine: str, name: str, ctl: ServoMode, duration_s: float | None, tm
     sim = duration_s or scene.duration_s
     run = run_servo(ctl, setup['signal'], sim, setup['angle_rad'], scene.exchange_step_s,
                     setup['inverse'], setup['muscles'], setup['params'], setup['valve'],
-                    setup['muscle'])
+                    setup['muscle'], plugins=setup['plugins'])
     return run, time.perf_counter() - t0, sim
 
 
@@ -139,7 +143,7 @@ def forward_model_rms(run: ServoRun, setup: dict[str, Any], settle_s: float = 1.
     return {'forward_model_rms_N': float(np.sqrt(np.mean((model - f)[keep] ** 2)))}
 
 
-def _plot(name: str, runs: dict[ServoMode, ServoRun], out_dir: pathlib.Path) -> None:
+def _plot(name: str, runs: dict[str, ServoRun], out_dir: pathlib.Path) -> None:
     """Set point, measured and error of each controller (004 figure style); dashed lines
     mark the reversals of the set point's derivative (004 section 4: the largest error sits
     there)."""
@@ -151,8 +155,8 @@ def _plot(name: str, runs: dict[ServoMode, ServoRun], out_dir: pathlib.Path) -> 
             ax.axvline(m, color='0.5', ls='--', lw=0.8)
     axes[0].plot(first.t_s, first.setpoint, 'k-', lw=1.5, label='set point')
     for ctl, run in runs.items():
-        axes[0].plot(run.t_s, run.measured, lw=0.9, label=ctl.value)
-        axes[1].plot(run.t_s, run.setpoint - run.measured, lw=0.9, label=ctl.value)
+        axes[0].plot(run.t_s, run.measured, lw=0.9, label=ctl)
+        axes[1].plot(run.t_s, run.setpoint - run.measured, lw=0.9, label=ctl)
     axes[0].set_ylabel(f'{"torque" if first.unit == "N m" else "force"}, {first.unit}')
     axes[1].set_ylabel(f'error, {first.unit}')
     axes[1].set_xlabel('t, s')

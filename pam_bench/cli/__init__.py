@@ -4,4 +4,4 @@ from __future__ import annotations
 
 from pam_bench.cli.main import main
 
-__all__ = ['main', 'bags', 'bench', 'design', 'errors', 'fit', 'run']
+__all__ = ['main', 'bags', 'bench', 'design', 'errors', 'fit', 'numbers', 'plugins', 'run']

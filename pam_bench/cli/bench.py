@@ -8,6 +8,7 @@ import pathlib
 from typing import Any
 
 from pam_bench.cli.cluster_args import add_cluster_args, cluster_of
+from pam_bench.cli.errors import UsageError
 from pam_bench.cli.numbers import integer, number
 
 __all__ = ['register']
@@ -28,6 +29,8 @@ def register(sub: Any) -> None:
     p.add_argument('--overwrite', action='store_true', help='replace --out, an earlier '
                    'servo-compare (only the files it wrote)')
     p.add_argument('--scene', action='append', help='servo scene (repeatable; default all)')
+    p.add_argument('--controller', action='append', metavar='NAME', help='a controller '
+                   'plug-in to rank beside the built-ins (repeatable; pam-bench plugins)')
     p.add_argument('--duration', type=number(0, 86_400, 's', True),
                    help='sim time per run, s (default: the scene)')
     p.add_argument('--processes', action='store_true',
@@ -59,12 +62,20 @@ def _cmd_pingpong(args: argparse.Namespace) -> int:
 
 def _cmd_servo_compare(args: argparse.Namespace) -> int:
     from pam_bench.benchmarks.servo_compare import compare_servo
+    from pam_bench.config.settings import CONTROLLERS
     from pam_bench.vocabulary.outputs import staged_output
+    from pam_bench.vocabulary.params import hint
+    for name in args.controller or []:
+        if name not in CONTROLLERS:
+            near = hint(name, CONTROLLERS)
+            raise UsageError(f'--controller {name!r}: not a controller here ({near}; '
+                             'pam-bench plugins lists the installed ones)')
     out = pathlib.Path(args.out)
     cluster = cluster_of(args)
     with staged_output(out, 'pam-bench servo-compare', args.overwrite) as tmp:
         rows = compare_servo(tmp, args.engine, args.scene or None, args.duration,
-                             not args.processes, cluster)
+                             not args.processes, cluster, args.controller)
+    rows = sorted(rows, key=lambda r: (r['scene'], r['rms_error']))   # ranked per scene
     print(f"{'scene':26s} {'controller':20s} {'RMS':>8s} {'max':>8s} {'at reversal':>12s}")
     for r in rows:
         print(f"{r['scene']:26s} {r['controller']:20s} {r['rms_error']:8.3f} "

@@ -8,12 +8,12 @@ import signal
 import sys
 from typing import NoReturn
 
-from pam_bench.cli import bags, bench, design, fit, run
+from pam_bench.cli import bags, bench, design, fit, plugins, run
 from pam_bench.cli.errors import exit_code
 
 __all__ = ['main', 'parser', 'GROUPS']
 
-GROUPS = (run, bags, fit, design, bench)
+GROUPS = (run, bags, fit, design, bench, plugins)
 """The verb groups, each registering its own parsers (``register``)."""
 
 

@@ -160,15 +160,33 @@ class SequencerSettings(ControllerSettings, RunnerSettings):
                                     'x = r theta', 1e-3, 10.0)
 
 
+def _controller_plugin_settings() -> type:
+    """A settings dataclass with one section per controller plug-in installed here
+    (``control.plugins``), named by the plug-in: ``plugins.NAME.FIELD``."""
+    from pam_bench.control.plugins import controller_plugins
+    fields = [(name, cls.settings, section(cls.settings, f'controller plug-in {name}'))
+              for name, cls in controller_plugins().items()]
+    cls = dataclasses.make_dataclass('ControllerPluginSettings', fields)
+    cls.__module__ = __name__
+    cls.__doc__ = 'The settings of every controller plug-in, by plug-in (control.plugins).'
+    return cls
+
+
+ControllerPluginSettings = _controller_plugin_settings()
+CONTROLLERS = (*(m.value for m in ServoMode), *(f.name for f in dataclasses.fields(
+    ControllerPluginSettings)))
+"""Every controller the torque servo can run: the built-ins, then the plug-ins."""
+
+
 @dataclasses.dataclass
 class TorqueServoSettings(ControllerSettings):
     """torque_servo: the set point, the controller and the control loop."""
 
     muscles: int = field(2, '-', 'muscles driven: 2 (torque, N m) or 1 (force, N)', 1, 2)
     controller: str = field(ServoMode.DYNAMIC.value, '-', 'dynamic_inverse_pid, '
-                            'static_inverse_pid, pid, or the inverse model alone: '
-                            'dynamic_inverse, static_inverse (004 Fig. 17)',
-                            choices=tuple(m.value for m in ServoMode))
+                            'static_inverse_pid, pid, the inverse model alone: '
+                            'dynamic_inverse, static_inverse (004 Fig. 17), or a plug-in '
+                            '(pam-bench plugins)', choices=CONTROLLERS)
     inverse_model_file: str = field('', '-', 'inverse_model.yaml from pam-bench extract '
                                     '(needed by the inverse-model controllers; relative to the '
                                     'repository or install share)')
@@ -193,6 +211,8 @@ class TorqueServoSettings(ControllerSettings):
     duration_s: float = field(0.0, 's', 'without lock-step: exit this long after the first '
                               'control step (0: run until stopped)', 0.0, 1e6)
     servo: TorqueServoParams = section(TorqueServoParams, 'the controller (control.torque_servo)')
+    plugins: Any = section(ControllerPluginSettings, 'the settings of each controller plug-in '
+                           '(control.plugins), used when controller names it')
 
 
 @dataclasses.dataclass

@@ -18,6 +18,7 @@ Per muscle i the valve voltage is u_i = u_ff,i + u_pid,i, clamped to [u_min, u_m
   u_ff = u0 + (F*'' + b(x) F*' + c(x) (F* - F_a0(x))) / d(x)   (``pam_bench.control.inverse``)
 - ``static``:  u_ff = (F* - F0(x)) / k(x)   (isometric surface, no dynamics)
 - ``pid``:     u_ff = 0
+- a plug-in (``control.plugins``): a lab's own law per channel, the same inputs;
 - PID on e = F* - F_measured (N -> V): u_pid = K_p e + K_i int(e) + K_d D, with the derivative
   filtered, D' = (e' - D) / T_f (exact ZOH of the first-order filter), and anti-windup by
   conditional integration (the integral stops while the output is clamped and the error would
@@ -29,8 +30,10 @@ from __future__ import annotations
 import dataclasses
 import enum
 import math
+from typing import Any
 
 from pam_bench.control.inverse import InverseModel
+from pam_bench.control.plugins import PluginFault, call, controller_class
 from pam_bench.models.constants import PULLEY_PITCH_DIAMETER_M
 from pam_bench.models.errors import ModelError
 from pam_bench.vocabulary.params import field
@@ -180,12 +183,30 @@ class TorqueServoController:
     the single-muscle force check of 004 section 3.1.
     """
 
-    def __init__(self, params: TorqueServoParams, mode: ServoMode,
-                 inverse: InverseModel | None, muscles: int = 2) -> None:
-        if mode != ServoMode.PID and inverse is None:
-            raise ModelError(f'{mode.value} needs an inverse model file')
+    def __init__(self, params: TorqueServoParams, mode: ServoMode | str,
+                 inverse: InverseModel | None, muscles: int = 2,
+                 plugin_settings: Any = None) -> None:
         if muscles not in (1, 2):
             raise ModelError('muscles must be 1 or 2')
+        self.plugin: list[Any] = []
+        if isinstance(mode, str) and mode not in {m.value for m in ServoMode}:
+            cls = controller_class(mode)
+            if cls is None:
+                raise ModelError(f'unknown controller {mode!r} (neither built in nor an '
+                                 'installed plug-in: pam-bench plugins lists them)')
+            settings = plugin_settings if plugin_settings is not None else cls.settings()
+            try:
+                self.plugin = [cls(settings, params, inverse) for _ in range(muscles)]
+            except Exception as exc:  # noqa: BLE001 - a lab's code, named
+                raise PluginFault(f'controller plug-in {mode!r} cannot be built: '
+                                  f'{type(exc).__name__}: {exc}') from None
+            self.name = mode
+            mode = ServoMode.PID
+        else:
+            mode = ServoMode(mode)
+            self.name = mode.value
+            if mode != ServoMode.PID and inverse is None:
+                raise ModelError(f'{mode.value} needs an inverse model file')
         self.p, self.mode, self.inverse, self.muscles = params, mode, inverse, muscles
         self.r = params.pitch_diameter_m / 2.0
         self.pids = [Pid(params.kp_v_per_n, params.ki_v_per_n_s, params.kd_v_s_per_n,
@@ -198,11 +219,17 @@ class TorqueServoController:
         return min(max(torque_nm, -m), m), abs(torque_nm) > m
 
     def reset(self) -> None:
-        """Reset every channel's PID."""
+        """Reset every channel's PID (or plug-in)."""
         for pid in self.pids:
             pid.reset()
+        for ctl in self.plugin:
+            try:
+                ctl.reset()
+            except Exception:  # noqa: BLE001 - its next step says what is wrong
+                pass
 
     def _feedforward(self, f: tuple[float, float, float], x: float) -> float:
+        """The built-in feed-forward of the channel: the inverse model, dynamic or static."""
         if self.inverse is None or self.mode == ServoMode.PID:
             return 0.0
         if self.mode in (ServoMode.DYNAMIC, ServoMode.DYNAMIC_ONLY):
@@ -230,7 +257,13 @@ class TorqueServoController:
             targets = (setpoint,)
             xs = (self.p.rest_contraction_m + self.r * angle_rad,)
         out = []
-        for f, x, meas, pid in zip(targets, xs, forces_n, self.pids, strict=True):
+        for i, (f, x, meas, pid) in enumerate(zip(targets, xs, forces_n, self.pids,
+                                                  strict=True)):
+            if self.plugin:
+                ff, u_pid = call(self.name, self.plugin[i], dt_s, f, x, meas)
+                u = min(max(ff + u_pid, self.p.voltage_min_v), self.p.voltage_max_v)
+                out.append(ChannelOutput(f[0], x, ff, u_pid, u))
+                continue
             ff = self._feedforward(f, x)
             u_pid = pid.step(f[0] - meas, dt_s, ff) if self.mode.uses_pid else 0.0
             u = min(max(ff + u_pid, self.p.voltage_min_v), self.p.voltage_max_v)

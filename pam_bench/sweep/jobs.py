@@ -85,17 +85,16 @@ def _servo_result(scene: Any, job: Job, engine: str, duration_s: float | None
                   ) -> dict[str, Any]:
     import dataclasses
 
-    from pam_bench.control.torque_servo import ServoMode
     from pam_bench.twin.servo_bench import run_servo, tracking_metrics
     from pam_bench.twin.servo_setup import scene_servo_setup, servo_run_of_bag
     sim = duration_s or scene.duration_s
     st = scene.settings(seed=job.seed)
     if engine == 'twin':
         setup = scene_servo_setup(scene)
-        run = run_servo(ServoMode(st['torque_servo'].controller), setup['signal'], sim,
+        run = run_servo(st['torque_servo'].controller, setup['signal'], sim,
                         setup['angle_rad'], scene.exchange_step_s, setup['inverse'],
                         setup['muscles'], setup['params'], st['valve_1'].valve,
-                        st['muscle_1'].muscle, seed=job.seed)
+                        st['muscle_1'].muscle, seed=job.seed, plugins=setup['plugins'])
         code = 0
     else:
         from pam_bench.bringup.runner import RunOptions

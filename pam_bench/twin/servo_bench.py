@@ -59,14 +59,16 @@ class ServoRun:
     unit: str
 
 
-def run_servo(mode: ServoMode, signal: Signal, duration_s: float, angle_rad: float = 0.0,
-              h_s: float = 0.001, inverse: InverseModel | None = None, muscles: int = 2,
-              params: TorqueServoParams | None = None, valve: ValveParams | None = None,
-              muscle: MuscleParams | None = None, noise: bool = True, seed: int = 0
-              ) -> ServoRun:
-    """Run the closed loop for ``duration_s`` at exchange step ``h_s``."""
+def run_servo(mode: ServoMode | str, signal: Signal, duration_s: float,
+              angle_rad: float = 0.0, h_s: float = 0.001, inverse: InverseModel | None = None,
+              muscles: int = 2, params: TorqueServoParams | None = None,
+              valve: ValveParams | None = None, muscle: MuscleParams | None = None,
+              noise: bool = True, seed: int = 0, plugins: Any = None) -> ServoRun:
+    """Run the closed loop for ``duration_s`` at exchange step ``h_s`` with the controller
+    ``mode`` (built-in, or a plug-in's name with its settings among ``plugins``)."""
     sp = params or TorqueServoParams()
-    ctl = TorqueServoController(sp, mode, inverse, muscles)
+    name = mode.value if isinstance(mode, ServoMode) else mode
+    ctl = TorqueServoController(sp, mode, inverse, muscles, getattr(plugins, name, None))
     valves = [ValveModel(valve) for _ in range(muscles)]
     ms = [MuscleModel(muscle) for _ in range(muscles)]
     cells = [LoadCellModel(LoadCellParams(noise=noise), seed=seed + i) for i in range(muscles)]

@@ -29,7 +29,7 @@ def scene_servo_setup(scene: Scene) -> dict[str, Any]:
         ``signal`` (Signal), ``angle_rad`` (rad, the angle the loading servo holds),
         ``muscles`` (1 or 2), ``params`` (TorqueServoParams), ``inverse`` (InverseModel or
         None), ``valve`` and ``muscle`` (the scene's valve_1 and muscle_1 models, which the
-        twin gives every muscle).
+        twin gives every muscle), ``plugins`` (the controller plug-ins' settings).
     """
     st = scene.settings()
     ts, ls = st['torque_servo'], st['loading_servo']
@@ -41,7 +41,8 @@ def scene_servo_setup(scene: Scene) -> dict[str, Any]:
     model = ts.inverse_model_file
     return {'signal': sig, 'angle_rad': angle, 'muscles': ts.muscles, 'params': ts.servo,
             'inverse': InverseModel.load(model) if model else None,
-            'valve': st['valve_1'].valve, 'muscle': st['muscle_1'].muscle}
+            'valve': st['valve_1'].valve, 'muscle': st['muscle_1'].muscle,
+            'plugins': ts.plugins}
 
 
 def servo_run_of_bag(bag: pathlib.Path, muscles: int) -> ServoRun:
