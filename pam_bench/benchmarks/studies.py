@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pam_bench.benchmarks import (
     calibrate,
+    calibrate_bounds,
     calibrate_nodes,
     dynamics,
     exchange_step,
@@ -30,7 +31,8 @@ __all__ = ['STUDIES', 'study']
 STUDIES: tuple[Study, ...] = (
     figures_004.STUDY, lockstep.STUDY, layouts.STUDY, profile.STUDY, exchange_step.STUDY,
     settle.STUDY, record_exchange.STUDY, scenes.STUDY, numerics.STUDY, wallclock.STUDY,
-    faults.STUDY, straight_fibre.STUDY, calibrate.STUDY, calibrate_nodes.STUDY,
+    faults.STUDY, straight_fibre.STUDY, calibrate.STUDY, calibrate_bounds.STUDY,
+    calibrate_nodes.STUDY,
     servo_compare.STUDY, soak.STUDY, sweep_scaling.STUDY, dynamics.STUDY, fuzz.STUDY)
 """Every study; ``pam-bench bench --only KEY`` runs some."""
 

@@ -86,8 +86,8 @@ DATA_ONLY = 1e-6                # the ridge that keeps J^T J invertible (module 
 JOINT_CORRELATION = 0.95        # fixed only jointly with a flagged parameter: flagged too
 
 FREE_BAGS: tuple[tuple[str, str, float, float], ...] = (
-    ('muscle', 'gain_n_per_pa', 1.0e-3, 6.0e-3),
-    ('muscle', 'gain_min_n_per_pa', 5.0e-5, 5.0e-4),
+    ('muscle', 'gain_n_per_pa', 5.0e-4, 6.0e-3),
+    ('muscle', 'gain_min_n_per_pa', 2.0e-5, 5.0e-4),
     ('muscle', 'gain_min_contraction_m', 0.05, 0.13),
     ('muscle', 'gain_exponent', 1.1, 4.0),
     ('muscle', 'gain_rise_n_per_pa_m', 0.0, 1.0e-3),
@@ -105,9 +105,11 @@ element's stiffness (calibrate.FREE). Each interval lies inside the parameter's 
 ``BOUND_REASONS`` gives."""
 
 BOUND_REASONS: dict[str, str] = {
-    'gain_n_per_pa': "100 to 600 N/V at 0.1 MPa/V, a muscle of 004's size (004: 284.3 N/V); "
-                     'the declared 0..1 N/Pa is any muscle',
-    'gain_min_n_per_pa': '5 to 50 N/V at 0.1 MPa/V (004: 17.4 N/V at 95 mm)',
+    'gain_n_per_pa': "50 to 600 N/V at 0.1 MPa/V: from a 10 mm muscle of 004's braid (a quarter "
+                     "of 004's 284.3 N/V) to one twice 004's; the declared 0..1 N/Pa is any "
+                     'muscle',
+    'gain_min_n_per_pa': "2 to 50 N/V at 0.1 MPa/V (004: 17.4 N/V at 95 mm; a 10 mm muscle's "
+                         'a quarter of it)',
     'gain_min_contraction_m': "50 to 130 mm: inside the muscle's stroke (Key results: 131 mm "
                               'at 6 V, 50 N)',
     'gain_exponent': 'a curve that falls from g_0 to g_m at all (n > 1) and not as a step '
