@@ -28,8 +28,9 @@ setup(
         (f'share/{PACKAGE}/msg_defs/msg', glob('msg_defs/msg/*.msg')),
         (f'share/{PACKAGE}/msg_defs/action', glob('msg_defs/action/*.action')),
     ],
-    install_requires=['numpy', 'scipy', 'pyyaml', 'rosbags', 'matplotlib', 'numba', 'dask',
-                      'distributed', 'foxglove-sdk'],
+    # rosbags exact: analysis.splitwriter writes through its MCAP storage (test_splitwriter)
+    install_requires=['numpy', 'scipy', 'pyyaml', 'rosbags==0.11.9', 'mcap', 'matplotlib',
+                      'numba', 'dask', 'distributed', 'foxglove-sdk'],
     zip_safe=True,
     maintainer='pam_bench developers',
     maintainer_email='pam-bench@example.org',

@@ -296,3 +296,29 @@ def test_reserve_many_gives_the_bytes_of_write(tmp_path: pathlib.Path, kwargs: d
     assert 'max_duration_ns' in kwargs or taken > 6000          # the batched path was taken
     if 'max_bytes' in kwargs or 'max_duration_ns' in kwargs:
         assert len(files[True]) >= 2
+
+
+def test_the_rosbags_internals_the_writer_needs() -> None:
+    """The contract with rosbags' private MCAP storage (pinned to the one version these names
+    were read from, tools/requirements.txt): what ``_put_records`` and ``with_chunk_crcs``
+    touch. A new rosbags that renames any of them fails here, not in a bag."""
+    import importlib.metadata
+
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    assert importlib.metadata.version('rosbags') == '0.11.9'
+    import tempfile
+    with tempfile.TemporaryDirectory() as tmp:
+        w = Writer(pathlib.Path(tmp) / 'bag', version=9, storage_plugin=StoragePlugin.MCAP)
+        w.open()
+        try:
+            storage = w.storage
+            assert type(storage).__name__ == 'McapWriter'
+            for name in ('chunk', 'channel_stats', 'message_start_time', 'message_end_time',
+                         'close_chunk', 'bio'):
+                assert hasattr(storage, name), name
+            for name in ('bio', 'msgs', 'message_start_time', 'message_end_time'):
+                assert hasattr(storage.chunk, name), name
+            for name in ('counts', 'min_timestamp', 'max_timestamp', 'compression_mode'):
+                assert hasattr(w, name), name
+        finally:
+            w.close()
