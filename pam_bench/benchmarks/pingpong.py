@@ -54,7 +54,7 @@ def pong_main() -> None:
     from rclpy.executors import ExternalShutdownException
     from rosgraph_msgs.msg import Clock
 
-    from pam_bench.nodes.base import RELIABLE
+    from pam_bench.runtime.base import RELIABLE
 
     rclpy.init()
     node = rclpy.create_node('pong')
@@ -74,7 +74,7 @@ def pingpong_rate(count: int = 2000, warmup: int = 100) -> float:
     import rclpy
     from rosgraph_msgs.msg import Clock
 
-    from pam_bench.nodes.base import RELIABLE
+    from pam_bench.runtime.base import RELIABLE
 
     proc, = _start_helpers('pong_main', 1)
     ctx = rclpy.Context()
@@ -126,8 +126,8 @@ def fanout_echo_main() -> None:
     from rclpy.executors import ExternalShutdownException
     from rosgraph_msgs.msg import Clock
 
-    from pam_bench.nodes.base import LOCKSTEP
-    from pam_bench.nodes.process import install_interrupt_handlers, lean_spin
+    from pam_bench.runtime.base import LOCKSTEP
+    from pam_bench.runtime.process import install_interrupt_handlers, lean_spin
 
     install_interrupt_handlers()
     rclpy.init()
@@ -154,8 +154,8 @@ def fanout_rate(participants: int, count: int = 1000, warmup: int = 50) -> float
     import rclpy
     from rosgraph_msgs.msg import Clock
 
-    from pam_bench.nodes.base import LOCKSTEP
-    from pam_bench.nodes.process import lean_spin
+    from pam_bench.runtime.base import LOCKSTEP
+    from pam_bench.runtime.process import lean_spin
 
     procs = _start_helpers('fanout_echo_main', participants)
     ctx = rclpy.Context()

@@ -2,7 +2,7 @@
 processes and composed in one, the time of every process split by cause.
 
 Every node process (or the one composed process) runs under cProfile
-(``nodes.profiling``); each function's own time is put under one cause by the file and name
+(``runtime.profiling``); each function's own time is put under one cause by the file and name
 it belongs to: the physics (models, numpy, scipy), the nodes' glue (message <-> model), the
 lock-step bookkeeping (input windows, acknowledgements, the clock, the intra-process bus),
 message objects (building and reading rosidl messages), serialisation, DDS and the executor
@@ -23,7 +23,7 @@ from pam_bench.benchmarks.study import Study
 from pam_bench.benchmarks.tables import table
 from pam_bench.bringup.runner import Layout, RunOptions, run_scene
 from pam_bench.config.scene import load_scene
-from pam_bench.nodes.profiling import ENV
+from pam_bench.runtime.profiling import ENV
 
 __all__ = ['STUDY', 'CAUSES', 'cause_of', 'profile_scene']
 

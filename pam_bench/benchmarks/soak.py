@@ -121,7 +121,7 @@ def _bag_figures(bag: pathlib.Path) -> dict[str, Any]:
     from mcap.reader import make_reader
     from rosbags.rosbag2 import Reader
 
-    from pam_bench.nodes.messages import stamp_of_cdr
+    from pam_bench.runtime.messages import stamp_of_cdr
     stamps: dict[str, list[int]] = {t: [] for t in DEVICE_TOPICS}
     lag: list[int] = []
     with Reader(bag) as reader:

@@ -90,7 +90,7 @@ def result_of(summary: RunSummary | None, code: int) -> RunResult:
 
 
 def node_error(log: str) -> str:
-    """The one-line error a node printed when it stopped (``nodes.process.run_node``), or ''."""
+    """The one-line error a node printed when it stopped (``runtime.process.run_node``), or ''."""
     for line in reversed(log.splitlines()):
         if ': error: ' in line:
             return line.strip()
@@ -98,8 +98,8 @@ def node_error(log: str) -> str:
 
 
 def write_params_file(settings: dict[str, Any], path: str) -> None:
-    """The settings as a ROS 2 params file (values as ROS holds them: ``nodes.params``)."""
-    from pam_bench.nodes.params import ros_value
+    """The settings as a ROS 2 params file (values as ROS holds them: ``runtime.params``)."""
+    from pam_bench.runtime.params import ros_value
     from pam_bench.vocabulary.params import flat_infos, get_path
     out: dict[str, Any] = {}
     for name, st in settings.items():

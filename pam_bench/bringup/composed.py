@@ -1,5 +1,5 @@
 """A lock-step run with every node composed in one process on the intra-process bus
-(``nodes.intra``): separate ROS 2 nodes, as in rclcpp component composition, with no DDS
+(``runtime.intra``): separate ROS 2 nodes, as in rclcpp component composition, with no DDS
 between them."""
 
 from __future__ import annotations
@@ -36,10 +36,10 @@ def run_composed(scene: Scene, settings: dict[str, Any], domain_id: int | None,
     from rclpy.exceptions import ParameterException
     from rclpy.executors import SingleThreadedExecutor
 
-    from pam_bench.nodes import intra
-    from pam_bench.nodes.params import overrides_of
-    from pam_bench.nodes.process import fail_line, reject_undeclared
-    from pam_bench.nodes.profiling import profiled
+    from pam_bench.runtime import intra
+    from pam_bench.runtime.params import overrides_of
+    from pam_bench.runtime.process import fail_line, reject_undeclared
+    from pam_bench.runtime.profiling import profiled
     from pam_bench.vocabulary.errors import ParameterError
 
     env = ros_env(domain_id)
@@ -52,7 +52,7 @@ def run_composed(scene: Scene, settings: dict[str, Any], domain_id: int | None,
     code = 0
     buf = io.StringIO()
     t0 = time.monotonic()
-    bus = intra.activate()
+    bus = intra.IntraProcessBus()
     try:
         for name in ['recorder'] * ('recorder' in scene.nodes) + [
                 n for n in scene.nodes if n != 'recorder'] + ['sim_clock']:
@@ -64,7 +64,8 @@ def run_composed(scene: Scene, settings: dict[str, Any], domain_id: int | None,
             overrides = overrides_of(st)
             extra = {'lean': True} if name == 'sim_clock' else {}    # polled by the loop
             try:
-                node = cls(name, context=context, parameter_overrides=overrides, **extra)
+                node = cls(name, context=context, parameter_overrides=overrides, bus=bus,
+                           **extra)
             except ParameterException as exc:
                 raise ParameterError(fail_line(name, exc)) from None
             nodes.append(node)
@@ -77,7 +78,6 @@ def run_composed(scene: Scene, settings: dict[str, Any], domain_id: int | None,
             except SystemExit as exc:
                 code = int(exc.code or 0)
     finally:
-        intra.deactivate()
         write_end_state(settings, code if code or clock_done(nodes, scene) else None)
         clock = nodes[-1] if nodes and len(nodes) == len(scene.nodes) + 1 else None
         for node in nodes:

@@ -61,9 +61,9 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
     from rclpy.exceptions import ParameterException
 
     from pam_bench.config.scene import settings_of_params_file
-    from pam_bench.nodes import intra
-    from pam_bench.nodes.params import overrides_of
-    from pam_bench.nodes.process import (
+    from pam_bench.runtime import intra
+    from pam_bench.runtime.params import overrides_of
+    from pam_bench.runtime.process import (
         deadline_spin,
         fail_line,
         install_interrupt_handlers,
@@ -71,14 +71,14 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
         serve_services,
         set_realtime_priority,
     )
-    from pam_bench.nodes.profiling import profiled
-    from pam_bench.nodes.stats import ACK_WAIT_S
+    from pam_bench.runtime.profiling import profiled
+    from pam_bench.runtime.stats import ACK_WAIT_S
     from pam_bench.vocabulary.errors import PamBenchError
 
     install_interrupt_handlers()
     rclpy.init()
     nodes: list[Any] = []
-    bus = intra.activate()
+    bus = intra.IntraProcessBus()
     try:
         try:
             settings = settings_of_params_file({n: params.get(n, {}) for n in names})
@@ -90,7 +90,7 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
             cls = getattr(importlib.import_module(t.module), t.cls)
             overrides = overrides_of(settings[name])
             try:
-                node = cls(name, parameter_overrides=overrides)
+                node = cls(name, parameter_overrides=overrides, bus=bus)
                 reject_undeclared(node, overrides)
             except (PamBenchError, ParameterException) as exc:
                 print(fail_line(name, exc), file=sys.stderr, flush=True)
@@ -140,7 +140,6 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
     except KeyboardInterrupt:
         pass
     finally:
-        intra.deactivate()
         until = time.monotonic() + ACK_WAIT_S      # one wait for acknowledgments for all
         for node in nodes:
             node.ack_until_s = until

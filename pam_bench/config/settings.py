@@ -4,7 +4,7 @@ A node's settings are its own fields plus the parameter sets of the models it ru
 sections (``valve``, ``muscle``, ``straight_fibre``, ``load_cell``, ``encoder``, ``servo``).
 The scene loader builds them (defaults, then config/bench.yaml, an overlay, the scene), the
 bring-up serialises them into a params file, each node declares its ROS parameters from the
-same class (``nodes.params.declare_settings``), and the twin, truth, servo-compare and sweeps
+same class (``runtime.params.declare_settings``), and the twin, truth, servo-compare and sweeps
 read the objects. A leaf is addressed by its path, ``muscle_1.muscle.gain_exponent``.
 """
 

@@ -1,8 +1,6 @@
-"""Thin rclpy nodes, one per simulated device or bench role: message <-> model."""
+"""The bench's nodes, one per simulated device or bench role: message <-> model."""
 
 from __future__ import annotations
 
-__all__ = ['base', 'cdr', 'core', 'driver_probe', 'encoder_sim', 'faults', 'intra',
-           'load_cell_sim', 'loading_servo_sim', 'lockstep', 'messages', 'muscle_sim', 'params',
-           'process', 'profiling', 'qos', 'recorder', 'sequencer', 'sim_clock', 'stats',
-           'torque_servo', 'valve_sim', 'wallclock']
+__all__ = ['driver_probe', 'encoder_sim', 'live_view', 'load_cell_sim', 'loading_servo_sim',
+           'muscle_sim', 'recorder', 'sequencer', 'sim_clock', 'torque_servo', 'valve_sim']

@@ -21,9 +21,9 @@ from rclpy.qos import ReliabilityPolicy
 from sensor_msgs.msg import FluidPressure, JointState
 
 from pam_bench.config.drivers import COMMANDS, Seen, Verdict, contract, judge
-from pam_bench.nodes.base import SENSOR
-from pam_bench.nodes.messages import ns_of
-from pam_bench.nodes.process import deadline_spin
+from pam_bench.runtime.base import SENSOR
+from pam_bench.runtime.messages import ns_of
+from pam_bench.runtime.process import deadline_spin
 
 __all__ = ['probe_drivers']
 

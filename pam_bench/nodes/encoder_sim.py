@@ -14,9 +14,9 @@ from sensor_msgs.msg import JointState
 from pam_bench.config import topics
 from pam_bench.config.settings import EncoderSettings
 from pam_bench.models.sensors import EncoderModel
-from pam_bench.nodes.base import BenchNode
-from pam_bench.nodes.process import run_node
-from pam_bench.nodes.stamped import stamped
+from pam_bench.runtime.base import BenchNode
+from pam_bench.runtime.process import run_node
+from pam_bench.runtime.stamped import stamped
 
 __all__ = ['EncoderSim', 'main']
 

@@ -20,9 +20,9 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 from pam_bench.config.settings import LiveViewSettings
 from pam_bench.live.server import LiveServer
-from pam_bench.nodes.core import Spin
-from pam_bench.nodes.messages import message_class, stamp_of_cdr
-from pam_bench.nodes.params import declare_settings
+from pam_bench.runtime.core import Spin
+from pam_bench.runtime.messages import message_class, stamp_of_cdr
+from pam_bench.runtime.params import declare_settings
 
 __all__ = ['LiveView', 'main', 'READY']
 
@@ -36,7 +36,7 @@ class LiveView(Node):
     GRACEFUL_STOP = True      # Ctrl-C ends the loop between two messages
 
     def spin_mode(self) -> Spin:
-        """Its own loop over its subscriptions (``nodes.process.lean_spin``)."""
+        """Its own loop over its subscriptions (``runtime.process.lean_spin``)."""
         return Spin.LEAN
 
     def __init__(self, name: str = 'live_view', **kwargs: Any) -> None:
@@ -75,8 +75,8 @@ class LiveView(Node):
 
 def main(args: list[str] | None = None) -> None:
     """Run the node until Ctrl-C or SIGTERM; a port in use is one line and exit code 2
-    (``nodes.process.run_node``)."""
-    from pam_bench.nodes.process import run_node
+    (``runtime.process.run_node``)."""
+    from pam_bench.runtime.process import run_node
     run_node(LiveView, args)
 
 

@@ -19,9 +19,9 @@ from pam_bench_interfaces.msg import MuscleSamples
 from pam_bench.config import topics
 from pam_bench.config.settings import LoadCellSettings
 from pam_bench.models.sensors import LoadCellModel
-from pam_bench.nodes.base import BenchNode
-from pam_bench.nodes.messages import force_reading
-from pam_bench.nodes.process import run_node
+from pam_bench.runtime.base import BenchNode
+from pam_bench.runtime.messages import force_reading
+from pam_bench.runtime.process import run_node
 
 __all__ = ['LoadCellSim', 'main']
 

@@ -41,9 +41,9 @@ from pam_bench.config.settings import LoadingServoSettings
 from pam_bench.models.constants import SUB_STEP_S
 from pam_bench.models.coupling import substep_grid
 from pam_bench.models.loading_servo import LoadingServoModel, LoadMode, law_of
-from pam_bench.nodes.base import RELIABLE, BenchNode
-from pam_bench.nodes.process import run_node
-from pam_bench.nodes.stamped import stamped
+from pam_bench.runtime.base import RELIABLE, BenchNode
+from pam_bench.runtime.process import run_node
+from pam_bench.runtime.stamped import stamped
 
 __all__ = ['LoadingServoSim', 'main']
 

@@ -25,10 +25,10 @@ from pam_bench.models.constants import SUB_STEP_S
 from pam_bench.models.coupling import solve_substeps, substep_grid
 from pam_bench.models.errors import ModelError
 from pam_bench.models.loading_servo import IdealHold, drive_from_law
-from pam_bench.nodes.base import BenchNode
-from pam_bench.nodes.messages import floats
-from pam_bench.nodes.process import run_node
-from pam_bench.nodes.stamped import stamped
+from pam_bench.runtime.base import BenchNode
+from pam_bench.runtime.messages import floats
+from pam_bench.runtime.process import run_node
+from pam_bench.runtime.stamped import stamped
 
 __all__ = ['MuscleSim', 'main']
 

@@ -40,11 +40,11 @@ from pam_bench.analysis.baginfo import END_KEY, RUN_KEY
 from pam_bench.analysis.splitwriter import DiskFull, SplitWriter
 from pam_bench.analysis.types import bench_typestore
 from pam_bench.config.settings import RecorderSettings
-from pam_bench.nodes import cdr
-from pam_bench.nodes.base import BenchNode
-from pam_bench.nodes.intra import bus_subscription
-from pam_bench.nodes.messages import message_class, stamp_of_cdr, stamp_of_msg
-from pam_bench.nodes.process import run_node
+from pam_bench.runtime import cdr
+from pam_bench.runtime.base import BenchNode
+from pam_bench.runtime.intra import bus_subscription
+from pam_bench.runtime.messages import message_class, stamp_of_cdr, stamp_of_msg
+from pam_bench.runtime.process import run_node
 from pam_bench.sim.lockstep import StopRequest
 
 __all__ = ['Recorder', 'main']
@@ -313,7 +313,7 @@ class Recorder(BenchNode):
         self.count += n
 
     def _cdr(self, topic: str, msg: Any) -> bytes:
-        """CDR of a message object as DDS puts it on the wire, from ``nodes.cdr``'s encoder of
+        """CDR of a message object as DDS puts it on the wire, from ``runtime.cdr``'s encoder of
         its class where there is one. Else rclpy's serialisation, which aligns for the elements
         of an empty sequence of 8-byte numbers even when it is the last field and nothing
         follows, and leaves the end of its buffer as it was; a reader wants at most 3 bytes of
@@ -384,7 +384,7 @@ def record(out_dir: str, topic_names: list[str], record_all: bool, compress: boo
     import rclpy
     from rclpy.parameter import Parameter
 
-    from pam_bench.nodes.process import install_interrupt_handlers, lean_spin, serve_services
+    from pam_bench.runtime.process import install_interrupt_handlers, lean_spin, serve_services
     install_interrupt_handlers()
     rclpy.init()
     node = None
@@ -396,7 +396,7 @@ def record(out_dir: str, topic_names: list[str], record_all: bool, compress: boo
               if max_bytes is not None else []),
             *([Parameter('max_bag_duration_s', value=float(max_duration_s))]
               if max_duration_s is not None else []),
-            # an empty list of strings is [''] to ROS (nodes.params.ros_value)
+            # an empty list of strings is [''] to ROS (runtime.params.ros_value)
             Parameter('topic_names', value=list(topic_names) or ['']),
             Parameter('event_topics', value=['/diagnostics:diagnostic_msgs/msg/'
                                              'DiagnosticArray'] if record_all else [''])])

@@ -19,7 +19,7 @@ exchange (the devices form a chain that ends here), asking the clock for a step 
 the next reading or on the end of a record (the valve and the load cell then report every
 1 kHz sample inside the exchange), and for ``command_step_s`` at every new reading or phase
 (the loading servo takes a new set value one exchange after it is sent); with ``lockstep:
-false`` (real bench) every ``tick_period_s`` of its own clock (``nodes.process.deadline_spin``),
+false`` (real bench) every ``tick_period_s`` of its own clock (``runtime.process.deadline_spin``),
 aborting when a measured topic is older than ``stale_timeout_s``. On a wall clock the autostart
 protocol begins once every measured topic has arrived, and with ``stop_on_end`` the node exits
 ``end_linger_s`` after the protocol ends (code 0 done, 4 aborted, 5 cancelled), venting
@@ -50,15 +50,15 @@ from pam_bench.config import topics
 from pam_bench.config.protocols import load_protocols, parse_overrides, protocol_schedule
 from pam_bench.config.settings import SequencerSettings
 from pam_bench.models.constants import ATMOSPHERE_PA
-from pam_bench.nodes.base import RELIABLE, SENSOR, BenchNode, Spin
-from pam_bench.nodes.intra import bus_publisher
-from pam_bench.nodes.messages import ns_of, time_of
-from pam_bench.nodes.process import run_node
-from pam_bench.nodes.stamped import stamped
 from pam_bench.protocol.io import Point, StepRecord
 from pam_bench.protocol.runner import Runner, Tick
 from pam_bench.protocol.schedules import with_approach
 from pam_bench.protocol.sequencer import Phase, Sequencer
+from pam_bench.runtime.base import RELIABLE, SENSOR, BenchNode, Spin
+from pam_bench.runtime.intra import bus_publisher
+from pam_bench.runtime.messages import ns_of, time_of
+from pam_bench.runtime.process import run_node
+from pam_bench.runtime.stamped import stamped
 from pam_bench.vocabulary.errors import ParameterError
 
 __all__ = ['SequencerNode', 'main']

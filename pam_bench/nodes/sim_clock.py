@@ -1,4 +1,4 @@
-"""sim_clock: advances /clock in lock-step with every participant (see ``nodes.base``).
+"""sim_clock: advances /clock in lock-step with every participant (see ``runtime.base``).
 
 It repeats t_0 until every participant has acknowledged it (all are up and their inputs are
 matched), waits ``grace_s`` of wall time for the remaining matches, then publishes t_k+1 only
@@ -27,10 +27,10 @@ from rosgraph_msgs.msg import Clock
 
 from pam_bench.config import topics
 from pam_bench.config.settings import ClockSettings
-from pam_bench.nodes.base import RELIABLE, BenchNode, Spin
-from pam_bench.nodes.intra import bus_publisher, bus_subscription
-from pam_bench.nodes.messages import ack_of, time_of
-from pam_bench.nodes.process import run_node
+from pam_bench.runtime.base import RELIABLE, BenchNode, Spin
+from pam_bench.runtime.intra import bus_publisher, bus_subscription
+from pam_bench.runtime.messages import ack_of, time_of
+from pam_bench.runtime.process import run_node
 from pam_bench.sim.lockstep import (
     FLUSH_NS,
     ClockState,

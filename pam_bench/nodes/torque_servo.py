@@ -14,7 +14,7 @@ in the state's ``status``; in lock-step until fresh finite data arrive, on a wal
 a device that comes back does not restart the servo by itself.
 
 On a wall clock (``lockstep: false``) the control loop runs every ``control_period_s`` of the
-node's clock on a monotonic deadline (``nodes.process.deadline_spin``); the valves stay vented
+node's clock on a monotonic deadline (``runtime.process.deadline_spin``); the valves stay vented
 and the set point's time stays at zero until every measured topic has arrived, and with
 ``duration_s`` > 0 the node exits (code 0) that long after its first control step. Its period
 statistics are in ``stats_file`` (``analysis.timing``).
@@ -41,10 +41,10 @@ from pam_bench.control.torque_servo import (
     SignalKind,
     TorqueServoController,
 )
-from pam_bench.nodes.base import RELIABLE, SENSOR, BenchNode, Spin
-from pam_bench.nodes.messages import ns_of, time_of
-from pam_bench.nodes.process import run_node
-from pam_bench.nodes.stamped import stamped
+from pam_bench.runtime.base import RELIABLE, SENSOR, BenchNode, Spin
+from pam_bench.runtime.messages import ns_of, time_of
+from pam_bench.runtime.process import run_node
+from pam_bench.runtime.stamped import stamped
 
 __all__ = ['TorqueServoNode', 'main']
 

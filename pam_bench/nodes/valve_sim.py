@@ -25,10 +25,10 @@ from pam_bench.config.settings import ValveSettings
 from pam_bench.models.constants import ATMOSPHERE_PA
 from pam_bench.models.coupling import substep_grid
 from pam_bench.models.valve import ValveModel, VolumeEvidence
-from pam_bench.nodes.base import RELIABLE, BenchNode
-from pam_bench.nodes.messages import floats
-from pam_bench.nodes.process import run_node
-from pam_bench.nodes.stamped import stamped
+from pam_bench.runtime.base import RELIABLE, BenchNode
+from pam_bench.runtime.messages import floats
+from pam_bench.runtime.process import run_node
+from pam_bench.runtime.stamped import stamped
 
 __all__ = ['ValveSim', 'main']
 

@@ -1,6 +1,6 @@
 """The single-muscle bench coupled in one process with numpy, exchange for exchange as the nodes.
 
-Each exchange step [t_k-1, t_k] of length h, in the nodes' order (``nodes.base``: a chain of
+Each exchange step [t_k-1, t_k] of length h, in the nodes' order (``runtime.base``: a chain of
 same-exchange inputs valve -> muscle -> loading servo -> encoder, muscle -> load cell):
 
     valve:   p_j     = valve.samples(u, sub-steps of h, V_k-1)    (exact ZOH, u and V held)

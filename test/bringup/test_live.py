@@ -57,7 +57,7 @@ def test_a_client_during_a_run_gets_the_bags_messages(tmp_path: pathlib.Path,
     got: dict[str, list[tuple[int, bytes]]] = {}
     for topic, t_ns, data in client.messages:
         got.setdefault(topic, []).append((t_ns, data))
-    from pam_bench.nodes.messages import stamp_of_cdr
+    from pam_bench.runtime.messages import stamp_of_cdr
     for topic, msgs in got.items():
         in_bag = {stamp_of_cdr(raw): raw for _, raw in recorded.get(topic, [])}
         if not in_bag:          # an event sent only before the recorder started

@@ -17,8 +17,8 @@ from sensor_msgs.msg import FluidPressure, JointState
 from std_msgs.msg import Float64
 
 from pam_bench.models.constants import ATMOSPHERE_PA
-from pam_bench.nodes.base import DRIVER
-from pam_bench.nodes.messages import time_of
+from pam_bench.runtime.base import DRIVER
+from pam_bench.runtime.messages import time_of
 
 
 def main() -> None:

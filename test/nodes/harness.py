@@ -12,8 +12,8 @@ from pam_bench_interfaces.msg import StepAck
 from rclpy.executors import SingleThreadedExecutor
 from rosgraph_msgs.msg import Clock
 
-from pam_bench.nodes.base import RELIABLE
-from pam_bench.nodes.messages import ns_of, time_of
+from pam_bench.runtime.base import RELIABLE
+from pam_bench.runtime.messages import ns_of, time_of
 
 
 class Harness:

@@ -12,8 +12,8 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import FluidPressure
 
 from pam_bench.models.constants import ATMOSPHERE_PA
-from pam_bench.nodes.messages import time_of
 from pam_bench.nodes.valve_sim import ValveSim
+from pam_bench.runtime.messages import time_of
 from test.nodes.harness import Harness
 
 MS = 10_000_000

@@ -46,9 +46,9 @@ def test_an_unacknowledged_tick_is_published_again_and_again(ros_domain: int) ->
     from rclpy.parameter import Parameter
     from rosgraph_msgs.msg import Clock
 
-    from pam_bench.nodes.base import RELIABLE
-    from pam_bench.nodes.messages import ns_of, time_of
     from pam_bench.nodes.sim_clock import SimClock
+    from pam_bench.runtime.base import RELIABLE
+    from pam_bench.runtime.messages import ns_of, time_of
     from test.nodes.harness import Harness
 
     h = Harness(lambda ctx: SimClock(context=ctx, lean=False, parameter_overrides=[

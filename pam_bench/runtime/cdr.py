@@ -1,6 +1,6 @@
 """CDR bytes of rclpy message objects, built with ``struct`` instead of rclpy's serialisation.
 
-The composed recorder writes message objects it receives in process (``nodes.intra``) into the
+The composed recorder writes message objects it receives in process (``runtime.intra``) into the
 bag, so it must serialise each one. ``rclpy.serialization.serialize_message`` converts the
 object field by field into a C struct first and then serialises it, about 8 us per small
 message on this machine; a 1 kHz step record of the campaign brings 680 thousand of them. The

@@ -4,7 +4,7 @@ Every leaf of the settings becomes one declared parameter, sections joined by do
 params file (``muscle.gain_exponent``), with a ``ParameterDescriptor`` that carries the text,
 unit and range of its ``field``. The values rclpy resolved (params file, ``-p``, overrides)
 are read back into the dataclass with ``vocabulary.params.from_mapping``, which checks type and
-range and names a bad key; ``nodes.process.reject_undeclared`` refuses any key the class does
+range and names a bad key; ``runtime.process.reject_undeclared`` refuses any key the class does
 not have.
 """
 

@@ -10,7 +10,7 @@ import pytest
 import rclpy
 
 from pam_bench.config.nodes import NODES
-from pam_bench.nodes import intra
+from pam_bench.runtime import intra
 from pam_bench.vocabulary.params import flat_infos
 
 NODES_DIR = pathlib.Path(__file__).resolve().parents[2] / 'pam_bench' / 'nodes'
@@ -24,7 +24,7 @@ def test_declared_parameters_are_the_settings_dataclass(name: str, ros_domain: i
     cls = getattr(importlib.import_module(t.module), t.cls)
     context = rclpy.Context()
     rclpy.init(context=context)
-    bus = intra.activate()      # composed: no DDS entity waits for a peer
+    bus = intra.IntraProcessBus()      # composed: no DDS entity waits for a peer
     node = None
     try:
         from rclpy.parameter import Parameter
@@ -32,7 +32,7 @@ def test_declared_parameters_are_the_settings_dataclass(name: str, ros_domain: i
         need = {'recorder': [Parameter('out_dir', value=str(tmp_path / 'bag'))],
                 'torque_servo': [Parameter('controller', value='pid')]}
         overrides = need.get(name, [])
-        node = cls(name, context=context, parameter_overrides=overrides)
+        node = cls(name, context=context, parameter_overrides=overrides, bus=bus)
         declared = set(node.list_parameters([], 0).names) - ROS_OWN
         infos = {i.name: i for i in flat_infos(t.settings)}
         assert declared == set(infos), (declared ^ set(infos))
@@ -48,7 +48,6 @@ def test_declared_parameters_are_the_settings_dataclass(name: str, ros_domain: i
         # and the node's settings object is the dataclass with those values
         assert type(node.settings) is t.settings
     finally:
-        intra.deactivate()
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown(context=context)
@@ -63,7 +62,7 @@ def _calls(path: pathlib.Path) -> list[str]:
 
 @pytest.mark.parametrize('path', sorted(NODES_DIR.glob('*.py')), ids=lambda p: p.name)
 def test_no_node_declares_a_parameter_of_its_own(path: pathlib.Path) -> None:
-    """A default written beside a node would be a second owner: only ``nodes.params``
+    """A default written beside a node would be a second owner: only ``runtime.params``
     declares, from the dataclass."""
     if path.name == 'params.py':
         return

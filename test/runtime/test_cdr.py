@@ -1,4 +1,4 @@
-"""The struct-built CDR of ``nodes.cdr`` against rclpy's and rosbags' own (de)serialisation."""
+"""The struct-built CDR of ``runtime.cdr`` against rclpy's and rosbags' own (de)serialisation."""
 
 from __future__ import annotations
 
@@ -16,8 +16,8 @@ from std_msgs.msg import Header, String
 
 from pam_bench.analysis.types import bench_typestore
 from pam_bench.config import topics
-from pam_bench.nodes.cdr import encoder, ends_padded
-from pam_bench.nodes.messages import force_reading, message_class, time_of
+from pam_bench.runtime.cdr import encoder, ends_padded
+from pam_bench.runtime.messages import force_reading, message_class, time_of
 
 STORE = bench_typestore()
 RECORDED = sorted({spec.partition(':')[2] for spec in
@@ -138,5 +138,5 @@ def test_force_reading_equals_the_constructed_message(t_ns: int, force_n: float)
                                   2**31 * 10**9 - 1])
 def test_clock_cdr_is_rclpys_bytes(t_ns: int) -> None:
     """The recorder's Clock bytes without a message: rclpy's serialisation of the same Clock."""
-    from pam_bench.nodes.cdr import clock_cdr
+    from pam_bench.runtime.cdr import clock_cdr
     assert clock_cdr(t_ns) == serialize_message(Clock(clock=time_of(t_ns)))

@@ -21,7 +21,7 @@ from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
-from pam_bench.nodes.profiling import profiled
+from pam_bench.runtime.profiling import profiled
 from pam_bench.vocabulary.errors import PamBenchError
 from pam_bench.vocabulary.params import check_known
 
@@ -289,7 +289,7 @@ def spin(node: Any) -> int:
     """Spin ``node`` the way it declares (``spin_mode``) until it is done or interrupted;
     returns its exit code. ``PAM_BENCH_EXECUTOR=single`` puts every node on rclpy's
     SingleThreadedExecutor (to compare)."""
-    from pam_bench.nodes.core import Spin
+    from pam_bench.runtime.core import Spin
     mode = node.spin_mode()
     if os.environ.get('PAM_BENCH_EXECUTOR') == 'single':
         mode = Spin.EXECUTOR

@@ -12,8 +12,8 @@ from typing import Any
 import numpy as np
 
 from pam_bench.config import topics
-from pam_bench.nodes.core import NodeCore
-from pam_bench.nodes.qos import RELIABLE
+from pam_bench.runtime.core import NodeCore
+from pam_bench.runtime.qos import RELIABLE
 from pam_bench.sim.faults import Fault, parse_faults, sensor_value
 from pam_bench.vocabulary.errors import ParameterError
 from pam_bench.vocabulary.yaml_io import load_yaml

@@ -20,9 +20,9 @@ from pam_bench_interfaces.msg import (
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import FluidPressure, Imu, JointState
 
-from pam_bench.nodes.cdr import encoder
-from pam_bench.nodes.messages import time_of
-from pam_bench.nodes.stamped import _builder, stamped
+from pam_bench.runtime.cdr import encoder
+from pam_bench.runtime.messages import time_of
+from pam_bench.runtime.stamped import _builder, stamped
 
 T_NS = 1_234_567_890_123
 
@@ -103,7 +103,7 @@ def test_stamp_of_msg_reads_slots_as_the_properties_give(t_ns: int) -> None:
 
     from rosgraph_msgs.msg import Clock
 
-    from pam_bench.nodes.messages import clock_ns, stamp_of_msg
+    from pam_bench.runtime.messages import clock_ns, stamp_of_msg
     built = stamped(FluidPressure, t_ns, 'valve_1', fluid_pressure=1.0)
     made = FluidPressure()
     made.header.stamp = time_of(t_ns)

@@ -37,10 +37,10 @@ from rclpy.serialization import deserialize_message
 from rosgraph_msgs.msg import Clock
 
 from pam_bench.config import topics
-from pam_bench.nodes.core import NodeCore, Output
-from pam_bench.nodes.intra import bus_publisher, bus_subscription
-from pam_bench.nodes.messages import ack_message, clock_ns, stamp_of_cdr, stamp_of_msg
-from pam_bench.nodes.qos import DRIVER, LOCKSTEP, RELIABLE, SENSOR
+from pam_bench.runtime.core import NodeCore, Output
+from pam_bench.runtime.intra import bus_publisher, bus_subscription
+from pam_bench.runtime.messages import ack_message, clock_ns, stamp_of_cdr, stamp_of_msg
+from pam_bench.runtime.qos import DRIVER, LOCKSTEP, RELIABLE, SENSOR
 from pam_bench.sim.lockstep import Ack, InputSpec, StepPlan, StopRequest
 
 __all__ = ['Lockstep']
@@ -68,7 +68,7 @@ class Lockstep(NodeCore):
     def create_step_publisher(self, msg_type: type, topic: str) -> Any:
         """A publisher of a step output: what it publishes in a step is sent again when the
         clock repeats that tick (module docstring). On a wall clock: a counted driver
-        publisher (``nodes.stats``)."""
+        publisher (``runtime.stats``)."""
         pub = bus_publisher(self, msg_type, topic, LOCKSTEP if self.lockstep else DRIVER)
         if not self.lockstep:
             return self.counted(pub, topic)
@@ -93,7 +93,7 @@ class Lockstep(NodeCore):
 
     def publish_each(self, pub: Any, msgs: list[Any]) -> None:
         """Publish ``msgs`` in order on ``pub``: at once where it takes lists (a lock-step
-        step publisher, ``nodes.intra``), else one by one."""
+        step publisher, ``runtime.intra``), else one by one."""
         many = getattr(pub, 'publish_many', None) if self.lockstep else None
         if many is not None and len(msgs) > 1:
             many(msgs)
@@ -109,7 +109,7 @@ class Lockstep(NodeCore):
         With ``raw`` the message stays CDR bytes and its stamp is read from the header, which
         every stamped message (and Clock) starts with. ``same_step``, ``samples``,
         ``from_start`` and ``stamped``: see the module docstring and ``sim.lockstep``. On a
-        wall clock the input is the latest message (``nodes.wallclock``).
+        wall clock the input is the latest message (``runtime.wallclock``).
         """
         buf: dict[int, Any] = {}
         self._sync[topic] = buf

@@ -14,7 +14,7 @@ import time
 from typing import Any
 
 from pam_bench.analysis.timing import PeriodStats
-from pam_bench.nodes.core import NodeCore, Output
+from pam_bench.runtime.core import NodeCore, Output
 
 __all__ = ['Stats', 'ACK_WAIT_S']
 

@@ -36,8 +36,8 @@ from typing import Any
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 
-__all__ = ['IntraProcessBus', 'BusPublisher', 'activate', 'deactivate', 'current',
-           'spin_composed', 'bus_publisher', 'bus_subscription']
+__all__ = ['IntraProcessBus', 'BusPublisher', 'spin_composed', 'bus_publisher',
+           'bus_subscription']
 
 Callback = Callable[[Any], None]
 
@@ -140,27 +140,6 @@ class IntraProcessBus:
         return n
 
 
-_BUS: IntraProcessBus | None = None
-
-
-def activate() -> IntraProcessBus:
-    """Start composing: nodes built from now on in this process share a new bus."""
-    global _BUS
-    _BUS = IntraProcessBus()
-    return _BUS
-
-
-def deactivate() -> None:
-    """Stop composing (nodes built later use DDS only)."""
-    global _BUS
-    _BUS = None
-
-
-def current() -> IntraProcessBus | None:
-    """The active bus, if the process is composing."""
-    return _BUS
-
-
 def spin_composed(bus: IntraProcessBus, nodes: list[Node], executor: Any,
                   refresh_s: float = 0.05, should_stop: Callable[[], bool] | None = None
                   ) -> None:
@@ -190,9 +169,10 @@ def spin_composed(bus: IntraProcessBus, nodes: list[Node], executor: Any,
 
 
 def bus_publisher(node: Node, msg_type: type, topic: str, qos: QoSProfile) -> Any:
-    """A publisher that goes through the process's intra-process bus when it composes nodes
-    (this module), else an ordinary DDS publisher."""
-    bus = current()
+    """A publisher that goes through the intra-process bus the node was given (``bus=`` when
+    it was built: the composed process hands its bus to each node, as rclpy hands nodes to an
+    executor), else an ordinary DDS publisher."""
+    bus: IntraProcessBus | None = getattr(node, '_bus', None)
     if bus is None:
         return node.create_publisher(msg_type, topic, qos)
     return bus.publisher(node, msg_type, topic, qos)
@@ -201,10 +181,10 @@ def bus_publisher(node: Node, msg_type: type, topic: str, qos: QoSProfile) -> An
 def bus_subscription(node: Node, msg_type: type, topic: str, callback: Callable[[Any], None],
                      qos: QoSProfile, raw: bool = False,
                      many: Callable[[list[Any]], None] | None = None) -> None:
-    """A subscription served by the intra-process bus when the process composes nodes (the
-    callback then gets message objects, also where ``raw`` asks for bytes, and ``many`` the
-    lists published at once), else by DDS."""
-    bus = current()
+    """A subscription served by the intra-process bus the node was given (the callback then
+    gets message objects, also where ``raw`` asks for bytes, and ``many`` the lists published
+    at once), else by DDS."""
+    bus: IntraProcessBus | None = getattr(node, '_bus', None)
     if bus is None:
         node.create_subscription(msg_type, topic, callback, qos, raw=raw)
     else:

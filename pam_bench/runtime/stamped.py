@@ -7,7 +7,7 @@ imports its nested classes, builds a default Header and Time, then replaces them
 property setters: about 4.5 us for a MuscleState with its stamp on this machine. ``stamped``
 builds the same object (the same slot values the constructor and setters leave with field
 checks off, rosidl's default) in about 1 us, from a function generated once per class from
-``get_fields_and_field_types()``, the way ``nodes.cdr`` generates its encoders:
+``get_fields_and_field_types()``, the way ``runtime.cdr`` generates its encoders:
 
 * numeric sequences become ``array.array`` of rosidl's type code (an array of that code is
   kept as it is), other sequences and strings are stored as given, numbers as given;
@@ -36,8 +36,8 @@ import numpy as np
 from builtin_interfaces.msg import Time
 from std_msgs.msg import Header
 
-from pam_bench.nodes.cdr import ARRAY_CODES, element_of, fields_of
-from pam_bench.nodes.messages import time_of
+from pam_bench.runtime.cdr import ARRAY_CODES, element_of, fields_of
+from pam_bench.runtime.messages import time_of
 
 __all__ = ['stamped', 'header_of']
 

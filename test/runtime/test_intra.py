@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from pam_bench.nodes.intra import BusPublisher, IntraProcessBus
+from pam_bench.runtime.intra import BusPublisher, IntraProcessBus
 
 
 class FakeDds:

@@ -1,6 +1,6 @@
 """What every bench node shares before its stepping: settings, diagnostics and the hooks.
 
-``NodeCore`` is the rclpy ``Node`` the concept mixins of ``nodes.base`` build on
+``NodeCore`` is the rclpy ``Node`` the concept mixins of ``runtime.base`` build on
 (``lockstep``, ``wallclock``, ``faults``, ``stats``): it holds the state they share and the
 hooks a device or controller overrides (``on_start``, ``on_step``, ``on_fault``).
 """
@@ -15,8 +15,8 @@ from typing import Any
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 
-from pam_bench.nodes.intra import IntraProcessBus
-from pam_bench.nodes.messages import time_of
+from pam_bench.runtime.intra import IntraProcessBus
+from pam_bench.runtime.messages import time_of
 
 __all__ = ['NodeCore', 'Spin', 'Output']
 
@@ -25,7 +25,7 @@ Output = tuple[Callable[..., None], Any]
 
 
 class Spin(enum.Enum):
-    """How a node's process spins it (``nodes.process.run_node``)."""
+    """How a node's process spins it (``runtime.process.run_node``)."""
 
     LEAN = 'lean'              # subscriptions only: one wait set (``lean_spin``)
     DEADLINE = 'deadline'      # a wall-clock loop on a monotonic deadline (``deadline_spin``)
@@ -75,17 +75,17 @@ class NodeCore(Node):
         """True when every value is a finite float."""
         return all(isinstance(v, (int, float)) and math.isfinite(v) for v in values)
 
-    # --- provided by the mixins of nodes.base ------------------------------------------
+    # --- provided by the mixins of runtime.base ------------------------------------------
     def counted(self, pub: Any, topic: str) -> Any:
-        """Count what ``pub`` puts on DDS; returns ``pub`` (``nodes.stats``)."""
+        """Count what ``pub`` puts on DDS; returns ``pub`` (``runtime.stats``)."""
         raise NotImplementedError
 
     def count_periods(self, period_s: float) -> None:
-        """Keep the statistics of a loop ticking every ``period_s`` (``nodes.stats``)."""
+        """Keep the statistics of a loop ticking every ``period_s`` (``runtime.stats``)."""
         raise NotImplementedError
 
     def count_tick(self) -> None:
-        """One tick of the node's loop, now (``nodes.stats``)."""
+        """One tick of the node's loop, now (``runtime.stats``)."""
         raise NotImplementedError
 
     # --- to override -------------------------------------------------------------------

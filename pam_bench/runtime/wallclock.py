@@ -1,7 +1,7 @@
 """A node on a wall clock (``lockstep: false``): a real bench, or its emulation.
 
 A device node steps itself every ``1 / rate_hz`` seconds of its own clock (``on_wall_tick``,
-driven by ``nodes.process.deadline_spin`` or by the emulator process that composes the
+driven by ``runtime.process.deadline_spin`` or by the emulator process that composes the
 devices). Each synchronous input is then simply the latest message received (``wall_inputs``
 adapts sub-step sample lists to the device's own step); outputs are stamped with the node's
 clock and published with ``DRIVER`` QoS. A controller ticks on its own period and waits, at
@@ -16,7 +16,7 @@ from typing import Any
 from diagnostic_msgs.msg import DiagnosticStatus
 
 from pam_bench.models import compiled
-from pam_bench.nodes.core import NodeCore
+from pam_bench.runtime.core import NodeCore
 
 __all__ = ['WallClock', 'RESEND_NS', 'MAX_CATCH_UP']
 
@@ -56,7 +56,7 @@ class WallClock(NodeCore):
 
     def take_wall_ticks(self) -> float:
         """Stop the node's own timer: the caller ticks ``on_wall_tick`` from now on (on a
-        monotonic deadline, ``nodes.process.deadline_spin``). Returns the period (s)."""
+        monotonic deadline, ``runtime.process.deadline_spin``). Returns the period (s)."""
         if self.wall_timer is not None:
             self.destroy_timer(self.wall_timer)
             self.wall_timer = None

@@ -1,0 +1,6 @@
+"""How nodes meet ROS: the bench node and its concepts, spin loops, the in-process bus, CDR."""
+
+from __future__ import annotations
+
+__all__ = ['base', 'cdr', 'core', 'faults', 'intra', 'lockstep', 'messages', 'params',
+           'process', 'profiling', 'qos', 'stamped', 'stats', 'wallclock']
