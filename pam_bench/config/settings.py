@@ -37,6 +37,11 @@ class NodeSettings:
     lockstep: bool = field(True, '-', 'step on /clock ticks in lock-step with sim_clock')
     stats_file: str = field('', '-', 'write the DDS publish counts and the wall-clock tick '
                             'statistics here at the end (JSON)')
+    hardware_id: str = field('', '-', "REP-107 hardware_id of the node's diagnostics ('': "
+                             'pam_bench/NODE)')
+    diagnostics_period_s: float = field(1.0, 's', 'period of the diagnostics summary (sim '
+                                        'time in lock-step, wall time otherwise; 0: none)',
+                                        0.0, 3600.0)
 
 
 @dataclasses.dataclass
@@ -58,6 +63,8 @@ class ControllerSettings(NodeSettings):
                                      0.1, 3600.0)
     await_recorder: bool = field(False, '-', "without lock-step: start only once the run's "
                                  'recorder has subscribed, so that nothing goes unrecorded')
+    joint_name: str = field('pulley', '-', 'the joint of encoder/joint_state the node reads (by '
+                            'name: a driver may publish several joints)')
 
 
 @dataclasses.dataclass

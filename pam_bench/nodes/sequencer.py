@@ -58,7 +58,7 @@ from pam_bench.runtime.base import RELIABLE, SENSOR, BenchNode, Spin
 from pam_bench.runtime.intra import bus_publisher
 from pam_bench.runtime.messages import ns_of, time_of
 from pam_bench.runtime.process import run_node
-from pam_bench.runtime.stamped import stamped
+from pam_bench.runtime.stamped import joint_position, stamped
 from pam_bench.vocabulary.errors import ParameterError
 
 __all__ = ['SequencerNode', 'main']
@@ -154,8 +154,7 @@ class SequencerNode(BenchNode):
         if topic == self.cell_topic:
             return float(msg.wrench.force.x)
         if topic == self.enc_topic:
-            return float(msg.position[0] * self.pulley_radius_m) if len(msg.position) \
-                else float('nan')
+            return joint_position(msg, self.settings.joint_name) * self.pulley_radius_m
         return float(msg.fluid_pressure - ATMOSPHERE_PA)
 
     def _update(self, topic: str, msg: Any) -> None:

@@ -44,7 +44,7 @@ from pam_bench.control.torque_servo import (
 from pam_bench.runtime.base import RELIABLE, SENSOR, BenchNode, Spin
 from pam_bench.runtime.messages import ns_of, time_of
 from pam_bench.runtime.process import run_node
-from pam_bench.runtime.stamped import stamped
+from pam_bench.runtime.stamped import joint_position, stamped
 
 __all__ = ['TorqueServoNode', 'main']
 
@@ -117,10 +117,23 @@ class TorqueServoNode(BenchNode):
         self._update(topic, msg)
 
     def _update(self, topic: str, msg: Any) -> None:
+        """Take a measurement (the encoder's joint by name); one that is missing or not finite
+        is rejected (counted on /diagnostics) and vents the valves at the next tick, as a
+        non-finite measurement does: never an exception in a callback."""
         if topic == self.enc_topic:
-            self.angle_rad = float(msg.position[0])
+            value = joint_position(msg, self.settings.joint_name)
+            if not math.isfinite(value):
+                self.reject(f'encoder joint {self.settings.joint_name!r} missing or not '
+                            'finite', value)
+            self.angle_rad = value
         else:
-            self.forces[self.cell_topics.index(topic)] = float(msg.wrench.force.x)
+            try:
+                force = float(msg.wrench.force.x)
+            except (AttributeError, TypeError, ValueError):
+                force = math.nan
+            if not math.isfinite(force):
+                self.reject(f'{topic} force not finite', force)
+            self.forces[self.cell_topics.index(topic)] = force
 
     # --- ticking --------------------------------------------------------------------------
     def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:

@@ -19,6 +19,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from pam_bench.config import topics
 from pam_bench.config.settings import DeviceSettings, NodeSettings
 from pam_bench.runtime.core import NodeCore, Spin
+from pam_bench.runtime.diagnostics import Diagnostics
 from pam_bench.runtime.faults import FaultInjection
 from pam_bench.runtime.intra import IntraProcessBus, bus_publisher
 from pam_bench.runtime.lockstep import Lockstep
@@ -53,6 +54,11 @@ class BenchNode(Lockstep, WallClock, FaultInjection, Stats):
         self.rejected_count = 0
         self._fqn = self.get_fully_qualified_name()
         self._diag_pub = bus_publisher(self, DiagnosticArray, topics.DIAGNOSTICS, RELIABLE)
+        s = self.settings
+        self.diagnostics = Diagnostics(
+            self, self._diag_pub.publish,
+            getattr(s, 'hardware_id', '') or f'pam_bench/{self.get_name()}',
+            float(getattr(s, 'diagnostics_period_s', 1.0)))
         self._init_lockstep()
         self._init_wallclock()
         self._init_faults()

@@ -12,11 +12,11 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.node import Node
 
+from pam_bench.runtime.diagnostics import Diagnostics
 from pam_bench.runtime.intra import IntraProcessBus
-from pam_bench.runtime.messages import time_of
 
 __all__ = ['NodeCore', 'Spin', 'Output']
 
@@ -40,6 +40,7 @@ class NodeCore(Node):
     _bus: IntraProcessBus | None
     _fqn: str
     _diag_pub: Any
+    diagnostics: Diagnostics
     _sync: dict[str, dict[int, Any]]
     _latest: dict[str, Any]
     _last_ns: int | None
@@ -47,27 +48,18 @@ class NodeCore(Node):
     _start_outputs: list[Output] | None
     rejected_count: int
 
-    # --- diagnostics -------------------------------------------------------------------
-    def diagnose(self, level: bytes, message: str, **values: Any) -> None:
-        """Publish one DiagnosticStatus for this node and log it."""
-        st = DiagnosticStatus(level=level, name=self.get_fully_qualified_name(),
-                              message=message, hardware_id='pam_bench_sim')
-        st.values = [KeyValue(key=k, value=str(v)) for k, v in values.items()]
-        arr = DiagnosticArray()
-        arr.header.stamp = time_of(self._last_ns or 0)
-        arr.status = [st]
-        self._diag_pub.publish(arr)
-        if level == DiagnosticStatus.OK:
-            self.get_logger().info(message)
-        elif level == DiagnosticStatus.WARN:
-            self.get_logger().warning(message)
-        else:
-            self.get_logger().error(message)
+    # --- diagnostics (runtime.diagnostics) ---------------------------------------------
+    def diagnose(self, level: bytes, message: str, concern: str = 'state',
+                 **values: Any) -> None:
+        """A status of one of this node's concerns (``runtime.diagnostics``: sent at once
+        when its level changes, with the 1 Hz summary otherwise; logs throttled)."""
+        self.diagnostics.stamp_ns = self._last_ns or self.diagnostics.stamp_ns
+        self.diagnostics.report(concern, level, message, **values)
 
     def reject(self, what: str, value: Any) -> None:
-        """Log, count and diagnose a rejected input."""
+        """Count and diagnose a rejected input (concern ``inputs``)."""
         self.rejected_count += 1
-        self.diagnose(DiagnosticStatus.ERROR, f'rejected {what}: {value!r}',
+        self.diagnose(DiagnosticStatus.ERROR, f'rejected {what}: {value!r}', 'inputs',
                       rejected_count=self.rejected_count)
 
     @staticmethod

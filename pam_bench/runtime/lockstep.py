@@ -223,6 +223,7 @@ class Lockstep(NodeCore):
             self.on_step(t, (t - prev) * 1e-9, inputs)
         except Exception as exc:  # noqa: BLE001 - a callback must never let an exception out
             self.step_failed(exc)
+        self.diagnostics.tick(t)
         self._ack(t)
 
     def _ack(self, t: int) -> None:

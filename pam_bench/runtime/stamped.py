@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import array
 import functools
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -39,7 +40,7 @@ from std_msgs.msg import Header
 from pam_bench.runtime.cdr import ARRAY_CODES, element_of, fields_of
 from pam_bench.runtime.messages import time_of
 
-__all__ = ['stamped', 'header_of']
+__all__ = ['joint_position', 'stamped', 'header_of']
 
 _NUMBERS = {'float': '0.0', 'double': '0.0', 'boolean': 'False',
             **{k: '0' for k in ('int8', 'uint8', 'int16', 'uint16', 'int32', 'uint32', 'int64',
@@ -130,3 +131,23 @@ def stamped(cls: type, t_ns: int, frame_id: str = '', **fields: Any) -> Any:
     msg.header.stamp = time_of(t_ns)
     msg.header.frame_id = frame_id
     return msg
+
+
+def joint_position(msg: Any, name: str) -> float:
+    """The position of the joint ``name`` in a JointState (rad), read by name: a driver may
+    publish several joints in any order. An unnamed message with one position counts as that
+    joint; a missing joint, an empty message or a position list shorter than the names gives
+    NaN (the caller rejects it, it does not crash)."""
+    names = list(getattr(msg, 'name', []) or [])
+    position = getattr(msg, 'position', None)
+    if position is None:
+        return math.nan
+    try:
+        if name in names:
+            i = names.index(name)
+            return float(position[i]) if i < len(position) else math.nan
+        if not names and len(position) == 1:
+            return float(position[0])
+    except (TypeError, ValueError):
+        return math.nan
+    return math.nan

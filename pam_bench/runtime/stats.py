@@ -45,9 +45,10 @@ class Stats(NodeCore):
         self.periods = PeriodStats(period_s)
 
     def count_tick(self) -> None:
-        """One tick of the node's loop, now (monotonic)."""
+        """One tick of the node's loop, now (monotonic); the diagnostics summary when due."""
         if self.periods is not None:
             self.periods.tick(time.monotonic_ns())
+        self.diagnostics.tick(int(self.get_clock().now().nanoseconds))
 
     def counted(self, pub: Any, topic: str) -> Any:
         """Count what ``pub`` puts on DDS (``published``). Returns ``pub``."""

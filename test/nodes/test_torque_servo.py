@@ -117,3 +117,25 @@ def test_stale_force_vents_both_valves(harness: Harness) -> None:
     h.spin_until(done.done)
     assert done.result().success
     feed_until(h, lambda: running(h), setpoint=2.0)              # reset: control resumes
+
+
+@pytest.mark.wallclock
+@pytest.mark.parametrize('joint', [JointState(), JointState(name=['motor'], position=[0.1]),
+                                   JointState(name=['pulley'], position=[]),
+                                   JointState(name=['pulley'], position=[float('nan')])])
+def test_a_bad_joint_state_is_rejected_not_a_crash(harness: Harness, joint: JointState) -> None:
+    """Empty, another joint, no position, NaN: rejected and counted, the valves vented; the
+    node lives on and controls again once the joint comes back (read by name: a driver may
+    publish several joints, in any order)."""
+    h = harness
+    feed_until(h, lambda: running(h), setpoint=2.0)
+    for _ in range(20):
+        h.send('encoder/joint_state', joint, h.tester.get_clock().now().nanoseconds)
+        h.executor.spin_once(timeout_sec=0.002)
+    h.spin_until(lambda: h.node.rejected_count > 0)
+    several = JointState(name=['motor', 'pulley'], position=[5.0, 0.0])
+    h.send('encoder/joint_state', several, h.tester.get_clock().now().nanoseconds)
+    h.spin_until(lambda: h.node.angle_rad == 0.0)
+    from diagnostic_msgs.msg import DiagnosticStatus
+    h.spin_until(lambda: any(s.name.endswith(': inputs') and s.level == DiagnosticStatus.ERROR
+                             for d in h.diagnostics for s in d.status))

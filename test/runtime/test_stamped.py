@@ -113,3 +113,17 @@ def test_stamp_of_msg_reads_slots_as_the_properties_give(t_ns: int) -> None:
         assert stamp_of_msg(msg) == t_ns
     assert clock_ns(Clock(clock=time_of(t_ns))) == t_ns
     assert clock_ns(SimpleNamespace(clock=plain.header.stamp)) == t_ns
+
+
+@pytest.mark.parametrize('names, positions, want', [
+    (['pulley'], [0.5], 0.5), (['motor', 'pulley'], [9.0, 0.25], 0.25), ([], [0.75], 0.75),
+    ([], [], None), (['motor'], [0.1], None), (['pulley'], [], None),
+    (['a', 'pulley'], [1.0], None), ([], [1.0, 2.0], None)])
+def test_a_joint_is_read_by_name(names: list, positions: list, want: float | None) -> None:
+    import math
+
+    from sensor_msgs.msg import JointState
+
+    from pam_bench.runtime.stamped import joint_position
+    got = joint_position(JointState(name=names, position=positions), 'pulley')
+    assert (math.isnan(got) if want is None else got == want)
