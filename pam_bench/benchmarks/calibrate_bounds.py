@@ -34,6 +34,7 @@ from pam_bench.models.muscle import MuscleParams
 from pam_bench.models.sensors import LoadCellParams
 from pam_bench.models.valve import ValveParams
 from pam_bench.verify.calibrate_bags import FREE_BAGS
+from pam_bench.vocabulary.errors import PamBenchError
 
 __all__ = ['STUDY', 'SETS', 'draw_uniform', 'end_set', 'small_muscle', 'one_set', 'TOLERANCE']
 
@@ -106,7 +107,10 @@ def one_set(job: tuple[str, str, dict[str, Any], int]) -> dict[str, Any]:
     from pam_bench.twin.protocol_run import run_protocol
     from pam_bench.verify.calibrate_bags import calibrate_bags, observations_from_twin
     label, protocol, what, seed = job
-    valve, muscle = small_muscle() if what.get('small') else _apply(what['values'])
+    try:
+        valve, muscle = small_muscle() if what.get('small') else _apply(what['values'])
+    except PamBenchError as exc:             # a set no muscle can have: the model says why
+        return {'set': label, 'refused': str(exc)}
     refused = invalid(valve, muscle)
     if refused:
         return {'set': label, 'refused': refused}
@@ -176,7 +180,10 @@ def measure(quick: bool, cluster: dict[str, Any] | None = None) -> dict[str, Any
     k = SETS
     while not quick and refused and k < SETS + 40:
         values = draw_uniform(rng)
-        row = one_set((f'drawn {k + 1}', PROTOCOL, {'values': values}, k))
+        try:
+            row = one_set((f'drawn {k + 1}', PROTOCOL, {'values': values}, k))
+        except PamBenchError as exc:       # a set no muscle can have (as run_jobs reports)
+            row = {'set': f'drawn {k + 1}', 'refused': str(exc)}
         k += 1
         if 'refused' not in row:
             rows.append(row)

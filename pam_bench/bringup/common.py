@@ -22,7 +22,8 @@ from pam_bench.config.nodes import NODES
 from pam_bench.sim.lockstep import RunSummary
 
 __all__ = ['RunResult', 'ros_env', 'die_with_parent', 'batch_child', 'result_of', 'node_error',
-           'write_params_file', 'node_cmd', 'write_end_state', 'copy_lines', 'stop_processes']
+           'write_params_file', 'ros_params', 'node_cmd', 'write_end_state', 'copy_lines',
+           'stop_processes']
 
 
 @dataclasses.dataclass
@@ -97,8 +98,9 @@ def node_error(log: str) -> str:
     return ''
 
 
-def write_params_file(settings: dict[str, Any], path: str) -> None:
-    """The settings as a ROS 2 params file (values as ROS holds them: ``runtime.params``)."""
+def ros_params(settings: dict[str, Any]) -> dict[str, Any]:
+    """The settings as an rcl params file's mapping, keyed ``/**/NODE``: it applies to the node
+    of that name in any namespace (``__ns``); values as ROS holds them (``runtime.params``)."""
     from pam_bench.runtime.params import ros_value
     from pam_bench.vocabulary.params import flat_infos, get_path
     out: dict[str, Any] = {}
@@ -110,9 +112,14 @@ def write_params_file(settings: dict[str, Any], path: str) -> None:
             for part in parts[:-1]:
                 here = here.setdefault(part, {})
             here[parts[-1]] = ros_value(info, get_path(st, info.name))
-        out[name] = {'ros__parameters': params}
+        out[f'/**/{name}'] = {'ros__parameters': params}
+    return out
+
+
+def write_params_file(settings: dict[str, Any], path: str) -> None:
+    """The settings as a ROS 2 params file (``ros_params``)."""
     with open(path, 'w', encoding='utf-8') as fh:
-        yaml.safe_dump(out, fh)
+        yaml.safe_dump(ros_params(settings), fh)
 
 
 def node_cmd(name: str, pfile: str) -> list[str]:

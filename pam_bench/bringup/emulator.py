@@ -60,7 +60,7 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
     import rclpy
     from rclpy.exceptions import ParameterException
 
-    from pam_bench.config.scene import settings_of_params_file
+    from pam_bench.config.scene import node_of_key, settings_of_params_file
     from pam_bench.runtime import intra
     from pam_bench.runtime.params import overrides_of
     from pam_bench.runtime.process import (
@@ -81,7 +81,8 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
     bus = intra.IntraProcessBus()
     try:
         try:
-            settings = settings_of_params_file({n: params.get(n, {}) for n in names})
+            by_node = {node_of_key(k): v for k, v in params.items()}
+            settings = settings_of_params_file({n: by_node.get(n, {}) for n in names})
         except PamBenchError as exc:
             print(f'emulator: error: {exc}', file=sys.stderr, flush=True)
             return 2
@@ -115,7 +116,7 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
                     if d is None:
                         d = t
                     if t >= d:
-                        node.on_wall_tick(d)
+                        node.wall_tick(d)
                         bus.drain(1 << 30)
                         due[i] = d + periods[i]
                         stepped = True

@@ -13,6 +13,7 @@ the bag (``STATS_FILE``), interrupted runs included.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import os
 import pathlib
@@ -42,7 +43,7 @@ from pam_bench.config.nodes import controllers, devices
 from pam_bench.config.scene import Scene
 from pam_bench.vocabulary.outputs import note_output_file
 
-__all__ = ['run_wallclock', 'STATS_FILE']
+__all__ = ['run_wallclock', 'wall_settings', 'STATS_FILE']
 
 STATS_FILE = 'wall_stats.json'
 """In the bag folder: every node's publish counts and tick periods, and the recorder's counts
@@ -51,6 +52,31 @@ STATS_FILE = 'wall_stats.json'
 
 class _NotStarted(Exception):
     """The recorder stopped before it recorded: the run starts nothing else."""
+
+
+def wall_settings(scene: Scene, settings: dict[str, Any], stats_dir: str = ''
+                  ) -> dict[str, Any]:
+    """The settings of ``scene``'s nodes on a wall clock, as ``run --wallclock`` starts them
+    and ``params --ros-yaml`` writes them: no sim clock, lock-step off, the servo's duration,
+    the scene's faults in their devices, controllers waiting for the recorder, no ``sim/``
+    topics recorded; with ``stats_dir`` each node's statistics file in it."""
+    rep = dataclasses.replace
+    settings = {k: v for k, v in settings.items() if k in scene.nodes}   # no clock
+    for name in scene.nodes:
+        settings[name] = rep(settings[name], lockstep=False, stats_file=os.path.join(
+            stats_dir, f'{name}.json') if stats_dir else '')
+    if 'torque_servo' in settings:
+        settings['torque_servo'] = rep(settings['torque_servo'], duration_s=scene.duration_s)
+    for target in {f.target for f in scene.faults if f.kind != 'node_kill'}:
+        settings[target] = rep(settings[target], faults_yaml=yaml.safe_dump(
+            [dataclasses.asdict(f) for f in scene.faults if f.target == target]))
+    for name in controllers(scene.nodes):  # nothing a controller publishes goes unrecorded
+        settings[name] = rep(settings[name], await_recorder='recorder' in scene.nodes)
+    if 'recorder' in settings:          # what a real bench has: no sim/ ground truth
+        rec = settings['recorder']
+        settings['recorder'] = rep(rec, step_topics=[
+            t for t in rec.step_topics if not t.startswith('/sim/')])
+    return settings
 
 
 def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None, quiet: bool,
@@ -71,22 +97,7 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
     t0 = time.monotonic()
     code = 0
     with tempfile.TemporaryDirectory(prefix='pam_bench_') as tmp:
-        rep = dataclasses.replace
-        settings = {k: v for k, v in settings.items() if k in scene.nodes}   # no clock
-        for name in scene.nodes:
-            settings[name] = rep(settings[name], lockstep=False,
-                                 stats_file=os.path.join(tmp, f'{name}.json'))
-        if 'torque_servo' in settings:
-            settings['torque_servo'] = rep(settings['torque_servo'], duration_s=scene.duration_s)
-        for target in {f.target for f in scene.faults if f.kind != 'node_kill'}:
-            settings[target] = rep(settings[target], faults_yaml=yaml.safe_dump(
-                [dataclasses.asdict(f) for f in scene.faults if f.target == target]))
-        for name in controller_names:      # nothing a controller publishes goes unrecorded
-            settings[name] = rep(settings[name], await_recorder='recorder' in scene.nodes)
-        if 'recorder' in settings:          # what a real bench has: no sim/ ground truth
-            rec = settings['recorder']
-            settings['recorder'] = rep(rec, step_topics=[
-                t for t in rec.step_topics if not t.startswith('/sim/')])
+        settings = wall_settings(scene, settings, tmp)
         pfile = os.path.join(tmp, 'params.yaml')
         write_params_file(settings, pfile)
         log = open(os.path.join(tmp, 'nodes.log'), 'w+', encoding='utf-8')
@@ -102,10 +113,15 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
             if 'recorder' in scene.nodes:
                 rec = start('recorder', node_cmd('recorder', pfile), pipe=True)
                 assert rec.stdout is not None
+                recording = False
                 for line in rec.stdout:      # wait until it has subscribed to its topics
                     log.write(line)
-                    if line.startswith('recorder: recording') or rec.poll() is not None:
+                    recording = line.startswith('recorder: recording')
+                    if recording or rec.poll() is not None:
                         break
+                if not recording:            # its output ended: it is going, let it go
+                    with contextlib.suppress(subprocess.TimeoutExpired):
+                        rec.wait(timeout=10.0)
                 threading.Thread(target=copy_lines, args=(rec.stdout, log), daemon=True).start()
                 if rec.poll() is not None:          # it could not start: nothing else is
                     raise _NotStarted                 # started (its one line is in the log)
@@ -128,12 +144,13 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
                 main.wait()
             for line in main.stdout or ():
                 log.write(line)
-                if kills and line.startswith('[wall]'):     # the run has started
+                progress = line[line.find('[wall]'):] if '[wall]' in line else ''
+                if kills and progress:                      # the run has started
                     threading.Thread(target=_kill_on_time, args=(kills, procs, device_names),
                                      daemon=True).start()
                     kills = []
-                if not quiet and line.startswith('[wall'):
-                    print(line, end='', flush=True)
+                if not quiet and progress:       # the controller logs it: shown bare
+                    print(progress, end='', flush=True)
                 dead = [n for n, p in procs.items() if p.poll() is not None and p.returncode == 2]
                 if dead:
                     break

@@ -81,6 +81,12 @@ def register(sub: Any) -> None:
     p.add_argument('scene', nargs='?', default='demo')
     p.add_argument('--node', action='append', help='only this node (repeatable)')
     p.add_argument('--json', action='store_true')
+    p.add_argument('--ros-yaml', nargs='?', const='-', metavar='FILE',
+                   help="write the nodes' settings on a wall clock (as run --wallclock starts "
+                   'them) as an rcl params file, keyed /**/NODE so that it applies in any '
+                   'namespace: to FILE, or stdout (for nodes started by hand: README)')
+    p.add_argument('--overwrite', action='store_true', help='replace a --ros-yaml FILE '
+                   'pam-bench wrote')
     p.set_defaults(func=_cmd_params)
 
 
@@ -410,6 +416,28 @@ def _cmd_check_drivers(args: argparse.Namespace) -> int:
     return 1 if failed else 0
 
 
+def _ros_yaml(scene: Any, settings: dict[str, Any], only: list[str] | None, path: str,
+              overwrite: bool) -> int:
+    """``params --ros-yaml``: the wall-clock settings of the scene's nodes (or ``only``) as
+    an rcl params file on stdout ('-') or in ``path`` (a file of pam-bench's own with
+    ``overwrite``)."""
+    import yaml
+
+    from pam_bench.bringup.common import ros_params
+    from pam_bench.bringup.wallclock import wall_settings
+    from pam_bench.vocabulary.outputs import check_output_file, write_output_file
+    wall = wall_settings(scene, settings)
+    text = yaml.safe_dump(ros_params({k: v for k, v in wall.items()
+                                      if not only or k in only}), sort_keys=False)
+    if path == '-':
+        print(text, end='')
+        return 0
+    check_output_file(path, 'params --ros-yaml', overwrite)
+    write_output_file(path, 'params --ros-yaml', text)
+    print(f'wrote {path}: nodes {", ".join(k for k in wall if not only or k in only)}')
+    return 0
+
+
 def _cmd_params(args: argparse.Namespace) -> int:
     from pam_bench.config.scene import load_scene
     from pam_bench.vocabulary.params import flat_infos, get_path
@@ -419,6 +447,8 @@ def _cmd_params(args: argparse.Namespace) -> int:
     if unknown:
         raise UsageError(f'scene {scene.name} has no node {unknown[0]!r} (nodes: '
                          f'{", ".join(settings)})')
+    if args.ros_yaml:
+        return _ros_yaml(scene, settings, args.node, args.ros_yaml, args.overwrite)
     rows = []
     for name, st in settings.items():
         if args.node and name not in args.node:

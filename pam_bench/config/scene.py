@@ -87,6 +87,13 @@ def params_file(settings: dict[str, Any]) -> dict[str, Any]:
     return {name: {'ros__parameters': to_mapping(s)} for name, s in settings.items()}
 
 
+def node_of_key(key: str) -> str:
+    """The node a params-file key names: ``sequencer``, ``/sequencer`` and
+    ``/**/sequencer`` (any namespace, what ``pam-bench params --ros-yaml`` writes) all name
+    ``sequencer``."""
+    return str(key).rstrip('/').rsplit('/', 1)[-1]
+
+
 def settings_of_params_file(params: dict[str, Any], where: str = 'parameters'
                             ) -> dict[str, Any]:
     """The settings a params-file mapping holds (a bag's recorded parameters: ``--replay``).
@@ -96,7 +103,8 @@ def settings_of_params_file(params: dict[str, Any], where: str = 'parameters'
     """
     out: dict[str, Any] = {}
     try:
-        for name, entry in params.items():
+        for key, entry in params.items():
+            name = node_of_key(key)
             values = (entry or {}).get('ros__parameters', {})
             out[name] = from_mapping(node(name).settings, values, f'{name}.')
     except ParameterError as exc:

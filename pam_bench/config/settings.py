@@ -41,7 +41,7 @@ class NodeSettings:
                              'pam_bench/NODE)')
     diagnostics_period_s: float = field(1.0, 's', 'period of the diagnostics summary (sim '
                                         'time in lock-step, wall time otherwise; 0: none)',
-                                        0.0, 3600.0)
+                                        0.0, 3600.0, tunable=True)
 
 
 @dataclasses.dataclass
@@ -198,15 +198,15 @@ class TorqueServoSettings(ControllerSettings):
                                     '(needed by the inverse-model controllers; relative to the '
                                     'repository or install share)')
     signal: str = field(SignalKind.SINE.value, '-', 'set point waveform',
-                        choices=tuple(k.value for k in SignalKind))
+                        choices=tuple(k.value for k in SignalKind), tunable=True)
     amplitude: float = field(5.0, '', 'set point amplitude (N m, or N with one muscle)',
-                             -1e4, 1e4)
-    omega_rad_s: float = field(1.0, 'rad/s', 'sine angular frequency', 0.0, 1e3)
-    offset: float = field(0.0, '', 'set point offset (N m, or N)', -1e4, 1e4)
-    period_s: float = field(3.0, 's', 'square-wave period', 1e-3, 1e4)
+                             -1e4, 1e4, tunable=True)
+    omega_rad_s: float = field(1.0, 'rad/s', 'sine angular frequency', 0.0, 1e3, tunable=True)
+    offset: float = field(0.0, '', 'set point offset (N m, or N)', -1e4, 1e4, tunable=True)
+    period_s: float = field(3.0, 's', 'square-wave period', 1e-3, 1e4, tunable=True)
     control_period_s: float = field(0.001, 's', 'control period without lock-step', 1e-4, 1.0)
     stale_timeout_s: float = field(0.05, 's', 'vent when a measured topic is older than this '
-                                   '(without lock-step)', 1e-3, 60.0)
+                                   '(without lock-step)', 1e-3, 60.0, tunable=True)
     realtime_priority: int = field(0, '-', 'without lock-step: run the control loop SCHED_FIFO '
                                    'at this priority where allowed (0: off)', 0, 99)
     wall_loop: str = field('deadline', '-', 'without lock-step: run the control loop on a '

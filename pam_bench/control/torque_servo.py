@@ -157,10 +157,12 @@ class TorqueServoParams:
     pretension_n: float = field(300.0, 'N', 'base force F_p of both muscles', 0.0, 5000.0)
     min_force_n: float = field(50.0, 'N', 'least force set point of a muscle F_min',
                                0.0, 5000.0)
-    kp_v_per_n: float = field(0.004, 'V/N', 'PID proportional gain', 0.0, 10.0)
-    ki_v_per_n_s: float = field(0.1, 'V/(N s)', 'PID integral gain', 0.0, 100.0)
-    kd_v_s_per_n: float = field(1.0e-4, 'V s/N', 'PID derivative gain', 0.0, 10.0)
-    derivative_filter_s: float = field(0.01, 's', 'PID derivative filter T_f', 1e-5, 10.0)
+    kp_v_per_n: float = field(0.004, 'V/N', 'PID proportional gain', 0.0, 10.0, tunable=True)
+    ki_v_per_n_s: float = field(0.1, 'V/(N s)', 'PID integral gain', 0.0, 100.0, tunable=True)
+    kd_v_s_per_n: float = field(1.0e-4, 'V s/N', 'PID derivative gain', 0.0, 10.0,
+                                tunable=True)
+    derivative_filter_s: float = field(0.01, 's', 'PID derivative filter T_f', 1e-5, 10.0,
+                                       tunable=True)
     voltage_min_v: float = field(0.0, 'V', 'lowest valve voltage', 0.0, 10.0)
     voltage_max_v: float = field(6.0, 'V', 'highest valve voltage (0.6 MPa)', 0.0, 10.0)
 
@@ -212,6 +214,18 @@ class TorqueServoController:
         self.pids = [Pid(params.kp_v_per_n, params.ki_v_per_n_s, params.kd_v_s_per_n,
                          params.derivative_filter_s, params.voltage_min_v,
                          params.voltage_max_v) for _ in range(muscles)]
+
+    def retune(self, params: TorqueServoParams) -> None:
+        """Take new PID gains and derivative filter (the tunable ones) between two steps,
+        bumpless in the integral term: each channel's integral of the error is rescaled by
+        k_i,old / k_i,new so that k_i times it keeps its value (the proportional and derivative
+        terms change with their gains)."""
+        self.p = params
+        for pid in self.pids:
+            if pid.ki > 0.0 and params.ki_v_per_n_s > 0.0:
+                pid.integral *= pid.ki / params.ki_v_per_n_s
+            pid.kp, pid.ki, pid.kd = params.kp_v_per_n, params.ki_v_per_n_s, params.kd_v_s_per_n
+            pid.tf = params.derivative_filter_s
 
     def clamp_torque(self, torque_nm: float) -> tuple[float, bool]:
         """(M* within +-max_torque, whether it was clamped)."""

@@ -45,6 +45,7 @@ from pam_bench.runtime.base import BenchNode
 from pam_bench.runtime.intra import bus_subscription
 from pam_bench.runtime.messages import message_class, stamp_of_cdr, stamp_of_msg
 from pam_bench.runtime.process import run_node
+from pam_bench.runtime.qos import bag_qos, lockstep_offer
 from pam_bench.sim.lockstep import StopRequest
 
 __all__ = ['Recorder', 'main']
@@ -110,7 +111,7 @@ class Recorder(BenchNode):
         event_topics = [e for e in event_topics if e]
         for entry in list(step_topics) + list(event_topics) if self.lockstep else []:
             topic, msgtype = self._split(entry)
-            self._connect(topic, msgtype)
+            self._connect(topic, msgtype, [lockstep_offer(topic, entry in step_topics)])
         self.step_order = []
         self.written: dict[str, int] = {}
         self.sequence: dict[str, list[int]] = {}   # topic -> [first, last, count] seen
@@ -139,10 +140,20 @@ class Recorder(BenchNode):
                              functools.partial(self._write_any, topic), KEEP_ALL, raw=True)
         self.start_lockstep()
 
-    def _connect(self, topic: str, msgtype: str) -> None:
+    def _connect(self, topic: str, msgtype: str, offered: list[Any]) -> None:
+        """A connection of the bag, with the QoS profiles its publishers offer (rclpy
+        ``QoSProfile``s), stored as rosbag2 stores them: a player restores a latched topic."""
         assert self.writer is not None
-        self.writer.add_connection(topic, msgtype, typestore=self.store)
+        self.writer.add_connection(topic, msgtype, typestore=self.store,
+                                   offered_qos_profiles=[bag_qos(q) for q in offered])
         self.connections[topic] = msgtype
+
+    def _offered(self, topic: str) -> list[Any]:
+        """The QoS profiles the publishers of ``topic`` offer now (from the graph)."""
+        try:
+            return [i.qos_profile for i in self.get_publishers_info_by_topic(topic)]
+        except Exception:  # noqa: BLE001 - a graph query must not end a callback
+            return []
 
     # --- wall clock ---------------------------------------------------------------------
     def _subscribe(self, topic: str, msgtype: str, best_effort: bool) -> None:
@@ -150,8 +161,9 @@ class Recorder(BenchNode):
         old = self._wall_subs.pop(topic, None)
         if old is not None:
             self.destroy_subscription(old[0])
-        if topic not in self.connections:
-            self._connect(topic, msgtype)
+        offered = self._offered(topic)
+        if topic not in self.connections and offered:  # else at its first message (as
+            self._connect(topic, msgtype, offered)        # rosbag2, once it has publishers)
         qos = QoSProfile(depth=1000, history=HistoryPolicy.KEEP_LAST,
                          durability=DurabilityPolicy.VOLATILE,
                          reliability=ReliabilityPolicy.BEST_EFFORT if best_effort
@@ -167,6 +179,8 @@ class Recorder(BenchNode):
         """Write one message at its receive time; keep its publication sequence number."""
         if self.writer is None:
             return
+        if topic not in self.connections:
+            self._connect(topic, self._wall_subs[topic][1], self._offered(topic))
         t = (info or {}).get('received_timestamp') or time.time_ns()
         try:
             self.writer.write(topic, int(t), bytes(data))

@@ -29,6 +29,7 @@ meanwhile, so that a recorder gets the last points and status.
 from __future__ import annotations
 
 import functools
+import math
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticStatus
@@ -51,15 +52,16 @@ from pam_bench.config.protocols import load_protocols, parse_overrides, protocol
 from pam_bench.config.settings import SequencerSettings
 from pam_bench.models.constants import ATMOSPHERE_PA
 from pam_bench.protocol.io import Point, StepRecord
-from pam_bench.protocol.runner import Runner, Tick
+from pam_bench.protocol.runner import Runner, Tick, suspenders_of
 from pam_bench.protocol.schedules import with_approach
 from pam_bench.protocol.sequencer import Phase, Sequencer
 from pam_bench.runtime.base import RELIABLE, SENSOR, BenchNode, Spin
 from pam_bench.runtime.intra import bus_publisher
 from pam_bench.runtime.messages import ns_of, time_of
 from pam_bench.runtime.process import run_node
+from pam_bench.runtime.qos import LATCHED
 from pam_bench.runtime.stamped import joint_position, stamped
-from pam_bench.vocabulary.errors import ParameterError
+from pam_bench.vocabulary.errors import PamBenchError, ParameterError
 
 __all__ = ['SequencerNode', 'main']
 
@@ -101,12 +103,14 @@ class SequencerNode(BenchNode):
         self.load_pub = self.create_step_publisher(LoadCommand, topics.LOAD_COMMAND)
         self.point_pub = bus_publisher(self, CharacteristicPoint, topics.POINT, RELIABLE)
         self.record_pub = bus_publisher(self, StepResponseRecord, topics.RECORD, RELIABLE)
-        self.status_pub = bus_publisher(self, ProtocolStatus, topics.STATUS, RELIABLE)
+        self.status_pub = bus_publisher(self, ProtocolStatus, topics.STATUS, LATCHED)
         if not self.lockstep:
             for pub, topic in ((self.point_pub, topics.POINT), (self.record_pub, topics.RECORD),
                                (self.status_pub, topics.STATUS)):
                 self.counted(pub, topic)
         self._next_progress_s = 0.0
+        self._idle_status_t = -math.inf            # last status sent with no protocol running
+        self._loaded_ns: int | None = None         # when the goal's protocol was loaded
         self._goal: Any = None
         self._goal_done: Future | None = None
         self._tick_waiter: Future | None = None
@@ -202,8 +206,9 @@ class SequencerNode(BenchNode):
         t = t_ns * 1e-9
         if core is not None and core.running and t >= self._next_progress_s:
             self._next_progress_s = t + PROGRESS_PERIOD_S
-            print(f'[wall] {core.name}: {core.points_done}/{core.total_points} readings, '
-                  f'{t - core.t_start:.0f} s, ETA {core.remaining_s(t):.0f} s', flush=True)
+            self.get_logger().info(f'[wall] {core.name}: {core.points_done}/'
+                                   f'{core.total_points} readings, {t - core.t_start:.0f} s, '
+                                   f'ETA {core.remaining_s(t):.0f} s')
         self._tick(t_ns, gate)
 
     def _tick(self, t_ns: int, gate: str = '') -> None:
@@ -214,14 +219,15 @@ class SequencerNode(BenchNode):
         for note in tick.notes:
             self.diagnose(LEVELS[note.level], note.text)
         if tick.waiting:
-            names = [tp for tp, n in self.inputs.items() if n in tick.waiting]
-            self.waited_too_long(t_ns, [w for w in tick.waiting if w not in self.inputs.values()]
-                                 + names, self.settings.startup_timeout_s)
+            self._wait_or_give_up(t_ns, tick.waiting)
         self._send(stamp, tick)
         if tick.exit_code is not None:
             self.exit_code = tick.exit_code
         core = self.runner.core
         if core is None or tick.waiting:
+            if t - self._idle_status_t >= self.settings.status_period_s:
+                self._idle_status_t = t              # a late joiner learns the node is there
+                self._publish_idle(stamp, tick.waiting)
             return
         if tick.status_due:
             self._publish_status(t, stamp)
@@ -230,6 +236,29 @@ class SequencerNode(BenchNode):
             self._finish_goal()
         if tick.stop is not None:
             self.stop_request = tick.stop
+
+    def _wait_or_give_up(self, t_ns: int, waiting: list[str]) -> None:
+        """Still waiting to start: past ``startup_timeout_s`` an autostart run ends (exit 3);
+        a goal is aborted with the reason and the server stays up for the next one."""
+        names = [w for w in waiting if w not in self.inputs.values()] + \
+            [tp for tp, n in self.inputs.items() if n in waiting]
+        goal_mode = self.action is not None
+        text = self.waited_too_long(t_ns, names, self.settings.startup_timeout_s,
+                                    since_ns=self._loaded_ns if goal_mode else None,
+                                    fatal=not goal_mode)
+        if text and goal_mode:
+            self.runner.abort_start(text)
+            self.diagnose(DiagnosticStatus.ERROR, f'protocol goal aborted: {text}')
+
+    def _publish_idle(self, stamp: Any, waiting: list[str]) -> None:
+        """The status while no protocol runs: idle, or loaded and waiting for its inputs."""
+        core = self.runner.core
+        msg = ProtocolStatus(protocol=core.name if core is not None else '',
+                             state=ProtocolStatus.STATE_IDLE, phase=Phase.IDLE.value,
+                             points_total=core.total_points if core is not None else 0,
+                             reason=f'waiting for {", ".join(waiting)}' if waiting else '')
+        msg.header.stamp = stamp
+        self.status_pub.publish(msg)
 
     def _send(self, stamp: Any, tick: Tick) -> None:
         cmd = tick.commands
@@ -308,6 +337,8 @@ class SequencerNode(BenchNode):
             return GoalResponse.REJECT
         try:
             self.runner.load(self._make(goal.protocol, goal.overrides_yaml))
+            self._loaded_ns = self.now_ns()
+            self._idle_status_t = -math.inf
         except ParameterError as exc:
             self.diagnose(DiagnosticStatus.ERROR, f'protocol goal rejected: {exc}')
             return GoalResponse.REJECT
@@ -347,6 +378,22 @@ class SequencerNode(BenchNode):
         fut = self._tick_waiter
         if fut is not None and not fut.done():
             fut.set_result(True)
+
+    def check_tuning(self, new: SequencerSettings, names: list[str]) -> str:
+        """New suspenders must parse, and may not replace ones that hold the run."""
+        if 'suspenders_yaml' not in names:
+            return ''
+        if self.runner.suspenders.suspended:
+            return 'a suspender holds the run: change the suspenders once it has resumed'
+        try:
+            suspenders_of(new.suspenders_yaml)
+        except PamBenchError as exc:
+            return str(exc)
+        return ''
+
+    def on_tuned(self, old: SequencerSettings, names: list[str]) -> None:
+        """The runner takes the new status period, stale timeout and suspenders."""
+        self.runner.retune(self.settings)
 
     def on_fault(self, reason: str) -> None:
         """Abort: the next tick vents the valve."""

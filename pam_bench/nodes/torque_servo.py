@@ -59,8 +59,7 @@ class TorqueServoNode(BenchNode):
         s: TorqueServoSettings = self.settings
         self.muscles = s.muscles
         mode, model_file = s.controller, s.inverse_model_file
-        self.signal = Signal(SignalKind(s.signal), s.amplitude, s.omega_rad_s, s.offset,
-                             s.period_s)
+        self.signal = self._signal(s)
         self.latched = ''
         params = s.servo
         inverse = InverseModel.load(model_file) if model_file else None
@@ -96,6 +95,16 @@ class TorqueServoNode(BenchNode):
             self._last_tick_ns: int | None = None
             self._next_progress_ns = 0
             self.start_wall_ticks(self.settings.control_period_s)
+
+    @staticmethod
+    def _signal(s: TorqueServoSettings) -> Signal:
+        return Signal(SignalKind(s.signal), s.amplitude, s.omega_rad_s, s.offset, s.period_s)
+
+    def on_tuned(self, old: TorqueServoSettings, names: list[str]) -> None:
+        """Take a new set-point signal and PID gains between two control steps (the stale
+        timeout is read at every step)."""
+        self.signal = self._signal(self.settings)
+        self.ctl.retune(self.settings.servo)
 
     def spin_mode(self) -> Spin:
         """In lock-step the node has subscriptions only: it spins on them (a fraction of
@@ -166,8 +175,8 @@ class TorqueServoNode(BenchNode):
             self.exit_code = 0
         if self.t0_ns is not None and t_ns >= self._next_progress_ns:
             self._next_progress_ns = t_ns + 2_000_000_000
-            print(f'[wall] torque_servo: {(t_ns - self.t0_ns) * 1e-9:.0f} s of '
-                  f'{self.settings.duration_s:.0f} s', flush=True)
+            self.get_logger().info(f'[wall] torque_servo: {(t_ns - self.t0_ns) * 1e-9:.0f} s '
+                                   f'of {self.settings.duration_s:.0f} s')
         dt = 0.0 if self._last_tick_ns is None else (t_ns - self._last_tick_ns) * 1e-9
         self._last_tick_ns = t_ns
         stale = ''

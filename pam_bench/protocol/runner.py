@@ -36,7 +36,7 @@ from pam_bench.protocol.suspenders import INPUTS, Suspenders, parse_rules
 from pam_bench.sim.lockstep import EventStepRequest, StopRequest
 from pam_bench.vocabulary.yaml_io import load_yaml
 
-__all__ = ['Runner', 'Tick', 'Note', 'END_CODES', 'INPUTS']
+__all__ = ['Runner', 'Tick', 'Note', 'END_CODES', 'INPUTS', 'suspenders_of']
 
 END_CODES = {Phase.DONE: 0, Phase.ABORTED: 4, Phase.CANCELLED: 5}
 """Exit code of a run that ended in each phase."""
@@ -77,6 +77,15 @@ class Tick:
         return self.commands.record
 
 
+def suspenders_of(text: str) -> Suspenders:
+    """The suspenders of a ``suspenders_yaml`` setting.
+
+    Raises:
+        ParameterError: not YAML, or a rule that is not one (named).
+    """
+    return Suspenders(parse_rules(load_yaml(text, 'suspenders') if text else []))
+
+
 VENTED = Commands(0.0, LoadMode.OFF, 0.0, None)
 
 
@@ -100,8 +109,7 @@ class Runner:
         self.labels = {n: (labels or {}).get(n, n) for n in INPUTS}
         self.limits = settings.limits()
         self.pause_vent = settings.pause_action == 'vent'
-        text = settings.suspenders_yaml
-        self.suspenders = Suspenders(parse_rules(load_yaml(text, 'suspenders') if text else []))
+        self.suspenders = suspenders_of(settings.suspenders_yaml)
         self.core: Sequencer | None = None
         self.meas = Measurement(0.0, 0.0, 0.0)
         self.samples: list[tuple[float, float]] = []     # load-cell (stamp s, N) since a tick
@@ -142,6 +150,17 @@ class Runner:
     def busy(self) -> bool:
         """A protocol is running or about to start (a new one is refused)."""
         return self.core is not None and (self.core.running or self.start_pending)
+
+    def retune(self, settings: RunnerSettings) -> None:
+        """Take new tunable settings (status period, stale timeout, suspenders) between two
+        ticks; new suspenders start unheld."""
+        if settings.suspenders_yaml != self.settings.suspenders_yaml:
+            self.suspenders = suspenders_of(settings.suspenders_yaml)
+            self.bands = {r.input: (r.low, r.high) for r in self.suspenders.rules
+                          if r.input in ('force', 'contraction')}
+            if self.core is not None:
+                self.core.bands = dict(self.bands)
+        self.settings = settings
 
     # --- inputs -------------------------------------------------------------------------
     def measured(self, name: str, value: float, stamp_s: float) -> str:
@@ -192,9 +211,25 @@ class Runner:
                     if self.suspenders.suspended else 'nothing to resume')
 
     def cancel(self, reason: str = 'cancelled by the client') -> None:
-        """Cancel a running protocol (vented at the next tick)."""
-        if self.core is not None and self.core.running:
-            self.core.stop(Phase.CANCELLED, reason)
+        """Cancel the protocol, running or still waiting to start (vented at the next
+        tick)."""
+        self._end_early(Phase.CANCELLED, reason)
+
+    def abort_start(self, reason: str) -> None:
+        """Give up a protocol that waits to start (its inputs did not come): it ends
+        ABORTED with ``reason``, and the node serving goals stays up for the next one."""
+        if self.start_pending:
+            self._end_early(Phase.ABORTED, reason)
+
+    def _end_early(self, phase: Phase, reason: str) -> None:
+        core = self.core
+        if core is None:
+            return
+        if self.start_pending:                   # not started: it ends before its settle
+            self.start_pending = False
+            core.stop(phase, reason)
+        elif core.running:
+            core.stop(phase, reason)
 
     def fault(self, reason: str) -> None:
         """The node failed a step: abort (vented at the next tick)."""

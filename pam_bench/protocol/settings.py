@@ -51,19 +51,20 @@ class Limits:
 class RunnerSettings(Limits):
     """What the protocol runner decides besides the schedule (``protocol.runner``)."""
 
-    status_period_s: float = field(1.0, 's', 'sim time between status messages', 1e-3, 1e6)
+    status_period_s: float = field(1.0, 's', 'sim time between status messages', 1e-3, 1e6,
+                                   tunable=True)
     stop_on_end: bool = field(True, '-', 'end the run with the protocol (lock-step: ask the '
                               'sim clock; wall clock: exit after end_linger_s)')
     end_linger_s: float = field(0.5, 's', 'without lock-step: time between the end of the '
                                 'protocol and the exit of the node (stop_on_end)', 0.0, 60.0)
     stale_timeout_s: float = field(0.5, 's', 'abort when a measured topic is older than this '
-                                   '(without lock-step)', 1e-3, 60.0)
+                                   '(without lock-step)', 1e-3, 60.0, tunable=True)
     pause_action: str = field('hold', '-', "what a pause does: 'hold' the reading's set values "
                               "or 'vent' (0 V, drive off; the resume settles again)",
                               choices=PAUSE_ACTIONS)
     suspenders_yaml: str = field('', '-', 'YAML list of suspenders: {input: force | contraction '
                                  '| pressure, low, high, stale_s, resume_after_s} '
-                                 '(protocol.suspenders)')
+                                 '(protocol.suspenders)', tunable=True)
     reading_outliers: str = field('report', '-', "a sample of a reading's window outside a "
                                   "suspender's band is left out of the mean and 'report'ed "
                                   "with the reading (diagnostics), or 'suspend's the run",

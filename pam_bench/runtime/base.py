@@ -4,8 +4,9 @@ Every node of the bench is a ``BenchNode``: it declares its ROS parameters from 
 dataclass (``SETTINGS``, ``config.settings``; ``runtime.params``) and keeps the result in
 ``settings``, publishes diagnostics (``runtime.core``), and steps either in lock-step with the
 sim clock (``runtime.lockstep``) or on its own wall clock (``runtime.wallclock``), with faults
-injected on a wall clock (``runtime.faults``) and its publish counts and loop periods kept for
-the run's statistics (``runtime.stats``). ``spin_mode`` says how its process spins it
+injected on a wall clock (``runtime.faults``), its publish counts and loop periods kept for
+the run's statistics (``runtime.stats``) and its tunable settings changed while it runs
+(``runtime.tuning``). ``spin_mode`` says how its process spins it
 (``runtime.process.run_node``). In lock-step a node starts without its parameter services
 (parameters are read once; fewer entities per wake-up); on a wall clock it has them.
 """
@@ -26,12 +27,13 @@ from pam_bench.runtime.lockstep import Lockstep
 from pam_bench.runtime.params import declare_settings
 from pam_bench.runtime.qos import DRIVER, LOCKSTEP, RELIABLE, SENSOR
 from pam_bench.runtime.stats import Stats
+from pam_bench.runtime.tuning import Tuning
 from pam_bench.runtime.wallclock import WallClock
 
 __all__ = ['BenchNode', 'Spin', 'RELIABLE', 'LOCKSTEP', 'DRIVER', 'SENSOR', 'NodeCore']
 
 
-class BenchNode(Lockstep, WallClock, FaultInjection, Stats):
+class BenchNode(Lockstep, WallClock, FaultInjection, Stats, Tuning):
     """Base of every bench node (module docstring)."""
 
     SETTINGS: ClassVar[type] = NodeSettings
@@ -63,6 +65,7 @@ class BenchNode(Lockstep, WallClock, FaultInjection, Stats):
         self._init_wallclock()
         self._init_faults()
         self._init_stats()
+        self._init_tuning()
         if getattr(self.settings, 'lockstep', True) is False:
             from rclpy.parameter_service import ParameterService
             self._parameter_service = ParameterService(self)

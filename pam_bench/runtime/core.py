@@ -80,6 +80,10 @@ class NodeCore(Node):
         """One tick of the node's loop, now (``runtime.stats``)."""
         raise NotImplementedError
 
+    def apply_tuning(self) -> None:
+        """Take the settings changed since the last step (``runtime.tuning``)."""
+        raise NotImplementedError
+
     # --- to override -------------------------------------------------------------------
     def on_start(self, t_ns: int) -> None:
         """Called once at t_0, when the inputs have publishers."""

@@ -220,6 +220,7 @@ class Lockstep(NodeCore):
         self._last_ns = t
         self._step_index += 1
         try:
+            self.apply_tuning()
             self.on_step(t, (t - prev) * 1e-9, inputs)
         except Exception as exc:  # noqa: BLE001 - a callback must never let an exception out
             self.step_failed(exc)

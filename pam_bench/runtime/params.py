@@ -10,6 +10,7 @@ not have.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from typing import Any, TypeVar
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
@@ -18,14 +19,15 @@ from rclpy.parameter import Parameter
 
 from pam_bench.vocabulary.params import ParamInfo, describe, flat_infos, from_mapping, get_path
 
-__all__ = ['descriptor', 'declare_settings', 'overrides_of', 'ros_value']
+__all__ = ['descriptor', 'declare_settings', 'overrides_of', 'ros_value', 'wildcard_only_keys']
 
 T = TypeVar('T')
 
 
 def descriptor(info: ParamInfo) -> ParameterDescriptor:
-    """The ROS descriptor of one setting: description, and its range where it has one."""
-    desc = ParameterDescriptor(description=describe(info))
+    """The ROS descriptor of one setting: description, its range where it has one, and
+    read-only unless the setting is tunable (``runtime.tuning``)."""
+    desc = ParameterDescriptor(description=describe(info), read_only=not info.tunable)
     low, high = info.low, info.high
     if low is None and high is None:
         return desc
@@ -74,3 +76,49 @@ def overrides_of(settings: Any) -> list[Parameter]:
     with these instead of a params file), typed as the node declares it."""
     return [Parameter(info.name, value=ros_value(info, get_path(settings, info.name)))
             for info in flat_infos(type(settings))]
+
+
+def _sections(tree: Any, path: tuple[str, ...] = ()) -> Iterator[tuple[tuple[str, ...], Any]]:
+    """The node sections of an rcl params file: (node path, its ``ros__parameters``)."""
+    if not isinstance(tree, dict):
+        return
+    for key, value in tree.items():
+        if key == 'ros__parameters':
+            yield path, value
+        else:
+            yield from _sections(value, (*path, *str(key).strip('/').split('/')))
+
+
+def _flat(params: Any, prefix: str = '') -> Iterator[str]:
+    if isinstance(params, dict):
+        for key, value in params.items():
+            yield from _flat(value, f'{prefix}{key}.')
+    else:
+        yield prefix[:-1]
+
+
+def wildcard_only_keys(args: list[str]) -> set[str]:
+    """The parameter keys that reach a node only through a wildcard section (``/**:``,
+    ``/*/name`` is the node's own) of the ``--params-file`` files in ``args``: a file shared
+    by several nodes may set a key one of them does not have, which that node then ignores
+    with a warning instead of refusing to start.
+
+    Args:
+        args: the process's arguments (the ROS ones after ``--ros-args``).
+
+    Raises:
+        InputError: a params file cannot be read or parsed (rclpy has read it already).
+    """
+    import pathlib
+
+    from pam_bench.vocabulary.yaml_io import read_yaml
+    files = [args[i + 1] for i, a in enumerate(args[:-1]) if a == '--params-file']
+    own: set[str] = {a.split(':=', 1)[0] for i, a in enumerate(args[1:], 1)
+                     if args[i - 1] == '-p' and ':=' in a}
+    wild: set[str] = set()
+    for path in files:
+        tree = read_yaml(pathlib.Path(path))
+        for node_path, params in _sections(tree):
+            keys = set(_flat(params))
+            (wild if node_path and '*' in node_path[-1] else own).update(keys)
+    return wild - own

@@ -21,6 +21,7 @@ from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
+from pam_bench.runtime.params import wildcard_only_keys
 from pam_bench.runtime.profiling import profiled
 from pam_bench.vocabulary.errors import PamBenchError
 from pam_bench.vocabulary.params import check_known
@@ -228,22 +229,35 @@ def _drain(subs: list[Any], wait_set: Any, with_info: set[int], quiet_s: float =
                     sub.callback(taken[0])
 
 
-def reject_undeclared(node: Node, overrides: list[Any] | None = None) -> None:
+def reject_undeclared(node: Node, overrides: list[Any] | None = None,
+                      args: list[str] | None = None) -> None:
     """Stop a node given a parameter it does not declare (a misspelt key in a params file or a
-    scene would otherwise be ignored and the default used).
+    scene would otherwise be ignored and the default used). A key that reaches it only through
+    a wildcard section (``/**:``, shared by several nodes) is ignored with a warning.
 
     Args:
         node: a node after its constructor declared every parameter.
         overrides: the ``Parameter`` overrides it was built with (default: those rclpy
             resolved for it from ``--params-file`` and ``-p``).
+        args: the arguments rclpy was given (default ``sys.argv``): where the params files
+            are, to tell a wildcard section's keys.
 
     Raises:
         ParameterError: names the unknown key and the nearest declared one.
     """
+    import sys
     names = ([p.name for p in overrides] if overrides is not None
              else list(getattr(node, '_parameter_overrides', {})))
     declared = node.list_parameters([], 0).names
-    check_known(names, declared, f'node {node.get_name()}: parameters')
+    wild = wildcard_only_keys(sys.argv if args is None else args) if overrides is None \
+        else set()
+    check_known([n for n in names if n not in wild], declared,
+                f'node {node.get_name()}: parameters')
+    ignored = sorted(n for n in names if n in wild and n not in declared)
+    if ignored:
+        node.get_logger().warning(f'a wildcard section of the params file sets '
+                                  f'{", ".join(ignored)}, which this node does not have: '
+                                  'ignored')
 
 
 def install_interrupt_handlers() -> None:
@@ -298,7 +312,7 @@ def spin(node: Any) -> int:
         priority = getattr(node.settings, 'realtime_priority', 0)
         if priority:
             node.get_logger().info(f'control loop: {set_realtime_priority(priority)}')
-        deadline_spin([node], node.on_wall_tick, node.take_wall_ticks(),
+        deadline_spin([node], node.wall_tick, node.take_wall_ticks(),
                       serve_services(node), should_stop=lambda: node.exit_code is not None)
         return int(node.exit_code or 0)
     if mode == Spin.LEAN:

@@ -52,7 +52,16 @@ class WallClock(NodeCore):
         compiled.use('python')
         self.wall_period_s = period_s
         self.count_periods(period_s)
-        self.wall_timer = self.create_timer(period_s, self.on_wall_tick)
+        self.wall_timer = self.create_timer(period_s, self.wall_tick)
+
+    def wall_tick(self, t_ns: int | None = None) -> None:
+        """``on_wall_tick`` guarded: whatever it raises is diagnosed and puts the node in its
+        safe state (``step_failed``) instead of leaving the timer's callback."""
+        try:
+            self.apply_tuning()
+            self.on_wall_tick(t_ns)
+        except Exception as exc:  # noqa: BLE001 - a callback must never let an exception out
+            self.step_failed(exc)
 
     def take_wall_ticks(self) -> float:
         """Stop the node's own timer: the caller ticks ``on_wall_tick`` from now on (on a
@@ -106,35 +115,38 @@ class WallClock(NodeCore):
         except Exception as exc:  # noqa: BLE001 - a callback must never let an exception out
             self.step_failed(exc)
 
-    def waited_too_long(self, t_ns: int, waiting_for: list[str], timeout_s: float) -> bool:
-        """On a wall clock: whether a controller has waited more than ``timeout_s`` since its
-        first tick for the topics ``waiting_for``; if so it says which (one line on stderr
-        and /diagnostics) and sets ``exit_code`` 3."""
+    def waited_too_long(self, t_ns: int, waiting_for: list[str], timeout_s: float,
+                        since_ns: int | None = None, fatal: bool = True) -> str:
+        """On a wall clock: whether a controller has waited more than ``timeout_s`` (since
+        ``since_ns``, default its first tick) for the topics ``waiting_for``. If so it says
+        which (one line on the log and /diagnostics) and, when ``fatal``, sets ``exit_code``
+        3. Returns that line ('' while within the timeout)."""
         if self._first_tick_ns is None:
             self._first_tick_ns = t_ns
-        if not waiting_for or t_ns - self._first_tick_ns < timeout_s * 1e9:
-            return False
-        if self.exit_code is None:
-            text = (f'no data on {", ".join(waiting_for)} after {timeout_s:g} s: are the '
-                    'devices (or drivers) running?')
+        start = self._first_tick_ns if since_ns is None else since_ns
+        if not waiting_for or t_ns - start < timeout_s * 1e9:
+            return ''
+        text = (f'no data on {", ".join(waiting_for)} after {timeout_s:g} s: are the '
+                'devices (or drivers) running?')
+        if fatal and self.exit_code is None:
             self.diagnose(DiagnosticStatus.ERROR, text)
             print(f'{self.get_name()}: error: {text}', file=sys.stderr, flush=True)
             self.exit_code = 3
-        return True
+        return text
 
-    def recorder_listens(self, topic: str) -> bool:
-        """Whether the run's recorder (the node called ``recorder``) subscribes to ``topic``:
-        another subscriber, such as the live view, does not count (what a controller
-        publishes before the recorder is there goes unrecorded). The graph is asked until the
-        recorder is seen, not at every tick after."""
+    def recorder_listens(self, topic: str, recorder: str = 'recorder') -> bool:
+        """Whether the run's recorder (the node called ``recorder``, in any namespace)
+        subscribes to ``topic`` as this node resolves it: another subscriber, such as the
+        live view, does not count (what a controller publishes before the recorder is there
+        goes unrecorded). The graph is asked until the recorder is seen, not at every tick
+        after."""
         if topic in self._recorded:
             return True
-        name = topic if topic.startswith('/') else f'/{topic}'
         try:
-            infos = self.get_subscriptions_info_by_topic(name)
+            infos = self.get_subscriptions_info_by_topic(self.resolve_topic_name(topic))
         except Exception:  # noqa: BLE001 - a graph query must not end a callback
             return False
-        if any(i.node_name == 'recorder' for i in infos):
+        if any(i.node_name == recorder for i in infos):
             self._recorded.add(topic)
             return True
         return False

@@ -40,14 +40,18 @@ class ParamInfo:
     text: str
     choices: tuple[str, ...] = ()
     item: type = float
+    tunable: bool = False
 
 
 def field(default: Any, unit: str, text: str, low: float | None = None,
-          high: float | None = None, choices: Iterable[str] = (), item: type = float) -> Any:
+          high: float | None = None, choices: Iterable[str] = (), item: type = float,
+          tunable: bool = False) -> Any:
     """A dataclass field with unit, range (or the strings it may take) and description in its
-    metadata; ``item`` is the element type of a list setting (``float`` or ``str``)."""
+    metadata; ``item`` is the element type of a list setting (``float`` or ``str``);
+    ``tunable``: a running node takes a new value (``set_parameters``, ``runtime.tuning``),
+    else its ROS parameter is read-only."""
     meta = {'unit': unit, 'low': low, 'high': high, 'text': text,
-            'choices': tuple(choices), 'item': item}
+            'choices': tuple(choices), 'item': item, 'tunable': tunable}
     if isinstance(default, list):
         return dataclasses.field(default_factory=lambda: list(default), metadata=meta)
     return dataclasses.field(default=default, metadata=meta)
@@ -72,7 +76,8 @@ def _info(f: dataclasses.Field, name: str) -> ParamInfo:
     default = f.default if f.default is not dataclasses.MISSING else factory()
     m = f.metadata
     return ParamInfo(name, default, m.get('unit', ''), m.get('low'), m.get('high'),
-                     m.get('text', ''), tuple(m.get('choices', ())), m.get('item', float))
+                     m.get('text', ''), tuple(m.get('choices', ())), m.get('item', float),
+                     bool(m.get('tunable', False)))
 
 
 def param_infos(cls: type) -> list[ParamInfo]:

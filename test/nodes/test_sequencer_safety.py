@@ -172,3 +172,69 @@ def test_pause_and_resume_services_and_a_suspender(harness_factory) -> None:
     phases = [s.phase for s in h.received['protocol/status']]
     assert phases[-1] == 'settle' and last.state == ProtocolStatus.STATE_RUNNING
     assert any('suspended' in st.message for d in h.diagnostics for st in d.status)
+
+
+def _goal(h: Harness, client: ActionClient, protocol: str = 'isometric_quick'):
+    send = client.send_goal_async(RunProtocol.Goal(protocol=protocol))
+    h.spin_until(send.done)
+    goal = send.result()
+    assert goal.accepted
+    return goal
+
+
+def _spin(h: Harness, seconds: float) -> None:
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        h.executor.spin_once(timeout_sec=0.01)
+
+
+def test_cancel_while_waiting_for_inputs_ends_the_goal_cancelled(harness_factory) -> None:
+    h = harness_factory(False)
+    client = ActionClient(h.tester, RunProtocol, 'protocol/run')
+    h.spin_until(lambda: client.server_is_ready())
+    goal = _goal(h, client)
+    _spin(h, 0.2)                                       # no device publishes: it waits
+    waiting = [s for s in h.received['protocol/status'] if 'waiting for' in s.reason]
+    assert waiting and waiting[-1].state == ProtocolStatus.STATE_IDLE
+    cancel = goal.cancel_goal_async()
+    h.spin_until(cancel.done)
+    result = goal.get_result_async()
+    h.spin_until(result.done, timeout_s=5.0)
+    assert result.result().status == GoalStatus.STATUS_CANCELED
+    assert h.received['valve_1/command'][-1].voltage == 0.0
+    assert h.received['loading_servo/command'][-1].mode == LoadCommand.MODE_OFF
+    assert h.node.exit_code is None                       # the server stays up
+
+
+def test_startup_timeout_aborts_the_goal_and_keeps_the_server(harness_factory) -> None:
+    h = harness_factory(False, startup_timeout_s=0.3)
+    client = ActionClient(h.tester, RunProtocol, 'protocol/run')
+    h.spin_until(lambda: client.server_is_ready())
+    _spin(h, 0.5)                 # idle longer than the timeout: no goal, nothing to abort
+    goal = _goal(h, client)
+    result = goal.get_result_async()
+    h.spin_until(result.done, timeout_s=5.0)
+    assert result.result().status == GoalStatus.STATUS_ABORTED
+    assert 'no data on' in result.result().result.reason
+    assert h.node.exit_code is None
+    goal = _goal(h, client)                     # the next goal is served, and runs
+    end = time.monotonic() + 0.5
+    while time.monotonic() < end:
+        feed(h, 0.05)
+    assert h.received['protocol/status'][-1].state == ProtocolStatus.STATE_RUNNING
+    cancel = goal.cancel_goal_async()
+    h.spin_until(cancel.done)
+    result = goal.get_result_async()
+    while not result.done():
+        feed(h, 0.05)
+    assert result.result().status == GoalStatus.STATUS_CANCELED
+
+
+def test_status_is_latched_for_a_late_joiner(harness_factory) -> None:
+    from pam_bench.runtime.qos import LATCHED
+    h = harness_factory(False, status_period_s=30.0)
+    _spin(h, 0.3)                                   # one idle status, then none for 30 s
+    got: list[ProtocolStatus] = []
+    h.tester.create_subscription(ProtocolStatus, 'protocol/status', got.append, LATCHED)
+    h.spin_until(lambda: bool(got), timeout_s=5.0)
+    assert got[0].state == ProtocolStatus.STATE_IDLE and got[0].protocol == ''
