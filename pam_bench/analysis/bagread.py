@@ -105,10 +105,11 @@ def read_bags(paths: Iterable[str | pathlib.Path]) -> BagData:
     for path in bags:
         reader = open_bag(path)
         try:
-            conns = [c for c in reader.connections if c.topic in (POINT_TOPIC, RECORD_TOPIC)]
+            conns = [c for c in reader.connections if topics.same_topic(c.topic, POINT_TOPIC)
+                     or topics.same_topic(c.topic, RECORD_TOPIC)]
             for conn, _, raw in reader.messages(connections=conns):
                 msg: Any = store.deserialize_cdr(raw, conn.msgtype)
-                if conn.topic == POINT_TOPIC:
+                if topics.same_topic(conn.topic, POINT_TOPIC):
                     t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
                     rows.setdefault(msg.protocol, []).append(
                         (t, msg.series, msg.step, msg.direction, msg.series_value,
@@ -137,7 +138,8 @@ def read_bags(paths: Iterable[str | pathlib.Path]) -> BagData:
 
 
 def topic_messages(path: str | pathlib.Path, topic: str) -> list[Any]:
-    """Every message of ``topic`` in a bag, decoded, in log-time order.
+    """Every message of ``topic`` in a bag (recorded in any namespace), decoded, in log-time
+    order.
 
     Raises:
         BagError: the bag cannot be opened or read.
@@ -145,7 +147,7 @@ def topic_messages(path: str | pathlib.Path, topic: str) -> list[Any]:
     store = bench_typestore()
     reader = open_bag(pathlib.Path(path))
     try:
-        conns = [c for c in reader.connections if c.topic == topic]
+        conns = [c for c in reader.connections if topics.same_topic(c.topic, topic)]
         return [store.deserialize_cdr(raw, c.msgtype)
                 for c, _, raw in reader.messages(connections=conns)]
     except Exception as exc:  # noqa: BLE001 - truncated chunks, bad CDR, ...

@@ -29,7 +29,7 @@ def read_servo_states(path: str | pathlib.Path) -> dict[str, np.ndarray]:
     reader = open_bag(pathlib.Path(path))
     rows = []
     try:
-        conns = [c for c in reader.connections if c.topic == SERVO_TOPIC]
+        conns = [c for c in reader.connections if topics.same_topic(c.topic, SERVO_TOPIC)]
         for conn, _, raw in reader.messages(connections=conns):
             m: Any = store.deserialize_cdr(raw, conn.msgtype)
             rows.append((m.header.stamp.sec + m.header.stamp.nanosec * 1e-9, m.torque_setpoint,

@@ -22,8 +22,8 @@ from pam_bench.config.nodes import NODES
 from pam_bench.sim.lockstep import RunSummary
 
 __all__ = ['RunResult', 'ros_env', 'die_with_parent', 'batch_child', 'result_of', 'node_error',
-           'write_params_file', 'ros_params', 'node_cmd', 'write_end_state', 'copy_lines',
-           'stop_processes']
+           'write_params_file', 'ros_params', 'node_cmd', 'ns_args', 'write_end_state',
+           'copy_lines', 'stop_processes']
 
 
 @dataclasses.dataclass
@@ -122,10 +122,16 @@ def write_params_file(settings: dict[str, Any], path: str) -> None:
         yaml.safe_dump(ros_params(settings), fh)
 
 
-def node_cmd(name: str, pfile: str) -> list[str]:
-    """The command line that starts node ``name`` with the params file ``pfile``."""
+def ns_args(namespace: str) -> list[str]:
+    """The ROS arguments that put a node in ``namespace`` (none for the root)."""
+    return ['-r', f'__ns:={namespace}'] if namespace.strip('/') else []
+
+
+def node_cmd(name: str, pfile: str, namespace: str = '') -> list[str]:
+    """The command line that starts node ``name`` with the params file ``pfile`` in
+    ``namespace`` ('': the root)."""
     return [sys.executable, '-m', NODES[name].module, '--ros-args', '-r', f'__node:={name}',
-            '--params-file', pfile]
+            '--params-file', pfile, *ns_args(namespace)]
 
 
 def write_end_state(settings: dict[str, Any], code: int | None) -> None:

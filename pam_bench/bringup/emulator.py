@@ -50,11 +50,12 @@ MAX_BEHIND_S = 1.0
 of a second the bench starts again from now instead of replaying it."""
 
 
-def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVICE_PRIORITY
-                 ) -> int:
-    """Build the device nodes ``names`` with ``params`` (params-file layout) and tick them
-    until SIGINT or SIGTERM, SCHED_FIFO at ``priority`` where allowed (0: ordinary); return
-    the exit code (2: a bad parameter, one line printed)."""
+def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVICE_PRIORITY,
+                 namespace: str = '') -> int:
+    """Build the device nodes ``names`` in ``namespace`` ('': the root) with ``params``
+    (params-file layout) and tick them until SIGINT or SIGTERM, SCHED_FIFO at ``priority``
+    where allowed (0: ordinary); return the exit code (2: a bad parameter, one line
+    printed)."""
     import importlib
 
     import rclpy
@@ -91,7 +92,8 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
             cls = getattr(importlib.import_module(t.module), t.cls)
             overrides = overrides_of(settings[name])
             try:
-                node = cls(name, parameter_overrides=overrides, bus=bus)
+                node = cls(name, parameter_overrides=overrides, bus=bus,
+                           **({'namespace': namespace} if namespace else {}))
                 reject_undeclared(node, overrides)
             except (PamBenchError, ParameterException) as exc:
                 print(fail_line(name, exc), file=sys.stderr, flush=True)
@@ -154,13 +156,18 @@ def main(argv: list[str] | None = None) -> None:
     from pam_bench.vocabulary.yaml_io import read_yaml
     args = list(sys.argv[1:] if argv is None else argv)
     priority = DEVICE_PRIORITY
-    if args[:1] == ['--priority'] and len(args) > 1:
-        priority, args = int(args[1]), args[2:]
+    namespace = ''
+    while args[:1] in (['--priority'], ['--namespace']) and len(args) > 1:
+        if args[0] == '--priority':
+            priority = int(args[1])
+        else:
+            namespace = args[1]
+        args = args[2:]
     if len(args) < 2:
-        print('usage: python -m pam_bench.bringup.emulator [--priority N] PARAMS_FILE NODE '
-              '[NODE ...]', file=sys.stderr)
+        print('usage: python -m pam_bench.bringup.emulator [--priority N] [--namespace NS] '
+              'PARAMS_FILE NODE [NODE ...]', file=sys.stderr)
         sys.exit(2)
-    sys.exit(run_emulator(args[1:], read_yaml(pathlib.Path(args[0])), priority))
+    sys.exit(run_emulator(args[1:], read_yaml(pathlib.Path(args[0])), priority, namespace))
 
 
 if __name__ == '__main__':

@@ -20,7 +20,7 @@ import threading
 from collections.abc import Iterator
 from typing import Any
 
-from pam_bench.bringup.common import die_with_parent, ros_env, write_params_file
+from pam_bench.bringup.common import die_with_parent, ns_args, ros_env, write_params_file
 from pam_bench.config.settings import LiveViewSettings
 from pam_bench.live.errors import LiveViewError
 
@@ -45,8 +45,9 @@ def live_topics(settings: dict[str, Any]) -> list[str]:
 
 @contextlib.contextmanager
 def live_view(live: LiveViewSettings | None, domain_id: int | None = None,
-              quiet: bool = False) -> Iterator[subprocess.Popen | None]:
-    """Run the live view with ``live`` (None: no live view) for the ``with`` block.
+              quiet: bool = False, namespace: str = '') -> Iterator[subprocess.Popen | None]:
+    """Run the live view with ``live`` (None: no live view) for the ``with`` block, on the
+    bench in ``namespace`` ('': the root).
 
     Raises:
         LiveViewError: it did not start (port in use, bad address): its one line.
@@ -59,8 +60,9 @@ def live_view(live: LiveViewSettings | None, domain_id: int | None = None,
         write_params_file({'live_view': live}, pfile)
         proc = subprocess.Popen([sys.executable, '-m', 'pam_bench.nodes.live_view',
                                  '--ros-args', '-r', '__node:=live_view', '--params-file',
-                                 pfile], env=ros_env(domain_id), stdout=subprocess.PIPE,
-                                stderr=subprocess.STDOUT, text=True, preexec_fn=die_with_parent)
+                                 pfile, *ns_args(namespace)], env=ros_env(domain_id),
+                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                                preexec_fn=die_with_parent)
         try:
             _wait_ready(proc, quiet)
             yield proc

@@ -80,8 +80,9 @@ def wall_settings(scene: Scene, settings: dict[str, Any], stats_dir: str = ''
 
 
 def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None, quiet: bool,
-                   device_processes: bool, devices_only: bool = False) -> RunResult:
-    """Run the scene on the wall clock (module docstring)."""
+                   device_processes: bool, devices_only: bool = False, namespace: str = ''
+                   ) -> RunResult:
+    """Run the scene on the wall clock (module docstring), every node in ``namespace``."""
     import json
 
     env = ros_env(domain_id)
@@ -111,7 +112,7 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
         started = False                    # whether devices and controllers were started
         try:
             if 'recorder' in scene.nodes:
-                rec = start('recorder', node_cmd('recorder', pfile), pipe=True)
+                rec = start('recorder', node_cmd('recorder', pfile, namespace), pipe=True)
                 assert rec.stdout is not None
                 recording = False
                 for line in rec.stdout:      # wait until it has subscribed to its topics
@@ -128,12 +129,14 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
             started = True
             if device_processes:
                 for name in device_names:
-                    start(name, node_cmd(name, pfile))
+                    start(name, node_cmd(name, pfile, namespace))
             elif device_names:
-                start('emulator', [sys.executable, '-m', 'pam_bench.bringup.emulator', pfile,
+                start('emulator', [sys.executable, '-m', 'pam_bench.bringup.emulator',
+                                   *(['--namespace', namespace] if namespace else []), pfile,
                                    *device_names])
             for name in controller_names:
-                start(name, node_cmd(name, pfile), pipe=name == controller_names[0])
+                start(name, node_cmd(name, pfile, namespace),
+                      pipe=name == controller_names[0])
             kills = [f for f in scene.faults if f.kind == 'node_kill']
             main = procs[controller_names[0] if controller_names else 'emulator']
             if devices_only and not quiet:

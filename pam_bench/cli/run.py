@@ -49,6 +49,8 @@ def register(sub: Any) -> None:
     add_bag_options(p)
     add_live_options(p, '--live', 'serve the recorded topics to Foxglove during the run on '
                      'ws://127.0.0.1:PORT (README, "Watching a run")')
+    add_namespace_option(p, 'with --wallclock: run every node in this ROS namespace, so that '
+                         'two benches share a domain without mixing')
     p.set_defaults(func=_cmd_run)
     p = sub.add_parser('record', help='record topics of a running graph on the wall clock '
                        '(like ros2 bag record), until Ctrl-C')
@@ -62,12 +64,14 @@ def register(sub: Any) -> None:
     p.add_argument('scene', nargs='?', default='demo', help="scene whose recorder's topics to "
                    'serve (default demo)')
     add_live_options(p, '--port', 'TCP port of the server')
+    add_namespace_option(p, 'the namespace of the bench to serve')
     p.set_defaults(func=_cmd_live)
     p = sub.add_parser('emulate', help="run only a scene's simulated devices on the wall "
                        'clock, until Ctrl-C (a bench for your own controllers)')
     p.add_argument('scene', nargs='?', default='demo')
     p.add_argument('--seed', type=integer(0, 2**31 - 1), default=0,
                    help='seed of the sensor noise')
+    add_namespace_option(p, 'run the devices in this ROS namespace')
     p.set_defaults(func=_cmd_emulate)
     p = sub.add_parser('check-drivers', help='join a running bench and check that its drivers '
                        'meet the contract (docs/drivers.md)')
@@ -75,6 +79,7 @@ def register(sub: Any) -> None:
                    'the drivers (default demo: the sequencer)')
     p.add_argument('--duration', type=number(0, 3600, 's', True), default=3.0,
                    help='listening time, s')
+    add_namespace_option(p, 'the namespace of the bench whose drivers to check')
     p.set_defaults(func=_cmd_check_drivers)
     p = sub.add_parser('params', help="every setting of a scene's nodes: path, value, unit, "
                        'range and meaning (what --set, overlays and sweeps address)')
@@ -88,6 +93,22 @@ def register(sub: Any) -> None:
     p.add_argument('--overwrite', action='store_true', help='replace a --ros-yaml FILE '
                    'pam-bench wrote')
     p.set_defaults(func=_cmd_params)
+
+
+def _namespace(text: str) -> str:
+    """A ROS namespace: tokens of letters, digits and underscores (not starting with a
+    digit) joined by '/'; made absolute."""
+    import re
+    ns = '/' + text.strip().strip('/')
+    if ns != '/' and not re.fullmatch(r'(/[A-Za-z_][A-Za-z0-9_]*)+', ns):
+        raise argparse.ArgumentTypeError(f'{shorten(text)!r} is not a ROS namespace (tokens '
+                                         'of letters, digits and _, e.g. /bench_a)')
+    return '' if ns == '/' else ns
+
+
+def add_namespace_option(p: argparse.ArgumentParser, text: str) -> None:
+    """``--namespace NS``: where the bench's nodes run (default: the root)."""
+    p.add_argument('--namespace', type=_namespace, default='', metavar='NS', help=text)
 
 
 def _live_setting(name: str, convert: Any) -> Any:
@@ -314,6 +335,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
             seed=args.seed, layout=layout, realtime=args.realtime,
             device_processes=args.device_processes, settings=settings,
             netns=tuple(args.netns.split(':', 1)) if args.netns else None,
+            namespace=args.namespace,
             live=live_settings(args, args.live) if args.live is not None else None))
         code = res.code
     except KeyboardInterrupt:
@@ -382,7 +404,7 @@ def _cmd_live(args: argparse.Namespace) -> int:
     live = live_settings(args, args.port)
     live = dataclasses.replace(live, topics=live_topics(scene.settings('', 0, False)))
     try:
-        with live_view(live) as proc:
+        with live_view(live, namespace=args.namespace) as proc:
             assert proc is not None
             proc.wait()
     except KeyboardInterrupt:
@@ -394,7 +416,8 @@ def _cmd_emulate(args: argparse.Namespace) -> int:
     from pam_bench.bringup.runner import Layout, RunOptions, run_scene
     from pam_bench.config.scene import load_scene
     res = run_scene(load_scene(args.scene), '',
-                    RunOptions(layout=Layout.WALL_CLOCK, seed=args.seed, devices_only=True))
+                    RunOptions(layout=Layout.WALL_CLOCK, seed=args.seed, devices_only=True,
+                               namespace=args.namespace))
     return 0 if res.code in (0, 130) else res.code
 
 
@@ -406,7 +429,7 @@ def _cmd_check_drivers(args: argparse.Namespace) -> int:
     if not names:
         raise UsageError(f'scene {args.scene} has no sequencer or torque servo: nothing reads '
                          'drivers')
-    verdicts = probe_drivers(names, args.duration)
+    verdicts = probe_drivers(names, args.duration, namespace=args.namespace)
     print(f'{"topic":26s} {"expected":44s} {"seen":36s} result')
     for v in verdicts:
         print(f'{v.topic:26s} {v.expected:44s} {v.seen:36s} '
@@ -457,14 +480,16 @@ def _cmd_params(args: argparse.Namespace) -> int:
             value = get_path(st, info.name)
             rows.append({'path': f'{name}.{info.name}', 'value': value,
                          'default': info.default, 'unit': info.unit, 'low': info.low,
-                         'high': info.high, 'choices': list(info.choices), 'text': info.text})
+                         'high': info.high, 'choices': list(info.choices), 'text': info.text,
+                         'tunable': info.tunable})
     if args.json:
         print(json.dumps(rows, indent=2))
         return 0
     for r in rows:
         rng = (f" [{r['low']}, {r['high']}]" if r['low'] is not None or r['high'] is not None
                else f" {{{', '.join(r['choices'])}}}" if r['choices'] else '')
-        mark = '' if r['value'] == r['default'] else f"  (default {r['default']})"
+        mark = ('' if r['value'] == r['default'] else f"  (default {r['default']})") + \
+            ('  [tunable while running]' if r['tunable'] else '')
         print(f"{r['path']:50s} {r['value']!s:>14s} {r['unit'] or '-':>8s}{rng}{mark}\n"
               f"{'':50s} {r['text']}")
     return 0

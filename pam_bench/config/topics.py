@@ -15,7 +15,7 @@ __all__ = ['Topic', 'TOPICS', 'valve_command', 'valve_pressure', 'valve_samples'
            'LOAD_STATE', 'PULLEY_STATE', 'PULLEY_LAW', 'POINT', 'RECORD', 'STATUS', 'RUN',
            'PAUSE', 'RESUME', 'SERVO_SETPOINT', 'SERVO_STATE', 'SERVO_RESET', 'DIAGNOSTICS',
            'CLOCK', 'ACK', 'STEP_TOPIC_SOURCES', 'EVENT_TOPICS', 'STEP_TOPICS', 'step_topics',
-           'absolute']
+           'absolute', 'in_namespace', 'same_topic']
 
 
 def valve_command(ch: int) -> str:
@@ -62,7 +62,9 @@ RESUME = 'protocol/resume'
 SERVO_SETPOINT = 'torque_servo/setpoint'
 SERVO_STATE = 'torque_servo/state'
 SERVO_RESET = 'torque_servo/reset'
-DIAGNOSTICS = '/diagnostics'
+DIAGNOSTICS = 'diagnostics'
+"""REP-107's /diagnostics in the root namespace; relative, so that two benches in one domain
+under two namespaces keep theirs apart (remap ``diagnostics:=/diagnostics`` to merge them)."""
 CLOCK = '/clock'
 ACK = '/sim/ack'
 
@@ -84,6 +86,22 @@ class Topic:
 def absolute(name: str) -> str:
     """The absolute name of a contract topic (nodes run in the root namespace)."""
     return name if name.startswith('/') else f'/{name}'
+
+
+def in_namespace(name: str, namespace: str) -> str:
+    """The topic ``name`` (absolute, as the contract and a recorder's settings give it) of a
+    bench whose nodes run in ``namespace`` ('' or '/': the root): ``/load_cell_1/force`` in
+    ``/bench_a`` is ``/bench_a/load_cell_1/force``. The clock stays global."""
+    name = absolute(name)
+    ns = namespace.rstrip('/')
+    return name if not ns or name == CLOCK else f'{ns}{name}'
+
+
+def same_topic(bag_topic: str, name: str) -> bool:
+    """Whether a bag's topic is the contract topic ``name`` recorded in some namespace (a
+    bag holds one bench's topics: ``pam-bench run --namespace``)."""
+    name = absolute(name)
+    return bag_topic == name or bag_topic.endswith(name)
 
 
 _PB = 'pam_bench_interfaces/msg/'
@@ -113,7 +131,7 @@ EVENT_TOPICS = [
     f'{absolute(POINT)}:{_PB}CharacteristicPoint',
     f'{absolute(RECORD)}:{_PB}StepResponseRecord',
     f'{absolute(STATUS)}:{_PB}ProtocolStatus',
-    f'{DIAGNOSTICS}:diagnostic_msgs/msg/DiagnosticArray',
+    f'{absolute(DIAGNOSTICS)}:diagnostic_msgs/msg/DiagnosticArray',
 ]
 
 

@@ -10,6 +10,7 @@ any publisher.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import time
 from typing import Any
@@ -21,6 +22,7 @@ from rclpy.qos import ReliabilityPolicy
 from sensor_msgs.msg import FluidPressure, JointState
 
 from pam_bench.config.drivers import COMMANDS, Seen, Verdict, contract, judge
+from pam_bench.config.topics import in_namespace
 from pam_bench.runtime.base import SENSOR
 from pam_bench.runtime.messages import ns_of
 from pam_bench.runtime.process import deadline_spin
@@ -32,24 +34,27 @@ _CLASSES = {'sensor_msgs/msg/FluidPressure': FluidPressure,
             'sensor_msgs/msg/JointState': JointState}
 
 
-def _value(msg: Any) -> float:
+def _value(msg: Any, joint: str) -> float:
     if isinstance(msg, FluidPressure):
         return float(msg.fluid_pressure)
     if isinstance(msg, WrenchStamped):
         return float(msg.wrench.force.x)
     names = list(msg.name)
-    return float(msg.position[names.index('pulley')]) if 'pulley' in names else float('nan')
+    return float(msg.position[names.index(joint)]) if joint in names else float('nan')
 
 
-def probe_drivers(controllers: list[str], duration_s: float, settle_s: float = 5.0
-                  ) -> list[Verdict]:
-    """Listen ``duration_s`` (after up to ``settle_s`` of discovery) and judge every topic.
+def probe_drivers(controllers: list[str], duration_s: float, settle_s: float = 5.0,
+                  namespace: str = '', joint_name: str = 'pulley') -> list[Verdict]:
+    """Listen ``duration_s`` (after up to ``settle_s`` of discovery) and judge every topic
+    of the bench in ``namespace`` ('': the root), the encoder's joint ``joint_name``.
 
     Returns one ``Verdict`` per measured topic, then one per command topic (a subscriber
     present or not)."""
     rclpy.init()
     node = Node('pam_bench_check_drivers')
-    expects = contract(controllers)
+    expects = [dataclasses.replace(e, topic=in_namespace(e.topic, namespace))
+               for e in contract(controllers)]
+
     seen: dict[str, Seen] = {}
     try:
         end = time.monotonic() + settle_s        # discovery: wait until every topic is seen
@@ -67,12 +72,12 @@ def probe_drivers(controllers: list[str], duration_s: float, settle_s: float = 5
             seen[e.topic] = s
             if e.msgtype in s.types:
                 node.create_subscription(_CLASSES[e.msgtype], e.topic,
-                                         functools.partial(_take, s), SENSOR)
+                                         functools.partial(_take, s, joint_name), SENSOR)
         end = time.monotonic() + duration_s      # one wait set: keeps up with 1 kHz topics
         deadline_spin([node], lambda: None, 0.05, should_stop=lambda: time.monotonic() > end)
         verdicts = [judge(e, seen[e.topic]) for e in expects]
         for name in controllers:
-            for topic in COMMANDS.get(name, []):
+            for topic in (in_namespace(t, namespace) for t in COMMANDS.get(name, [])):
                 n = node.count_subscribers(topic)
                 verdicts.append(Verdict(topic, 'a driver subscribed', f'{n} subscriber(s)',
                                         n > 0, '' if n else 'no driver listens to the command'))
@@ -82,7 +87,7 @@ def probe_drivers(controllers: list[str], duration_s: float, settle_s: float = 5
         rclpy.try_shutdown()
 
 
-def _take(s: Seen, msg: Any) -> None:
+def _take(s: Seen, joint: str, msg: Any) -> None:
     s.recv_ns.append(time.time_ns())
     s.stamp_ns.append(ns_of(msg.header.stamp))
-    s.values.append(_value(msg))
+    s.values.append(_value(msg, joint))

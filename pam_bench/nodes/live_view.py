@@ -19,6 +19,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from pam_bench.config.settings import LiveViewSettings
+from pam_bench.config.topics import in_namespace
 from pam_bench.live.server import LiveServer
 from pam_bench.runtime.core import Spin
 from pam_bench.runtime.messages import message_class, stamp_of_cdr
@@ -52,8 +53,9 @@ class LiveView(Node):
                             history=HistoryPolicy.KEEP_LAST, durability=DurabilityPolicy.VOLATILE)
         for entry in (e for e in s.topics if e):
             topic, _, msgtype = entry.partition(':')
-            self.server.add_topic(topic, msgtype)
-            self.create_subscription(message_class(msgtype), topic,
+            self.server.add_topic(topic, msgtype)       # shown by its name in the contract,
+            self.create_subscription(message_class(msgtype),   # taken from its bench (__ns)
+                                     in_namespace(topic, self.get_namespace()),
                                      functools.partial(self._on, topic),
                                      full if topic in self.server.full_rate_topics else capped,
                                      raw=True)

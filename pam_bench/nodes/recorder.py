@@ -40,6 +40,7 @@ from pam_bench.analysis.baginfo import END_KEY, RUN_KEY
 from pam_bench.analysis.splitwriter import DiskFull, SplitWriter
 from pam_bench.analysis.types import bench_typestore
 from pam_bench.config.settings import RecorderSettings
+from pam_bench.config.topics import in_namespace
 from pam_bench.runtime import cdr
 from pam_bench.runtime.base import BenchNode
 from pam_bench.runtime.intra import bus_subscription
@@ -243,12 +244,13 @@ class Recorder(BenchNode):
                    sequence={k: list(v) for k, v in self.sequence.items()})
         return out
 
-    @staticmethod
-    def _split(entry: str) -> tuple[str, str]:
+    def _split(self, entry: str) -> tuple[str, str]:
+        """(topic, type) of a ``topic:type`` entry, the topic in the recorder's namespace
+        (``config.topics.in_namespace``: a bench started under ``__ns`` records its own)."""
         topic, _, msgtype = entry.partition(':')
         if not msgtype:
             raise ValueError(f'recorder topic entry {entry!r} must be topic:package/msg/Type')
-        return (topic if topic.startswith('/') else '/' + topic), msgtype
+        return in_namespace(topic, self.get_namespace()), msgtype
 
     def _write(self, topic: str, t_ns: int, data: bytes) -> None:
         if self.writer is not None and (self.end_ns is None or t_ns <= self.end_ns):

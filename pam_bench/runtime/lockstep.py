@@ -161,6 +161,11 @@ class Lockstep(NodeCore):
         self._ack_pub = bus_publisher(self, StepAck, topics.ACK, RELIABLE)
         self._plan = StepPlan(self._sync, self._specs)
         bus_subscription(self, Clock, topics.CLOCK, self._on_clock, RELIABLE)
+        if self._bus is None:        # a process of its own, maybe started by hand: say so once
+            self.get_logger().info(
+                'lock-step: waiting for /clock from sim_clock (pam-bench run starts it); to '
+                'run this node on a wall clock, start it with -p lockstep:=false or a params '
+                'file from pam-bench params SCENE --ros-yaml')
 
     def _on_clock(self, msg: Clock) -> None:
         t = clock_ns(msg)

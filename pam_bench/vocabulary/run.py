@@ -56,6 +56,8 @@ class RunOptions:
         quiet: no progress lines.
         settings: node -> settings replacing the scene's (a bag's own: ``--replay``).
         live: the live view's settings (``config.settings.LiveViewSettings``), or None.
+        namespace: wall clock: the ROS namespace of every node ('': the root), so that
+            benches share a domain without mixing (``config.topics.in_namespace``).
     """
 
     seed: int = 0
@@ -68,3 +70,4 @@ class RunOptions:
     quiet: bool = False
     settings: dict[str, Any] | None = None
     live: Any = None
+    namespace: str = ''

@@ -41,6 +41,22 @@ def test_isometric_quick_counts_order_and_dwell(isometric_bag: pathlib.Path) -> 
         assert abs(p.contraction - p.series_value) < 1e-3        # held by the loading servo
 
 
+def test_the_bag_keeps_the_offered_qos_of_every_topic(isometric_bag: pathlib.Path) -> None:
+    """As rosbag2 does: a player can offer /protocol/status latched again."""
+    import yaml
+    meta = yaml.safe_load((isometric_bag / 'metadata.yaml').read_text())
+    info = meta['rosbag2_bagfile_information']
+    offered = {t['topic_metadata']['name']: t['topic_metadata']['offered_qos_profiles']
+               for t in info['topics_with_message_count']}
+    assert all(offered.values()), offered
+    status = offered['/protocol/status']
+    status = yaml.safe_load(status) if isinstance(status, str) else status
+    assert status[0]['durability'] == 'transient_local' and status[0]['depth'] == 1
+    force = offered['/load_cell_1/force']
+    force = yaml.safe_load(force) if isinstance(force, str) else force
+    assert force[0]['history'] == 'keep_all' and force[0]['reliability'] == 'reliable'
+
+
 def test_isometric_quick_force_is_near_linear_in_u(isometric_bag: pathlib.Path) -> None:
     pts = bag_messages(isometric_bag, '/protocol/point')
     up = [p for p in pts[:7]]

@@ -1,5 +1,5 @@
-"""Parameters that mean what they say: read-only structure, tunables taken at a safe point,
-wildcard sections of a shared params file warned about, not refused."""
+"""Nodes started by hand: parameters that mean what they say (read-only structure, tunables taken
+at a safe point, wildcard sections warned about, not refused) and a word about the clock."""
 
 from __future__ import annotations
 
@@ -177,3 +177,17 @@ def test_a_misspelt_key_of_the_own_section_is_refused(context: rclpy.Context,
     finally:
         node.destroy_node()
         rclpy.try_shutdown(context=ctx)
+
+
+def test_a_bare_node_says_once_that_it_waits_for_the_clock(ros_domain: int) -> None:
+    import subprocess
+    import sys
+    proc = subprocess.Popen([sys.executable, '-m', 'pam_bench.nodes.valve_sim'],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        assert proc.stdout is not None
+        line = proc.stdout.readline()
+    finally:
+        proc.kill()
+        proc.wait()
+    assert 'waiting for /clock' in line and 'lockstep:=false' in line, line
