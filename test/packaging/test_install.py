@@ -1,9 +1,10 @@
 """The package installs like any other: a non-editable pip install into a fresh venv, and a
 colcon workspace build; each then runs the bench from a folder outside the checkout.
 
-The workspace is an overlay: its ``src`` holds ``pam_bench`` (ament_python), built on top of
-the ``pam_bench_interfaces`` that ``make setup`` built from ``msg_defs/`` with CMake into .venv
-(the underlay). Compiling the interfaces' typesupport again in the workspace took 80-110 s of
+The workspace is an overlay: colcon finds ``pam_bench`` (ament_python) and
+``pam_bench_interfaces`` in the clone by their paths (no link), and builds ``pam_bench`` on top
+of the ``pam_bench_interfaces`` that ``make setup`` built from ``msg_defs/`` with CMake into
+.venv (the underlay). Compiling the interfaces' typesupport again in the workspace took 80-110 s of
 the suite; their CMake build runs on every fresh machine in ``tools/bootstrap.sh``.
 
 The fresh venv reaches the ROS 2 wheels and the other dependencies through a ``.pth`` line that
@@ -94,11 +95,15 @@ def test_colcon_workspace_builds_and_its_install_runs(tmp_path: pathlib.Path,
                                                       ros_domain: int) -> None:
     venv = pathlib.Path(sys.prefix)
     ws = tmp_path / 'ws'
-    (ws / 'src').mkdir(parents=True)
-    (ws / 'src' / 'pam_bench').symlink_to(REPO)
+    ws.mkdir()
     env = dict(os.environ, PATH=f'{venv / "bin"}{os.pathsep}{os.environ["PATH"]}',
                AMENT_PREFIX_PATH=str(venv), CMAKE_PREFIX_PATH=str(venv))
-    res = subprocess.run([str(venv / 'bin' / 'colcon'), 'build', '--cmake-args',
+    # the clone as it is, no link made by hand: colcon finds both packages by their paths
+    # (README); pam_bench is built over the interfaces of the underlay (module docstring)
+    paths = ['--base-paths', str(REPO), str(REPO / 'msg_defs')]
+    assert _colcon_finds(paths[1:]) == ['pam_bench', 'pam_bench_interfaces']
+    res = subprocess.run([str(venv / 'bin' / 'colcon'), 'build', *paths,
+                          '--packages-select', 'pam_bench', '--cmake-args',
                           f'-DPython3_EXECUTABLE={sys.executable}', '-DBUILD_TESTING=OFF'],
                          capture_output=True, text=True, cwd=ws, env=env, timeout=400)
     assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
@@ -116,3 +121,15 @@ def test_colcon_workspace_builds_and_its_install_runs(tmp_path: pathlib.Path,
     _check_bag(away / 'bag', 'config_short', 8)
     _check_compiled_core(['bash', '-c', f'. {install / "setup.sh"} && python -c \'{CORE}\''],
                          away, tmp_path / 'cache', str(install / 'pam_bench'), env)
+
+
+def _colcon_finds(base_paths: list[str]) -> list[str]:
+    """The packages colcon discovers under ``base_paths`` (what ``colcon list`` prints)."""
+    import argparse
+
+    from colcon_core.package_discovery import add_package_discovery_arguments, discover_packages
+    from colcon_core.package_identification import get_package_identification_extensions
+    parser = argparse.ArgumentParser()
+    add_package_discovery_arguments(parser)
+    args = parser.parse_args(['--base-paths', *base_paths])
+    return sorted(d.name for d in discover_packages(args, get_package_identification_extensions()))
