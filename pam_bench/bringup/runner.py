@@ -59,6 +59,8 @@ def run_scene(scene: Scene, out_dir: str, options: RunOptions | None = None) -> 
     if scene.faults and layout is not Layout.WALL_CLOCK:
         raise LayoutError(f'scene {scene.name} injects faults: they run on the wall clock '
                           '(--wallclock)')
+    if o.buses and layout is not Layout.WALL_CLOCK:
+        raise LayoutError('--buses runs the bench on the wall clock: add --wallclock')
     if o.namespace and layout is not Layout.WALL_CLOCK:
         raise LayoutError('--namespace runs the nodes on the wall clock: add --wallclock')
     if o.netns and layout is Layout.WALL_CLOCK:
@@ -73,7 +75,7 @@ def run_scene(scene: Scene, out_dir: str, options: RunOptions | None = None) -> 
         if layout is Layout.WALL_CLOCK:
             from pam_bench.bringup.wallclock import run_wallclock
             return run_wallclock(scene, settings, o.domain_id, o.quiet, o.device_processes,
-                                 o.devices_only, o.namespace)
+                                 o.devices_only, o.namespace, o.buses)
         if layout is Layout.COMPOSED:
             from pam_bench.bringup.composed import run_composed
             return run_composed(scene, settings, o.domain_id, o.quiet)

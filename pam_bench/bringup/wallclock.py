@@ -80,9 +80,11 @@ def wall_settings(scene: Scene, settings: dict[str, Any], stats_dir: str = ''
 
 
 def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None, quiet: bool,
-                   device_processes: bool, devices_only: bool = False, namespace: str = ''
-                   ) -> RunResult:
-    """Run the scene on the wall clock (module docstring), every node in ``namespace``."""
+                   device_processes: bool, devices_only: bool = False, namespace: str = '',
+                   buses: str = '') -> RunResult:
+    """Run the scene on the wall clock (module docstring), every node in ``namespace``; with
+    ``buses`` (a register map), the devices behind Modbus TCP and CANopen and the drivers in
+    their place (``bringup.buses``)."""
     import json
 
     env = ros_env(domain_id)
@@ -99,6 +101,11 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
     code = 0
     with tempfile.TemporaryDirectory(prefix='pam_bench_') as tmp:
         settings = wall_settings(scene, settings, tmp)
+        driver_names: list[str] = []
+        if buses:
+            from pam_bench.bringup.buses import DRIVERS, bus_settings, start_buses
+            settings, ports = bus_settings(settings, buses, tmp)
+            driver_names = list(DRIVERS)
         pfile = os.path.join(tmp, 'params.yaml')
         write_params_file(settings, pfile)
         log = open(os.path.join(tmp, 'nodes.log'), 'w+', encoding='utf-8')
@@ -127,7 +134,13 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
                 if rec.poll() is not None:          # it could not start: nothing else is
                     raise _NotStarted                 # started (its one line is in the log)
             started = True
-            if device_processes:
+            if buses:
+                bus_proc = start_buses(start, pfile, ports, buses, log)
+                threading.Thread(target=copy_lines, args=(bus_proc.stdout, log),
+                                 daemon=True).start()
+                for name in driver_names:
+                    start(name, node_cmd(name, pfile, namespace))
+            elif device_processes:
                 for name in device_names:
                     start(name, node_cmd(name, pfile, namespace))
             elif device_names:
@@ -138,14 +151,19 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
                 start(name, node_cmd(name, pfile, namespace),
                       pipe=name == controller_names[0])
             kills = [f for f in scene.faults if f.kind == 'node_kill']
-            main = procs[controller_names[0] if controller_names else 'emulator']
+            main = procs[controller_names[0] if controller_names else
+                         'buses' if buses else 'emulator']
             if devices_only and not quiet:
-                print(f'devices {", ".join(device_names)} running on the wall clock in one '
-                      f'process (ROS_DOMAIN_ID {env["ROS_DOMAIN_ID"]}); Ctrl-C stops them',
+                behind = (f' behind their buses ({driver_names[0]} and {driver_names[1]} '
+                          'drive them)' if buses else ' in one process')
+                print(f'devices {", ".join(device_names)} running on the wall clock{behind} '
+                      f'(ROS_DOMAIN_ID {env["ROS_DOMAIN_ID"]}); Ctrl-C stops them',
                       flush=True)
-            if main.stdout is None:
+            lines: Any = main.stdout
+            if main.stdout is None or (buses and devices_only):   # its lines go to the log
                 main.wait()
-            for line in main.stdout or ():
+                lines = ()
+            for line in lines:
                 log.write(line)
                 progress = line[line.find('[wall]'):] if '[wall]' in line else ''
                 if kills and progress:                      # the run has started
@@ -166,6 +184,9 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
         except _NotStarted:
             code = procs['recorder'].wait()
             dead = ['recorder'] if code == 2 else []
+        except LayoutError as exc:                  # the buses did not come up
+            code, dead = 2, ['buses']
+            log.write(f'buses: error: {exc}\n')
         finally:
             write_end_state(settings, code)
             stop_processes(procs)
@@ -174,7 +195,8 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
             node_log = log.read()
             log.close()
         stats = {}
-        for name in scene.nodes if started else []:
+        ran = [n for n in scene.nodes if not (buses and n in device_names)] + driver_names
+        for name in ran if started else []:
             path = os.path.join(tmp, f'{name}.json')
             try:
                 with open(path, encoding='utf-8') as fh:

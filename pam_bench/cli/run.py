@@ -51,6 +51,9 @@ def register(sub: Any) -> None:
                      'ws://127.0.0.1:PORT (README, "Watching a run")')
     add_namespace_option(p, 'with --wallclock: run every node in this ROS namespace, so that '
                          'two benches share a domain without mixing')
+    add_buses_option(p, 'with --wallclock: serve the simulated devices behind a Modbus TCP '
+                     'DAQ and a CANopen CiA 402 drive and run the drivers daq_modbus and '
+                     'servo_canopen in their place (README, "Behind real buses")')
     p.set_defaults(func=_cmd_run)
     p = sub.add_parser('record', help='record topics of a running graph on the wall clock '
                        '(like ros2 bag record), until Ctrl-C')
@@ -72,6 +75,8 @@ def register(sub: Any) -> None:
     p.add_argument('--seed', type=integer(0, 2**31 - 1), default=0,
                    help='seed of the sensor noise')
     add_namespace_option(p, 'run the devices in this ROS namespace')
+    add_buses_option(p, 'serve the devices behind a Modbus TCP DAQ on 127.0.0.1 and a CiA 402 '
+                     'drive on a CAN hub, with the drivers daq_modbus and servo_canopen')
     p.set_defaults(func=_cmd_emulate)
     p = sub.add_parser('check-drivers', help='join a running bench and check that its drivers '
                        'meet the contract (docs/drivers.md)')
@@ -104,6 +109,12 @@ def _namespace(text: str) -> str:
         raise argparse.ArgumentTypeError(f'{shorten(text)!r} is not a ROS namespace (tokens '
                                          'of letters, digits and _, e.g. /bench_a)')
     return '' if ns == '/' else ns
+
+
+def add_buses_option(p: argparse.ArgumentParser, text: str) -> None:
+    """``--buses [MAP]``: the devices behind field buses, the DAQ's register map MAP."""
+    p.add_argument('--buses', nargs='?', const='daq_generic', default='', metavar='MAP',
+                   help=f'{text}; MAP: the register map (default daq_generic)')
 
 
 def add_namespace_option(p: argparse.ArgumentParser, text: str) -> None:
@@ -335,7 +346,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
             seed=args.seed, layout=layout, realtime=args.realtime,
             device_processes=args.device_processes, settings=settings,
             netns=tuple(args.netns.split(':', 1)) if args.netns else None,
-            namespace=args.namespace,
+            namespace=args.namespace, buses=args.buses,
             live=live_settings(args, args.live) if args.live is not None else None))
         code = res.code
     except KeyboardInterrupt:
@@ -417,7 +428,7 @@ def _cmd_emulate(args: argparse.Namespace) -> int:
     from pam_bench.config.scene import load_scene
     res = run_scene(load_scene(args.scene), '',
                     RunOptions(layout=Layout.WALL_CLOCK, seed=args.seed, devices_only=True,
-                               namespace=args.namespace))
+                               namespace=args.namespace, buses=args.buses))
     return 0 if res.code in (0, 130) else res.code
 
 

@@ -16,5 +16,7 @@ EXECUTABLES = {
     'sequencer': 'pam_bench.nodes.sequencer',
     'torque_servo': 'pam_bench.nodes.torque_servo',
     'recorder': 'pam_bench.nodes.recorder',
+    'daq_modbus': 'pam_bench.nodes.daq_modbus',
+    'servo_canopen': 'pam_bench.nodes.servo_canopen',
 }
 """Executable (console script) -> module with its ``main``."""

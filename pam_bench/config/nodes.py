@@ -14,12 +14,14 @@ import enum
 from pam_bench.config.executables import EXECUTABLES
 from pam_bench.config.settings import (
     ClockSettings,
+    DaqModbusSettings,
     EncoderSettings,
     LoadCellSettings,
     LoadingServoSettings,
     MuscleSettings,
     RecorderSettings,
     SequencerSettings,
+    ServoCanopenSettings,
     TorqueServoSettings,
     ValveSettings,
 )
@@ -37,6 +39,7 @@ class Role(enum.Enum):
     DEVICE = 'device'            # a simulated device; a driver on a real bench
     CONTROLLER = 'controller'    # reads the measured topics, commands the valves
     RECORDER = 'recorder'
+    DRIVER = 'driver'            # a driver of real hardware on a field bus (wall clock only)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -64,8 +67,9 @@ class NodeType:
 
     @property
     def lockstep(self) -> bool:
-        """Whether it steps in lock-step with the clock (everything but the clock)."""
-        return self.role != Role.CLOCK
+        """Whether it steps in lock-step with the clock (everything but the clock and the
+        drivers of real hardware)."""
+        return self.role not in (Role.CLOCK, Role.DRIVER)
 
 
 _D, _C = Role.DEVICE, Role.CONTROLLER
@@ -84,11 +88,15 @@ NODES: dict[str, NodeType] = {
     'torque_servo': NodeType('torque_servo', 'TorqueServoNode', _C, TorqueServoSettings),
     'recorder': NodeType('recorder', 'Recorder', Role.RECORDER, RecorderSettings),
     'sim_clock': NodeType('sim_clock', 'SimClock', Role.CLOCK, ClockSettings),
+    'daq_modbus': NodeType('daq_modbus', 'DaqModbusNode', Role.DRIVER, DaqModbusSettings),
+    'servo_canopen': NodeType('servo_canopen', 'ServoCanopenNode', Role.DRIVER,
+                              ServoCanopenSettings, 1),
 }
 """Node name -> what it is. The executables' default node names are these names."""
 
-SCENE_NODES = [n for n, t in NODES.items() if t.role != Role.CLOCK]
-"""Nodes a scene may name (the clock comes with every lock-step run)."""
+SCENE_NODES = [n for n, t in NODES.items() if t.role not in (Role.CLOCK, Role.DRIVER)]
+"""Nodes a scene may name (the clock comes with every lock-step run; the bus drivers with
+``run --wallclock --buses``)."""
 
 
 def node(name: str) -> NodeType:

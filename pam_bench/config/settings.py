@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
+from pam_bench.buses.cia402 import DriveScale
 from pam_bench.control.torque_servo import ServoMode, SignalKind, TorqueServoParams
 from pam_bench.models.constants import PULLEY_PITCH_DIAMETER_M, SUB_STEP_S
 from pam_bench.models.coupling import SettleParams
@@ -257,6 +258,51 @@ class RecorderSettings(NodeSettings):
 
 LIVE_FULL_RATE_TOPICS = ['/protocol/point', '/protocol/status', '/protocol/step_response',
                          '/diagnostics']
+
+
+@dataclasses.dataclass
+class DriverSettings(NodeSettings):
+    """A driver of real hardware on a field bus (``buses``): it runs on the wall clock only."""
+
+    lockstep: bool = field(False, '-', 'drivers run on the wall clock only: keep false')
+    rate_hz: float = field(1000.0, 'Hz', 'bus exchanges per second (one read and one write '
+                           'each)', 1.0, 10000.0)
+
+
+@dataclasses.dataclass
+class DaqModbusSettings(DriverSettings):
+    """daq_modbus: the valves' voltages, their pressures, the load cells and the encoder
+    through a Modbus TCP DAQ (``buses.register_map``, ``buses.modbus_io``)."""
+
+    host: str = field('127.0.0.1', '-', "the DAQ's address")
+    port: int = field(502, '-', 'its Modbus TCP port', 1, 65535)
+    register_map: str = field('daq_generic', '-', 'register map file (a bare name: '
+                              'config/buses/NAME.yaml; labjack_t7 is shipped too)')
+    timeout_s: float = field(0.05, 's', 'a request that takes longer counts as a lost '
+                             'connection (outputs safe, inputs stale, reconnect)', 1e-3, 10.0)
+    reconnect_max_s: float = field(2.0, 's', 'longest wait between reconnection attempts '
+                                   '(doubling from 0.1 s)', 0.1, 60.0)
+    joint_name: str = field('pulley', '-', 'name of the encoder joint it publishes')
+
+
+@dataclasses.dataclass
+class ServoCanopenSettings(DriverSettings):
+    """servo_canopen: the loading servo's CiA 402 drive on CAN (``buses.canopen_drive``)."""
+
+    can_interface: str = field('socketcan', '-', "python-can interface: socketcan (a lab's "
+                               'can0) or socketcand (the hub of pam-bench emulate --buses on '
+                               '127.0.0.1: buses.can_hub)', choices=('socketcan', 'socketcand'))
+    can_channel: str = field('can0', '-', 'CAN channel (interface) name')
+    can_port: int = field(29536, '-', 'socketcand: TCP port of the hub on 127.0.0.1', 1, 65535)
+    node_id: int = field(5, '-', "the drive's CANopen node id", 1, 127)
+    eds_file: str = field('', '-', "the drive's EDS ('': config/buses/loading_servo.eds, the "
+                          'emulated drive)')
+    heartbeat_ms: int = field(100, 'ms', 'heartbeat period asked of the drive (0x1017)', 10,
+                              10000)
+    heartbeat_timeout_s: float = field(0.35, 's', 'no heartbeat this long: the drive is stale '
+                                       '(diagnostic), then quick stop', 0.01, 60.0)
+    channel: int = field(1, '-', 'muscle channel on the belt', 1, 2)
+    drive: DriveScale = section(DriveScale, "the drive's units (buses.cia402)")
 
 
 @dataclasses.dataclass

@@ -58,6 +58,8 @@ class RunOptions:
         live: the live view's settings (``config.settings.LiveViewSettings``), or None.
         namespace: wall clock: the ROS namespace of every node ('': the root), so that
             benches share a domain without mixing (``config.topics.in_namespace``).
+        buses: wall clock: the register map of the DAQ the devices are served behind, with
+            the CiA 402 drive, the drivers in their place ('': no buses; ``bringup.buses``).
     """
 
     seed: int = 0
@@ -71,3 +73,4 @@ class RunOptions:
     settings: dict[str, Any] | None = None
     live: Any = None
     namespace: str = ''
+    buses: str = ''

@@ -13,7 +13,7 @@ REPO = pathlib.Path(__file__).resolve().parents[2]
 ROS = re.compile(r'^(rclpy|rcl_interfaces|rosidl_\w+|rosgraph_msgs|builtin_interfaces|'
                  r'\w+_msgs|\w+_srvs|\w+_interfaces)$')
 
-ROSDEP_KEYS = {'pyyaml': 'python3-yaml'}
+ROSDEP_KEYS = {'pyyaml': 'python3-yaml', 'python-can': 'python3-can'}
 """rosdep keys that are not python3-DIST."""
 
 

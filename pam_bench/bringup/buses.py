@@ -1,0 +1,84 @@
+"""The bench behind its buses on a wall clock (``run --wallclock --buses``, ``emulate --buses``).
+
+The simulated devices are served by one process, ``buses.serve`` (a Modbus TCP DAQ on
+127.0.0.1 and a CiA 402 drive on the CAN hub), and the two drivers (``daq_modbus``,
+``servo_canopen``) take their place on the ROS graph, each in its own process as on a real
+bench: the sequencer, the servo and the recorder run unchanged.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import subprocess
+import sys
+from collections.abc import Callable
+from typing import Any
+
+from pam_bench.bringup.errors import LayoutError
+
+__all__ = ['DRIVERS', 'bus_settings', 'start_buses']
+
+DRIVERS = ('daq_modbus', 'servo_canopen')
+"""The driver nodes that replace the simulated devices."""
+
+
+def bus_settings(settings: dict[str, Any], register_map: str, stats_dir: str
+                 ) -> tuple[dict[str, Any], tuple[int, int]]:
+    """The run's settings with the two drivers added (their ports free on 127.0.0.1 now, the
+    drive's units those of the scene's loading servo), and (Modbus port, CAN hub port).
+
+    Raises:
+        LayoutError: the scene lacks a device the buses serve.
+    """
+    from pam_bench.buses.cia402 import DriveScale
+    from pam_bench.buses.emulated import free_port
+    from pam_bench.buses.register_map import load_register_map
+    from pam_bench.config.settings import DaqModbusSettings, ServoCanopenSettings
+    missing = [n for n in ('valve_1', 'muscle_1', 'load_cell_1', 'encoder', 'loading_servo')
+               if n not in settings]
+    if missing:
+        raise LayoutError(f'--buses serves the single-muscle bench: the scene lacks '
+                          f'{", ".join(missing)}')
+    load_register_map(register_map)            # a bad map: one line before anything starts
+    ports = (free_port(), free_port())
+    servo = settings['loading_servo'].servo
+    out = dict(settings)
+    out['daq_modbus'] = DaqModbusSettings(
+        port=ports[0], register_map=register_map,
+        stats_file=os.path.join(stats_dir, 'daq_modbus.json'),
+        rate_hz=settings['valve_1'].rate_hz)
+    out['servo_canopen'] = ServoCanopenSettings(
+        can_interface='socketcand', can_port=ports[1],
+        stats_file=os.path.join(stats_dir, 'servo_canopen.json'),
+        drive=DriveScale(servo.pitch_diameter_m, servo.gear_ratio, servo.rated_torque_nm,
+                         servo.encoder_bits_per_rev))
+    return out, ports
+
+
+def start_buses(start: Callable[..., subprocess.Popen], pfile: str, ports: tuple[int, int],
+                register_map: str, log: Any) -> subprocess.Popen:
+    """Start ``buses.serve`` and wait for its ready line.
+
+    Raises:
+        LayoutError: it stopped before serving (its one line).
+    """
+    from pam_bench.buses.serve import READY
+    proc = start('buses', [sys.executable, '-m', 'pam_bench.buses.serve', pfile,
+                           '--modbus-port', str(ports[0]), '--can-port', str(ports[1]),
+                           '--map', register_map], pipe=True)
+    assert proc.stdout is not None
+    for line in proc.stdout:
+        log.write(line)
+        if line.startswith(READY) and 'error' not in line:
+            return proc
+        if 'error' in line:
+            proc.wait(timeout=10.0)
+            raise LayoutError(line.strip())
+    proc.wait(timeout=10.0)
+    raise LayoutError(f'the bench behind its buses stopped (exit code {proc.returncode})')
+
+
+def replace_devices(scene: Any, device_names: list[str]) -> Any:
+    """The scene without its simulated devices (the buses serve them)."""
+    return dataclasses.replace(scene, nodes=[n for n in scene.nodes if n not in device_names])

@@ -1,0 +1,401 @@
+"""The simulated bench behind real protocols: a Modbus TCP DAQ and a CiA 402 drive on CAN.
+
+``EmulatedBench`` steps the single-muscle bench of the twin (``twin.bench.SingleMuscleBench``,
+the physics the device nodes run, tested against them) on the wall clock at ``rate_hz`` and
+serves it as a lab's hardware would be:
+
+- a **Modbus TCP server** on 127.0.0.1 (pymodbus) with the registers of a register map
+  (``buses.register_map``): the measured force, pulley angle and absolute valve pressure in
+  its input registers, refreshed every tick; the valve voltage read from its holding
+  registers every tick (a value the map refuses vents the valve);
+- a **CiA 402 drive** (the loading servo) on a CAN bus (``canopen`` local node with the EDS
+  shipped in config/buses/loading_servo.eds): NMT, an SDO server, a heartbeat every
+  0x1017 ms, RPDO 1 (controlword, target torque, target position) and TPDO 1 (statusword,
+  torque actual, position actual, sent every tick) as their mapping objects say (the driver
+  writes them by SDO), the power state machine of ``buses.cia402``, modes 8 (position) and
+  10 (torque) through 0x6060. Only in operation enabled does the drive pull: a target torque
+  T (per mille of rated) becomes the bench's force set value F = T i / r, a target position
+  its contraction set value r theta; every other state turns the drive off.
+
+Faults, for the tests of the drivers: ``stop_modbus`` (the server goes away), ``emcy`` (the
+drive faults and sends an EMCY), ``silence_can`` (heartbeat and PDOs stop), ``corrupt``
+(a register holds an out-of-range value for a while).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import math
+import socket
+import struct
+import threading
+import time
+from typing import Any
+
+from pam_bench.buses.cia402 import (
+    MODE_CSP,
+    MODE_CST,
+    OD,
+    STATUSWORD,
+    DriveScale,
+    State,
+    next_state,
+)
+from pam_bench.buses.errors import BusUnreachable
+from pam_bench.buses.register_map import RegisterMap
+from pam_bench.models.constants import ATMOSPHERE_PA
+from pam_bench.models.loading_servo import LoadMode
+from pam_bench.twin.bench import SingleMuscleBench
+
+__all__ = ['EmulatedBench', 'free_port', 'eds_path']
+
+MAX_STEP_S = 0.005
+"""Longest step the bench takes at once after the loop was late (a longer lag is dropped:
+the bench's own clock does not stop, but the physics is stepped in pieces it can take)."""
+
+
+def free_port() -> int:
+    """A TCP port free on 127.0.0.1 now."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(('127.0.0.1', 0))
+        return int(s.getsockname()[1])
+
+
+def eds_path() -> str:
+    """The EDS of the emulated loading-servo drive (config/buses/loading_servo.eds)."""
+    from pam_bench.config.paths import config_dir
+    return str(config_dir() / 'buses' / 'loading_servo.eds')
+
+
+_FORMATS = {0x0002: 'b', 0x0003: 'h', 0x0004: 'i', 0x0005: 'B', 0x0006: 'H', 0x0007: 'I'}
+"""CANopen data type -> struct code (the integer types a PDO of the bench maps)."""
+
+
+class EmulatedBench:
+    """The bench served behind Modbus TCP and CANopen (module docstring).
+
+    Args:
+        bench: the simulated bench (valve, muscle, sensors, drive).
+        register_map: the DAQ's registers.
+        modbus_port: TCP port on 127.0.0.1 of the Modbus server.
+        can: python-can keywords of the drive's bus (``buses.can_hub.bus_config``).
+        node_id: the drive's CANopen node id.
+        scale: the drive's units (``buses.cia402.DriveScale``).
+        rate_hz: the bench's tick rate on the wall clock.
+    """
+
+    def __init__(self, bench: SingleMuscleBench, register_map: RegisterMap, modbus_port: int,
+                 can: dict[str, Any], node_id: int = 5, scale: DriveScale | None = None,
+                 rate_hz: float = 1000.0) -> None:
+        self.bench = bench
+        self.map = register_map
+        self.port = modbus_port
+        self.can = can
+        self.node_id = node_id
+        self.scale = scale or DriveScale()
+        self.period_s = 1.0 / rate_hz
+        self.words: dict[tuple[str, int], int] = {}   # (register, address) -> value
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._threads: list[threading.Thread] = []
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._server: Any = None
+        self._corrupt: dict[str, tuple[list[int], float]] = {}
+        self.state = State.SWITCH_ON_DISABLED
+        self.mode = 0
+        self._cw = 0
+        self._targets = (0, 0)                  # (torque per mille, position counts)
+        self._applied: tuple[LoadMode, float] | None = None
+        self._silent = False
+        self.ticks = 0
+        self.network: Any = None
+        self.node: Any = None
+        self._rpdo: list[tuple[int, str]] = []
+        self._tpdo: list[tuple[int, str]] = []
+        self._tpdo_cob = 0x180 + node_id
+        self.valve_voltage_v = 0.0
+        self.rejected_outputs = 0
+
+    # --- life ---------------------------------------------------------------------------
+    def start(self) -> EmulatedBench:
+        """Serve Modbus and CANopen, then tick the bench; returns self.
+
+        Raises:
+            BusUnreachable: the Modbus port or the CAN bus cannot be used (one line).
+        """
+        self._publish_inputs()
+        self._start_modbus()
+        self._start_can()
+        t = threading.Thread(target=self._run, daemon=True, name='bench-ticks')
+        t.start()
+        self._threads.append(t)
+        return self
+
+    def stop(self) -> None:
+        """Stop ticking, close the server and leave the bus."""
+        self._stop.set()
+        self.stop_modbus()
+        for t in self._threads:
+            t.join(timeout=2.0)
+        if self.network is not None:
+            with contextlib.suppress(Exception):
+                self.node.nmt.stop_heartbeat()
+            with contextlib.suppress(Exception):
+                self.network.disconnect()
+
+    # --- Modbus ---------------------------------------------------------------------------
+    def _start_modbus(self) -> None:
+        from pymodbus.server import ModbusTcpServer
+        from pymodbus.simulator import DataType, SimData, SimDevice
+        hr = [SimData(b.address, count=b.count, values=0, datatype=DataType.REGISTERS)
+              for b in self.map.blocks(True) + [b for b in self.map.blocks(False)
+                                                if b.register == 'holding']]
+        ir = [SimData(b.address, count=b.count, values=0, datatype=DataType.REGISTERS)
+              for b in self.map.blocks(False) if b.register == 'input']
+        device = SimDevice(id=0, simdata=([_spare(bits=True)], [_spare(bits=True)],
+                                          hr or [_spare()], ir or [_spare()]),
+                           action=self._action)
+        ready = threading.Event()
+        failed: list[BaseException] = []
+
+        def serve() -> None:
+            loop = asyncio.new_event_loop()
+            self._loop = loop
+
+            async def listen() -> None:
+                self._server = ModbusTcpServer(device, address=('127.0.0.1', self.port))
+                await self._server.serve_forever(background=True)
+            try:
+                loop.run_until_complete(listen())
+            except BaseException as exc:  # noqa: BLE001 - reported to the starter
+                failed.append(exc)
+                ready.set()
+                return
+            ready.set()
+            loop.run_forever()
+            loop.close()
+
+        t = threading.Thread(target=serve, daemon=True, name='modbus-server')
+        t.start()
+        self._threads.append(t)
+        ready.wait(10.0)
+        if failed:
+            raise BusUnreachable(f'Modbus server: cannot listen on 127.0.0.1:{self.port}: '
+                                 f'{failed[0]}')
+
+    async def _action(self, function_code: int, start_address: int, address: int, count: int,
+                      current_registers: list[int], set_values: Any) -> None:
+        """The hook pymodbus calls on every access: a read gets the bench's latest words, a
+        write of holding registers is kept for the next tick."""
+        kind = 'input' if function_code == 4 else 'holding'
+        with self._lock:
+            if set_values is not None:
+                for k, v in enumerate(set_values):
+                    self.words[('holding', address + k)] = int(v)
+            for k in range(len(current_registers)):
+                w = self.words.get((kind, start_address + k))
+                if w is not None:
+                    current_registers[k] = w
+
+    def stop_modbus(self) -> None:
+        """The Modbus server goes away (a fault: the DAQ is unplugged)."""
+        loop, server = self._loop, self._server
+        if loop is None or server is None or loop.is_closed():
+            return
+        with contextlib.suppress(Exception):
+            asyncio.run_coroutine_threadsafe(server.shutdown(), loop).result(5.0)
+        with contextlib.suppress(RuntimeError):
+            loop.call_soon_threadsafe(loop.stop)
+        self._server = None
+
+    def corrupt(self, signal: str, value: float, duration_s: float) -> None:
+        """For ``duration_s``, the registers of ``signal`` hold the raw ``value`` (as a broken
+        sensor wire or a flipped register would)."""
+        from pam_bench.buses.register_map import TYPES
+        c = self.map.channel(signal)
+        if c is None:
+            raise KeyError(signal)
+        code, _ = TYPES[c.type]
+        raw = value if c.type == 'float32' else int(value)
+        data = struct.pack(f'>{code}', raw)
+        words = [int.from_bytes(data[2 * k:2 * k + 2], 'big') for k in range(c.count)]
+        self._corrupt[signal] = (words if self.map.word_order == 'big' else words[::-1],
+                                 time.monotonic() + duration_s)
+
+    # --- CANopen --------------------------------------------------------------------------
+    def _start_can(self) -> None:
+        import canopen
+        self.network = canopen.Network()
+        try:
+            self.network.connect(**self.can)
+        except Exception as exc:  # noqa: BLE001 - python-can raises several types
+            raise BusUnreachable(f'CAN bus {self.can.get("interface")} '
+                                 f'{self.can.get("channel")}: {exc}') from None
+        self.node = canopen.LocalNode(self.node_id, eds_path())
+        self.network.add_node(self.node)
+        self.node.add_write_callback(self._on_write)
+        self.node.add_read_callback(self._on_read)
+        self.network.subscribe(0, self._on_nmt)
+        self.node.nmt.state = 'PRE-OPERATIONAL'
+        self.network.send_message(0x700 + self.node_id, [0])          # boot-up
+        period = self.node.get_data(0x1017, 0)
+        self._heartbeat_ms = int.from_bytes(period, 'little')
+        if self._heartbeat_ms:
+            self.node.nmt.start_heartbeat(self._heartbeat_ms)
+
+    def _on_nmt(self, can_id: int, data: bytearray, timestamp: float) -> None:
+        """NMT start: take the PDO mapping the master wrote (by SDO) and subscribe RPDO 1."""
+        if len(data) >= 2 and data[0] == 0x01 and data[1] in (0, self.node_id):
+            self._map_pdos()
+
+    def _mapping(self, index: int) -> list[tuple[int, str]]:
+        """(od index, struct code) of each object a PDO mapping object lists."""
+        n = self.node.get_data(index, 0)[0]
+        out = []
+        for sub in range(1, n + 1):
+            entry = int.from_bytes(self.node.get_data(index, sub), 'little')
+            od = entry >> 16
+            out.append((od, _FORMATS[self.node.object_dictionary[od].data_type]))
+        return out
+
+    def _map_pdos(self) -> None:
+        rx_cob = int.from_bytes(self.node.get_data(0x1400, 1), 'little') & 0x7FF
+        self._tpdo_cob = int.from_bytes(self.node.get_data(0x1800, 1), 'little') & 0x7FF
+        self._rpdo, self._tpdo = self._mapping(0x1600), self._mapping(0x1A00)
+        with contextlib.suppress(Exception):
+            self.network.unsubscribe(rx_cob, self._on_rpdo)
+        self.network.subscribe(rx_cob, self._on_rpdo)
+
+    def _on_write(self, index: int, subindex: int, od: Any, data: bytes) -> None:
+        if index == OD['modes_of_operation']:
+            self.mode = struct.unpack('<b', bytes(data))[0]
+            self._apply()
+        elif index == OD['controlword']:
+            self._controlword(int.from_bytes(data, 'little'))
+
+    def _on_read(self, index: int, subindex: int, od: Any) -> int | None:
+        if index == OD['statusword']:
+            return STATUSWORD[self.state]
+        if index == OD['modes_display']:
+            return self.mode
+        return None
+
+    def _on_rpdo(self, can_id: int, data: bytearray, timestamp: float) -> None:
+        if self._silent or self.node.nmt.state != 'OPERATIONAL':
+            return
+        fmt = '<' + ''.join(code for _, code in self._rpdo)
+        if struct.calcsize(fmt) != len(data):
+            return
+        values = dict(zip((od for od, _ in self._rpdo), struct.unpack(fmt, bytes(data)),
+                          strict=True))
+        self._targets = (values.get(OD['target_torque'], self._targets[0]),
+                         values.get(OD['target_position'], self._targets[1]))
+        if OD['modes_of_operation'] in values:
+            self.mode = values[OD['modes_of_operation']]
+        self._controlword(values.get(OD['controlword'], self._cw))
+
+    def _controlword(self, cw: int) -> None:
+        self.state, self._cw = next_state(self.state, cw, self._cw), cw
+        self._apply()
+
+    def _apply(self) -> None:
+        """What the drive does in its state and mode (module docstring)."""
+        if self.state == State.OPERATION_ENABLED and self.mode == MODE_CST:
+            wanted = (LoadMode.FORCE, self.scale.force_of_permille(self._targets[0]))
+        elif self.state == State.OPERATION_ENABLED and self.mode == MODE_CSP:
+            wanted = (LoadMode.POSITION,
+                      self.scale.angle_of(self._targets[1]) * self.scale.radius_m)
+        else:
+            wanted = (LoadMode.OFF, 0.0)
+        if wanted != self._applied:
+            self._applied = wanted
+            with self._lock:
+                self.bench.command_load(*wanted)
+
+    def emcy(self, code: int = 0x2310) -> None:
+        """The drive faults (default: over-current) and says so by EMCY."""
+        self.state = State.FAULT
+        self._apply()
+        self.node.emcy.send(code, 0x02)
+
+    def silence_can(self) -> None:
+        """The drive stops talking: no heartbeat, no PDO (a cut cable, a dead node)."""
+        self._silent = True
+        with contextlib.suppress(Exception):
+            self.node.nmt.stop_heartbeat()
+
+    def _send_tpdo(self) -> None:
+        if self._silent or not self._tpdo or self.node.nmt.state != 'OPERATIONAL':
+            return
+        servo, s = self.bench.servo, self.scale
+        values = {OD['statusword']: STATUSWORD[self.state], OD['modes_display']: self.mode,
+                  OD['position_actual']: s.counts(servo.phi),
+                  OD['torque_actual']: max(-32768, min(32767, round(
+                      1000.0 * servo.torque / s.gear_ratio / s.rated_torque_nm)))}
+        fmt = '<' + ''.join(code for _, code in self._tpdo)
+        data = struct.pack(fmt, *(values[od] for od, _ in self._tpdo))
+        with contextlib.suppress(Exception):
+            self.network.send_message(self._tpdo_cob, data)
+
+    # --- the bench ------------------------------------------------------------------------
+    def _publish_inputs(self) -> None:
+        """The bench's measured signals into the input registers (corrupted ones as told)."""
+        b = self.bench
+        values = {'valve_1.pressure': b.p + ATMOSPHERE_PA, 'load_cell_1.force': b.f_meas,
+                  'encoder.angle': b.th_meas, 'valve_2.pressure': ATMOSPHERE_PA,
+                  'load_cell_2.force': 0.0}
+        now = time.monotonic()
+        words: dict[tuple[str, int], int] = {}
+        for c in self.map.inputs:
+            bad = self._corrupt.get(c.signal)
+            if bad is not None and now < bad[1]:
+                ws = bad[0]
+            else:
+                v = values[c.signal]
+                ws = self.map.encode(c, min(max(v, c.low), c.high))
+            for k, w in enumerate(ws):
+                words[(c.register, c.address + k)] = w
+        with self._lock:
+            self.words.update(words)
+
+    def _read_outputs(self) -> None:
+        c = self.map.channel('valve_1.voltage')
+        if c is None:
+            return
+        with self._lock:
+            ws = [self.words.get(('holding', c.address + k), 0) for k in range(c.count)]
+        u = self.map.decode(c, ws)
+        if not math.isfinite(u):
+            self.rejected_outputs += 1
+            u = 0.0                                   # a command the map refuses: vent
+        self.valve_voltage_v = u
+        self.bench.command_valve(u)
+
+    def _run(self) -> None:
+        """Tick the bench on the wall clock: outputs in, one step, inputs and TPDO out."""
+        last = time.monotonic()
+        next_t = last + self.period_s
+        while not self._stop.is_set():
+            now = time.monotonic()
+            if now < next_t:
+                time.sleep(min(next_t - now, self.period_s))
+                continue
+            dt = min(now - last, MAX_STEP_S)
+            last = now
+            next_t += self.period_s
+            if next_t < now - 0.1:
+                next_t = now + self.period_s        # a long stall: start again from now
+            self._read_outputs()
+            with self._lock:
+                self.bench.step(dt)
+            self._publish_inputs()
+            self._send_tpdo()
+            self.ticks += 1
+
+
+def _spare(bits: bool = False) -> Any:
+    """A register (or bit) the map does not use: pymodbus wants every block kind."""
+    from pymodbus.simulator import DataType, SimData
+    return SimData(65000, count=1, values=0,
+                   datatype=DataType.BITS if bits else DataType.REGISTERS)

@@ -1,0 +1,88 @@
+"""``python -m pam_bench.buses.serve``: the simulated bench of a scene behind its buses, until
+SIGINT or SIGTERM (``pam-bench emulate --buses`` and ``run --wallclock --buses`` start it).
+
+It builds the single-muscle bench from the scene's device settings (a params file as the
+bring-up writes it), starts the CAN hub on 127.0.0.1 (``buses.can_hub``) and the
+``EmulatedBench`` on it and on a Modbus TCP port, prints one line ``buses: modbus
+127.0.0.1:PORT, can socketcand 127.0.0.1:PORT, map NAME`` once both serve, and ticks the bench.
+A bad register map, a port in use: one line, exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import pathlib
+import signal
+import sys
+import threading
+from typing import Any
+
+from pam_bench.vocabulary.errors import PamBenchError
+
+__all__ = ['bench_of', 'main', 'READY']
+
+READY = 'buses:'
+"""How the ready line starts."""
+
+
+def bench_of(settings: dict[str, Any]) -> Any:
+    """The twin's single-muscle bench with a scene's device settings (node -> settings)."""
+    from pam_bench.twin.bench import SingleMuscleBench
+    valve, muscle = settings['valve_1'], settings['muscle_1']
+    cell = settings['load_cell_1']
+    return SingleMuscleBench(valve=valve.valve, muscle=muscle.muscle, load_cell=cell.load_cell,
+                             encoder=settings['encoder'].encoder,
+                             servo=settings['loading_servo'].servo, seed=cell.seed,
+                             sub_step_s=valve.sub_step_s,
+                             straight_fibre=muscle.straight_fibre, settle=muscle.settle,
+                             laws=getattr(muscle, 'laws', None))
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Serve (module docstring)."""
+    from pam_bench.buses.can_hub import CanHub, bus_config
+    from pam_bench.buses.cia402 import DriveScale
+    from pam_bench.buses.emulated import EmulatedBench
+    from pam_bench.buses.register_map import load_register_map
+    from pam_bench.config.scene import node_of_key, settings_of_params_file
+    from pam_bench.vocabulary.yaml_io import read_yaml
+    p = argparse.ArgumentParser(prog='python -m pam_bench.buses.serve')
+    p.add_argument('params_file')
+    p.add_argument('--modbus-port', type=int, required=True)
+    p.add_argument('--can-port', type=int, required=True)
+    p.add_argument('--map', default='daq_generic')
+    p.add_argument('--node-id', type=int, default=5)
+    args = p.parse_args(argv)
+    stop = threading.Event()
+    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    hub = emu = None
+    try:
+        params = read_yaml(pathlib.Path(args.params_file))
+        wanted = ('valve_1', 'muscle_1', 'load_cell_1', 'encoder', 'loading_servo')
+        by_node = {node_of_key(k): v for k, v in params.items()}
+        settings = settings_of_params_file({n: by_node.get(n, {}) for n in wanted})
+        rmap = load_register_map(args.map)
+        servo = settings['loading_servo'].servo
+        scale = DriveScale(servo.pitch_diameter_m, servo.gear_ratio, servo.rated_torque_nm,
+                           servo.encoder_bits_per_rev)
+        hub = CanHub(args.can_port).start()
+        emu = EmulatedBench(bench_of(settings), rmap, args.modbus_port,
+                            bus_config('socketcand', 'can0', hub.port), args.node_id, scale,
+                            settings['valve_1'].rate_hz).start()
+        print(f'{READY} modbus 127.0.0.1:{args.modbus_port}, can socketcand '
+              f'127.0.0.1:{hub.port}, map {rmap.name}', flush=True)
+        while not stop.wait(0.2):
+            pass
+    except PamBenchError as exc:
+        print(f'buses: error: {exc}', file=sys.stderr, flush=True)
+        sys.exit(2)
+    finally:
+        if emu is not None:
+            emu.stop()
+        if hub is not None:
+            hub.stop()
+
+
+if __name__ == '__main__':
+    main()
