@@ -32,7 +32,7 @@ from pam_bench.buses.modbus_io import Backoff, ModbusIo
 from pam_bench.buses.register_map import load_register_map
 from pam_bench.config import topics
 from pam_bench.config.settings import DaqModbusSettings
-from pam_bench.runtime.base import RELIABLE, BenchNode
+from pam_bench.runtime.base import SENSOR, BenchNode
 from pam_bench.runtime.messages import force_reading
 from pam_bench.runtime.process import run_node
 from pam_bench.runtime.stamped import stamped
@@ -70,7 +70,7 @@ class DaqModbusNode(BenchNode):
         for c in self.map.outputs:
             ch = int(c.signal.split('.')[0][-1])
             self.create_subscription(ValveCommand, topics.valve_command(ch),
-                                     functools.partial(self._command, c.signal), RELIABLE)
+                                     functools.partial(self._command, c.signal), SENSOR)
         self.exchanges = 0
         self._rate_since = (time.monotonic(), 0)
         self.start_wall_ticks(1.0 / s.rate_hz)

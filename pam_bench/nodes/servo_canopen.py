@@ -33,7 +33,7 @@ from pam_bench.buses.errors import BusUnreachable
 from pam_bench.config import topics
 from pam_bench.config.settings import ServoCanopenSettings
 from pam_bench.models.loading_servo import LoadMode
-from pam_bench.runtime.base import RELIABLE, BenchNode
+from pam_bench.runtime.base import SENSOR, BenchNode
 from pam_bench.runtime.core import Spin
 from pam_bench.runtime.process import run_node
 from pam_bench.runtime.stamped import stamped
@@ -59,7 +59,7 @@ class ServoCanopenNode(BenchNode):
         self._state: State | None = None
         self._stale = False
         self.state_pub = self.create_step_publisher(JointState, topics.LOAD_STATE)
-        self.create_subscription(LoadCommand, topics.LOAD_COMMAND, self._command, RELIABLE)
+        self.create_subscription(LoadCommand, topics.LOAD_COMMAND, self._command, SENSOR)
         self.create_service(Trigger, RESET, self._on_reset)
         self.start_wall_ticks(1.0 / s.rate_hz)
 

@@ -1,0 +1,72 @@
+"""The bench behind real buses on the wall clock: the drivers replace the simulated devices and
+the sequencer and the recorder run unchanged (issue 44)."""
+
+from __future__ import annotations
+
+import pathlib
+import subprocess
+import sys
+import time
+
+import pytest
+
+from pam_bench.bringup.runner import Layout, RunOptions, run_scene
+from pam_bench.config.scene import load_scene
+from pam_bench.verify.wallclock import CONTRACTION_BOUND_M, FORCE_BOUND_N, compare_readings
+from test.bringup.test_wallclock import SETTLED
+from test.helpers import bag_messages
+
+pytestmark = pytest.mark.wallclock
+
+
+def test_a_run_through_the_buses_lands_on_the_lockstep_readings(tmp_path: pathlib.Path,
+                                                                ros_domain: int) -> None:
+    path = tmp_path / 'settled.yaml'
+    path.write_text(SETTLED)
+    scene = load_scene(str(path))
+    lock = run_scene(scene, str(tmp_path / 'lock'), RunOptions(quiet=True))
+    assert lock.code == 0
+    res = run_scene(scene, str(tmp_path / 'bus'),
+                    RunOptions(layout=Layout.WALL_CLOCK, quiet=True, buses='daq_generic'))
+    assert res.code == 0, res.summary
+    assert {'daq_modbus', 'servo_canopen', 'sequencer', 'recorder'} <= set(res.stats)
+    diff = compare_readings(tmp_path / 'bus', tmp_path / 'lock')
+    assert diff.matched == 6 and diff.only_a == diff.only_b == 0
+    assert diff.max_force_n <= FORCE_BOUND_N, diff
+    assert diff.max_contraction_m <= CONTRACTION_BOUND_M, diff
+    states = bag_messages(tmp_path / 'bus', '/loading_servo/state')      # from the drive
+    assert states and all(s.name[0] == 'motor' for s in states[-10:])
+    diags = bag_messages(tmp_path / 'bus', '/diagnostics')
+    names = {st.name for d in diags for st in d.status}
+    assert 'daq_modbus: bus' in names and 'servo_canopen: drive' in names
+
+
+def test_check_drivers_passes_on_the_bus_drivers(tmp_path: pathlib.Path,
+                                                 ros_domain: int) -> None:
+    proc = subprocess.Popen([sys.executable, '-m', 'pam_bench.cli', 'emulate', 'demo',
+                             '--buses'], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True, start_new_session=True)
+    try:
+        assert proc.stdout is not None
+        for line in proc.stdout:
+            if 'running on the wall clock' in line:
+                break
+        time.sleep(2.0)
+        res = subprocess.run([sys.executable, '-m', 'pam_bench.cli', 'check-drivers', 'demo',
+                              '--duration', '2'], capture_output=True, text=True, timeout=60)
+    finally:
+        proc.terminate()
+        proc.wait(timeout=20)
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert '5 of 5 pass' in res.stdout
+
+
+def test_a_bad_register_map_starts_nothing(tmp_path: pathlib.Path, ros_domain: int) -> None:
+    bad = tmp_path / 'map.yaml'
+    bad.write_text('channels:\n  - {signal: load_cell_1.force, adress: 0, low: 0, high: 1}\n')
+    res = subprocess.run([sys.executable, '-m', 'pam_bench.cli', 'run', 'demo', '--wallclock',
+                          '--buses', str(bad), '--out', str(tmp_path / 'bag')],
+                         capture_output=True, text=True, timeout=60)
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert res.returncode == 2 and len(lines) == 1 and "'adress'" in lines[0], res.stderr
+    assert not (tmp_path / 'bag').exists() or not any((tmp_path / 'bag').iterdir())

@@ -1,0 +1,132 @@
+"""The bench behind its buses, met by the drivers' bus clients (no ROS): values, commands, the
+drive's state machine, and each fault the drivers must detect."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Iterator
+
+import can
+import pytest
+
+from pam_bench.buses.can_hub import bus_config, can_hub
+from pam_bench.buses.canopen_drive import CanopenDrive
+from pam_bench.buses.cia402 import DriveScale, State
+from pam_bench.buses.emulated import EmulatedBench, eds_path, free_port
+from pam_bench.buses.errors import BusUnreachable
+from pam_bench.buses.modbus_io import Backoff, ModbusIo
+from pam_bench.buses.register_map import load_register_map
+from pam_bench.models.constants import ATMOSPHERE_PA
+from pam_bench.models.loading_servo import LoadMode
+from pam_bench.twin.bench import SingleMuscleBench
+
+
+class Rig:
+    def __init__(self, port: int, hub_port: int) -> None:
+        self.map = load_register_map('daq_generic')
+        self.emu = EmulatedBench(SingleMuscleBench(), self.map, port,
+                                 bus_config('socketcand', 'can0', hub_port)).start()
+        self.io = ModbusIo(self.map, '127.0.0.1', port)
+        self.io.connect()
+        self.drive = CanopenDrive(bus_config('socketcand', 'can0', hub_port), 5, eds_path(),
+                                  DriveScale())
+        self.drive.start()
+
+    def run(self, seconds: float, voltage: float = 0.0) -> dict[str, float]:
+        end, values = time.monotonic() + seconds, {}
+        while time.monotonic() < end:
+            self.io.write_outputs({'valve_1.voltage': voltage})
+            values = self.io.read_inputs()
+            self.drive.tick(time.monotonic())
+            time.sleep(0.002)
+        return values
+
+
+@pytest.fixture
+def rig() -> Iterator[Rig]:
+    with can_hub() as hub:
+        r = Rig(free_port(), hub.port)
+        try:
+            yield r
+        finally:
+            r.drive.stop()
+            r.io.close()
+            r.emu.stop()
+
+
+def test_values_commands_and_the_drive(rig: Rig) -> None:
+    rig.drive.command(LoadMode.POSITION, 0.04)
+    values = rig.run(1.5, voltage=3.0)
+    assert rig.drive.state == State.OPERATION_ENABLED and rig.emu.state == State.OPERATION_ENABLED
+    assert rig.emu.valve_voltage_v == pytest.approx(3.0)
+    b = rig.emu.bench
+    assert b.x == pytest.approx(0.04, abs=2e-4)            # held where the drive was told
+    assert values['valve_1.pressure'] == pytest.approx(b.p + ATMOSPHERE_PA, rel=0.01)
+    assert values['encoder.angle'] == pytest.approx(0.04 / DriveScale().radius_m, abs=2e-3)
+    assert values['load_cell_1.force'] == pytest.approx(b.f, abs=5.0)
+    rig.drive.command(LoadMode.FORCE, 150.0)               # the mode changes through SDO
+    rig.run(1.5, voltage=0.0)
+    assert rig.emu.mode == 10 and rig.drive.state == State.OPERATION_ENABLED
+    assert b.f == pytest.approx(150.0, abs=15.0)
+    rig.drive.command(LoadMode.OFF, 0.0)
+    rig.run(0.2)
+    assert rig.emu.state == State.READY_TO_SWITCH_ON        # power stage off
+
+
+def test_an_emcy_is_a_fault_the_driver_keeps(rig: Rig) -> None:
+    rig.drive.command(LoadMode.POSITION, 0.02)
+    rig.run(0.8)
+    rig.emu.emcy(0x2310)
+    rig.run(0.3)
+    assert 'EMCY 0x2310' in rig.drive.fault and rig.emu.state == State.FAULT
+    rig.run(0.3)
+    assert rig.emu.state == State.FAULT                    # left there until a reset
+    rig.drive.reset()
+    rig.run(0.8)
+    assert rig.emu.state == State.OPERATION_ENABLED
+
+
+def test_a_silent_drive_goes_stale(rig: Rig) -> None:
+    rig.run(0.5)
+    assert not rig.drive.stale(time.monotonic())
+    rig.emu.silence_can()
+    time.sleep(rig.drive.heartbeat_timeout_s + 0.1)
+    assert rig.drive.stale(time.monotonic())
+
+
+def test_a_lost_server_and_a_corrupt_register(rig: Rig) -> None:
+    rig.emu.corrupt('load_cell_1.force', 5.0e4, 0.5)     # 50 kN: outside the map's range
+    values = rig.run(0.1)
+    assert math.isnan(values['load_cell_1.force']) and math.isfinite(values['encoder.angle'])
+    time.sleep(0.5)
+    assert math.isfinite(rig.run(0.05)['load_cell_1.force'])
+    rig.emu.stop_modbus()
+    with pytest.raises(BusUnreachable):
+        rig.run(0.5)
+
+
+def test_the_hub_relays_to_the_others_only() -> None:
+    with can_hub() as hub:
+        a, b = (can.Bus(**bus_config('socketcand', 'can0', hub.port)) for _ in range(2))
+        try:
+            time.sleep(0.1)
+            a.send(can.Message(arbitration_id=0x181, data=b'\x01\x02', is_extended_id=False))
+            a.send(can.Message(arbitration_id=0x1ABCDE, data=b'', is_extended_id=True))
+            got = [b.recv(1.0), b.recv(1.0)]
+            assert [(m.arbitration_id, bytes(m.data), m.is_extended_id) for m in got] == \
+                [(0x181, b'\x01\x02', False), (0x1ABCDE, b'', True)]
+            assert a.recv(0.2) is None                      # no echo
+        finally:
+            a.shutdown()
+            b.shutdown()
+
+
+def test_nothing_listens_one_error() -> None:
+    io = ModbusIo(load_register_map('daq_generic'), '127.0.0.1', free_port())
+    with pytest.raises(BusUnreachable, match='127.0.0.1'):
+        io.connect()
+    backoff = Backoff(0.1, 0.5)
+    for expected in (0.1, 0.2, 0.4, 0.5, 0.5):
+        assert backoff.delay_s == pytest.approx(expected)
+        backoff.failed(0.0)
