@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pam_bench.benchmarks import (
+    buses,
     calibrate,
     calibrate_bounds,
     calibrate_nodes,
@@ -33,7 +34,8 @@ STUDIES: tuple[Study, ...] = (
     settle.STUDY, record_exchange.STUDY, scenes.STUDY, numerics.STUDY, wallclock.STUDY,
     faults.STUDY, straight_fibre.STUDY, calibrate.STUDY, calibrate_bounds.STUDY,
     calibrate_nodes.STUDY,
-    servo_compare.STUDY, soak.STUDY, sweep_scaling.STUDY, dynamics.STUDY, fuzz.STUDY)
+    servo_compare.STUDY, soak.STUDY, sweep_scaling.STUDY, dynamics.STUDY, fuzz.STUDY,
+    buses.STUDY)
 """Every study; ``pam-bench bench --only KEY`` runs some."""
 
 

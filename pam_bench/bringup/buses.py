@@ -1,6 +1,6 @@
 """The bench behind its buses on a wall clock (``run --wallclock --buses``, ``emulate --buses``).
 
-The simulated devices are served by one process, ``buses.serve`` (a Modbus TCP DAQ on
+The simulated devices are served by one process, ``twin.serve_buses`` (a Modbus TCP DAQ on
 127.0.0.1 and a CiA 402 drive on the CAN hub), and the two drivers (``daq_modbus``,
 ``servo_canopen``) take their place on the ROS graph, each in its own process as on a real
 bench: the sequencer, the servo and the recorder run unchanged.
@@ -12,7 +12,7 @@ import dataclasses
 import os
 import subprocess
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from pam_bench.bringup.errors import LayoutError
@@ -32,8 +32,8 @@ def bus_settings(settings: dict[str, Any], register_map: str, stats_dir: str
         LayoutError: the scene lacks a device the buses serve.
     """
     from pam_bench.buses.cia402 import DriveScale
-    from pam_bench.buses.emulated import free_port
     from pam_bench.buses.register_map import load_register_map
+    from pam_bench.cluster.loopback import free_port
     from pam_bench.config.settings import DaqModbusSettings, ServoCanopenSettings
     missing = [n for n in ('valve_1', 'muscle_1', 'load_cell_1', 'encoder', 'loading_servo')
                if n not in settings]
@@ -57,16 +57,21 @@ def bus_settings(settings: dict[str, Any], register_map: str, stats_dir: str
 
 
 def start_buses(start: Callable[..., subprocess.Popen], pfile: str, ports: tuple[int, int],
-                register_map: str, log: Any) -> subprocess.Popen:
-    """Start ``buses.serve`` and wait for its ready line.
+                register_map: str, log: Any, faults: Sequence[Any] = ()) -> subprocess.Popen:
+    """Start ``twin.serve_buses`` with the scene's bus faults and wait for its ready line.
 
     Raises:
         LayoutError: it stopped before serving (its one line).
     """
-    from pam_bench.buses.serve import READY
-    proc = start('buses', [sys.executable, '-m', 'pam_bench.buses.serve', pfile,
+    import yaml
+
+    from pam_bench.sim.faults import BUS_KINDS
+    from pam_bench.twin.serve_buses import READY
+    ours = [dataclasses.asdict(f) for f in faults if f.kind in BUS_KINDS]
+    proc = start('buses', [sys.executable, '-m', 'pam_bench.twin.serve_buses', pfile,
                            '--modbus-port', str(ports[0]), '--can-port', str(ports[1]),
-                           '--map', register_map], pipe=True)
+                           '--map', register_map, '--faults', yaml.safe_dump(ours)],
+                 pipe=True)
     assert proc.stdout is not None
     for line in proc.stdout:
         log.write(line)

@@ -56,6 +56,10 @@ def run_scene(scene: Scene, out_dir: str, options: RunOptions | None = None) -> 
         run_yaml = yaml.safe_dump(run_description(scene, params_file(settings), o.seed,
                                                   layout.value), sort_keys=False)
         settings['recorder'] = dataclasses.replace(rec, run_yaml=run_yaml, end_file=end_file)
+    from pam_bench.sim.faults import BUS_KINDS
+    if any(f.kind in BUS_KINDS for f in scene.faults) and not o.buses:
+        raise LayoutError(f'scene {scene.name} injects faults into the buses: run it with '
+                          '--wallclock --buses')
     if scene.faults and layout is not Layout.WALL_CLOCK:
         raise LayoutError(f'scene {scene.name} injects faults: they run on the wall clock '
                           '(--wallclock)')

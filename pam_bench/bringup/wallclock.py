@@ -67,7 +67,9 @@ def wall_settings(scene: Scene, settings: dict[str, Any], stats_dir: str = ''
             stats_dir, f'{name}.json') if stats_dir else '')
     if 'torque_servo' in settings:
         settings['torque_servo'] = rep(settings['torque_servo'], duration_s=scene.duration_s)
-    for target in {f.target for f in scene.faults if f.kind != 'node_kill'}:
+    from pam_bench.sim.faults import BUS_KINDS
+    for target in {f.target for f in scene.faults
+                   if f.kind != 'node_kill' and f.kind not in BUS_KINDS}:
         settings[target] = rep(settings[target], faults_yaml=yaml.safe_dump(
             [dataclasses.asdict(f) for f in scene.faults if f.target == target]))
     for name in controllers(scene.nodes):  # nothing a controller publishes goes unrecorded
@@ -135,7 +137,7 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
                     raise _NotStarted                 # started (its one line is in the log)
             started = True
             if buses:
-                bus_proc = start_buses(start, pfile, ports, buses, log)
+                bus_proc = start_buses(start, pfile, ports, buses, log, scene.faults)
                 threading.Thread(target=copy_lines, args=(bus_proc.stdout, log),
                                  daemon=True).start()
                 for name in driver_names:

@@ -1,4 +1,3 @@
-"""Field buses: register maps, the CiA 402 drive, a CAN hub on loopback, the bench behind them."""
+"""Field buses: register maps and Modbus I/O, the CiA 402 drive on CANopen, a loopback CAN hub."""
 
-__all__ = ['can_hub', 'canopen_drive', 'cia402', 'emulated', 'errors', 'modbus_io',
-           'register_map', 'serve']
+__all__ = ['can_hub', 'canopen_drive', 'cia402', 'errors', 'modbus_io', 'register_map']

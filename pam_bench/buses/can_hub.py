@@ -26,6 +26,7 @@ import socket
 import threading
 import time
 from collections.abc import Iterator
+from typing import Any
 
 from pam_bench.buses.errors import BusUnreachable
 
@@ -149,7 +150,7 @@ def can_hub(port: int = 0) -> Iterator[CanHub]:
         hub.stop()
 
 
-def bus_config(interface: str, channel: str, port: int = 0) -> dict[str, object]:
+def bus_config(interface: str, channel: str, port: int = 0) -> dict[str, Any]:
     """The python-can (and canopen ``Network.connect``) keywords of a bus: ``socketcan`` and
     ``channel`` (a lab's ``can0``), or ``socketcand`` on the hub at 127.0.0.1:``port``."""
     if interface == 'socketcand':

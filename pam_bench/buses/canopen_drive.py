@@ -36,7 +36,13 @@ from pam_bench.buses.cia402 import (
 from pam_bench.buses.errors import BusUnreachable
 from pam_bench.models.loading_servo import LoadMode
 
-__all__ = ['CanopenDrive', 'RPDO_MAP', 'TPDO_MAP']
+__all__ = ['CanopenDrive', 'RPDO_MAP', 'TPDO_MAP', 'eds_path']
+
+
+def eds_path() -> str:
+    """The EDS of the loading-servo drive the bench emulates (config/buses/loading_servo.eds)."""
+    from pam_bench.config.paths import config_dir
+    return str(config_dir() / 'buses' / 'loading_servo.eds')
 
 RPDO_MAP = ((OD['controlword'], 16), (OD['target_torque'], 16), (OD['target_position'], 32))
 """RPDO 1: what the driver sends every tick (index, bits)."""

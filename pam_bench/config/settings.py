@@ -13,11 +13,11 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
-from pam_bench.buses.cia402 import DriveScale
 from pam_bench.control.torque_servo import ServoMode, SignalKind, TorqueServoParams
 from pam_bench.models.constants import PULLEY_PITCH_DIAMETER_M, SUB_STEP_S
 from pam_bench.models.coupling import SettleParams
 from pam_bench.models.loading_servo import LoadingServoParams
+from pam_bench.models.loading_servo.units import DriveScale
 from pam_bench.models.muscle import MuscleParams
 from pam_bench.models.sensors import EncoderParams, LoadCellParams
 from pam_bench.models.straight_fibre_muscle import StraightFibreParams
@@ -302,6 +302,9 @@ class ServoCanopenSettings(DriverSettings):
     heartbeat_timeout_s: float = field(0.35, 's', 'no heartbeat this long: the drive is stale '
                                        '(diagnostic), then quick stop', 0.01, 60.0)
     channel: int = field(1, '-', 'muscle channel on the belt', 1, 2)
+    rate_hz: float = field(250.0, 'Hz', 'PDO cycles per second (the drive closes its force and '
+                           'position loops itself; the cycle carries set values and actuals)',
+                           1.0, 10000.0)
     drive: DriveScale = section(DriveScale, "the drive's units (buses.cia402)")
 
 

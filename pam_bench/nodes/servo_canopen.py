@@ -26,9 +26,8 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
 from pam_bench.buses.can_hub import bus_config
-from pam_bench.buses.canopen_drive import CanopenDrive
+from pam_bench.buses.canopen_drive import CanopenDrive, eds_path
 from pam_bench.buses.cia402 import State
-from pam_bench.buses.emulated import eds_path
 from pam_bench.buses.errors import BusUnreachable
 from pam_bench.config import topics
 from pam_bench.config.settings import ServoCanopenSettings

@@ -9,7 +9,12 @@ kind's size. Kinds:
 * ``sensor_noise_burst``: Gaussian noise of standard deviation ``value`` on the value;
 * ``message_loss``: each measured message is dropped with probability ``value``;
 * ``valve_stuck`` (valve): commands are ignored, the last voltage stays;
-* ``node_kill`` (any node): the runner kills the node's process (SIGKILL) at ``at_s``.
+* ``node_kill`` (any node): the runner kills the node's process (SIGKILL) at ``at_s``;
+* on the buses (``run --wallclock --buses``, target the driver whose bus it hits, times from
+  the start of the buses): ``modbus_down`` (daq_modbus: the DAQ's server goes away for
+  ``duration_s``), ``register_out_of_range`` (daq_modbus: the load cell's register holds
+  ``value`` N, outside the map's range), ``can_emcy`` (servo_canopen: the drive faults and
+  sends an EMCY), ``can_silent`` (servo_canopen: the drive stops its heartbeat and PDOs).
 
 Faults run on a wall clock (a lock-step participant that drops a message stalls the run by
 design). Parsed strictly: an unknown key, kind or target is an error naming it.
@@ -25,10 +30,13 @@ from typing import Any
 from pam_bench.vocabulary.errors import ParameterError, shorten
 from pam_bench.vocabulary.params import check_known
 
-__all__ = ['Fault', 'KINDS', 'SENSOR_KINDS', 'parse_faults', 'sensor_value']
+__all__ = ['Fault', 'KINDS', 'SENSOR_KINDS', 'BUS_KINDS', 'parse_faults', 'sensor_value']
 
 SENSOR_KINDS = ('sensor_dropout', 'sensor_drift', 'sensor_noise_burst', 'message_loss')
-KINDS = (*SENSOR_KINDS, 'valve_stuck', 'node_kill')
+BUS_KINDS = {'modbus_down': 'daq_modbus', 'register_out_of_range': 'daq_modbus',
+             'can_emcy': 'servo_canopen', 'can_silent': 'servo_canopen'}
+"""Bus fault kind -> the driver whose bus it hits."""
+KINDS = (*SENSOR_KINDS, 'valve_stuck', 'node_kill', *BUS_KINDS)
 _SENSORS = ('load_cell_1', 'load_cell_2', 'encoder', 'valve_1', 'valve_2')
 
 
@@ -68,7 +76,11 @@ def parse_faults(data: Any, nodes: list[str]) -> list[Fault]:
         kind, target = item.get('kind'), item.get('target')
         if kind not in KINDS:
             raise ParameterError(f'{where}.kind: one of {", ".join(KINDS)}, got {kind!r}')
-        if target not in nodes:
+        if kind in BUS_KINDS:
+            if target != BUS_KINDS[kind]:
+                raise ParameterError(f'{where}: {kind} hits the bus of {BUS_KINDS[kind]}, '
+                                     f'not {target!r}')
+        elif target not in nodes:
             raise ParameterError(f'{where}.target: a node of the scene, got {target!r}')
         if kind in SENSOR_KINDS and target not in _SENSORS:
             raise ParameterError(f'{where}: {kind} needs a sensor (load cell, encoder, valve '

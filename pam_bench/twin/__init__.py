@@ -2,4 +2,5 @@
 
 from __future__ import annotations
 
-__all__ = ['bench', 'protocol_run', 'quasistatic', 'servo_bench', 'servo_setup']
+__all__ = ['bench', 'buses', 'protocol_run', 'quasistatic', 'serve_buses', 'servo_bench',
+           'servo_setup']

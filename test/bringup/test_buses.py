@@ -70,3 +70,55 @@ def test_a_bad_register_map_starts_nothing(tmp_path: pathlib.Path, ros_domain: i
     lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
     assert res.returncode == 2 and len(lines) == 1 and "'adress'" in lines[0], res.stderr
     assert not (tmp_path / 'bag').exists() or not any((tmp_path / 'bag').iterdir())
+
+
+def _level(status: object) -> int:
+    level = status.level                     # bytes from rclpy, an int from rosbags
+    return level[0] if isinstance(level, bytes) else int(level)
+
+
+DAQ_FAULTS = {
+    'modbus_down': '{kind: modbus_down, target: daq_modbus, at_s: 4.0, duration_s: 0.6}',
+    'register_out_of_range': '{kind: register_out_of_range, target: daq_modbus, at_s: 4.0, '
+                             'duration_s: 0.5, value: 50000.0}',
+}
+
+
+@pytest.mark.parametrize('kind', sorted(DAQ_FAULTS))
+def test_a_daq_fault_is_detected_suspends_the_run_and_loses_no_reading(
+        kind: str, tmp_path: pathlib.Path, ros_domain: int) -> None:
+    from pam_bench.benchmarks.faults import READINGS, SCENE
+    path = tmp_path / f'{kind}.yaml'
+    # the DAQ carries all three measured inputs: a suspender watches each one's staleness
+    every = ('[{{input: force, low: -50.0, high: 1000.0, stale_s: 0.2, resume_after_s: 0.3}}, '
+             '{{input: contraction, stale_s: 0.2, resume_after_s: 0.3}}, '
+             '{{input: pressure, stale_s: 0.2, resume_after_s: 0.3}}]')
+    text = SCENE.replace('[{{input: force, low: -50.0, high: 1000.0, stale_s: 0.2,\n    '
+                         'resume_after_s: 0.3}}]', every)
+    assert text != SCENE
+    path.write_text(text.format(fault=DAQ_FAULTS[kind]))
+    res = run_scene(load_scene(str(path)), str(tmp_path / 'bag'),
+                    RunOptions(layout=Layout.WALL_CLOCK, quiet=True, buses='daq_generic'))
+    assert res.code == 0, res.summary
+    status = bag_messages(tmp_path / 'bag', '/protocol/status')
+    assert any('suspended' in s.reason for s in status), [s.reason for s in status]
+    assert len(bag_messages(tmp_path / 'bag', '/protocol/point')) == READINGS
+    daq = [st for d in bag_messages(tmp_path / 'bag', '/diagnostics') for st in d.status
+           if st.name.startswith('daq_modbus')]
+    if kind == 'modbus_down':
+        assert any(_level(st) == 3 and 'lost' in st.message for st in daq)   # STALE
+    else:
+        assert any('rejected' in st.message and 'load_cell_1.force' in st.message
+                   for st in daq)
+
+
+def test_a_drive_fault_is_a_fault_diagnostic(tmp_path: pathlib.Path, ros_domain: int) -> None:
+    from pam_bench.benchmarks.faults import SCENE
+    path = tmp_path / 'emcy.yaml'
+    path.write_text(SCENE.format(fault='{kind: can_emcy, target: servo_canopen, at_s: 3.0}'))
+    res = run_scene(load_scene(str(path)), str(tmp_path / 'bag'),
+                    RunOptions(layout=Layout.WALL_CLOCK, quiet=True, buses='daq_generic'))
+    drive = [st for d in bag_messages(tmp_path / 'bag', '/diagnostics') for st in d.status
+             if st.name == 'servo_canopen: drive']
+    assert any(_level(st) == 2 and 'EMCY 0x2310' in st.message for st in drive), \
+        (res.code, [st.message for st in drive])

@@ -11,15 +11,16 @@ import can
 import pytest
 
 from pam_bench.buses.can_hub import bus_config, can_hub
-from pam_bench.buses.canopen_drive import CanopenDrive
+from pam_bench.buses.canopen_drive import CanopenDrive, eds_path
 from pam_bench.buses.cia402 import DriveScale, State
-from pam_bench.buses.emulated import EmulatedBench, eds_path, free_port
 from pam_bench.buses.errors import BusUnreachable
 from pam_bench.buses.modbus_io import Backoff, ModbusIo
 from pam_bench.buses.register_map import load_register_map
+from pam_bench.cluster.loopback import free_port
 from pam_bench.models.constants import ATMOSPHERE_PA
 from pam_bench.models.loading_servo import LoadMode
 from pam_bench.twin.bench import SingleMuscleBench
+from pam_bench.twin.buses import EmulatedBench
 
 
 class Rig:

@@ -7,17 +7,21 @@ serves it as a lab's hardware would be:
 - a **Modbus TCP server** on 127.0.0.1 (pymodbus) with the registers of a register map
   (``buses.register_map``): the measured force, pulley angle and absolute valve pressure in
   its input registers, refreshed every tick; the valve voltage read from its holding
-  registers every tick (a value the map refuses vents the valve);
+  registers every tick (a value the map refuses vents the valve; with no write for
+  ``watchdog_s``, 0.1 s, the DAQ's own watchdog sets its outputs to 0 V, as remote I/O
+  couplers do when their master goes quiet);
 - a **CiA 402 drive** (the loading servo) on a CAN bus (``canopen`` local node with the EDS
   shipped in config/buses/loading_servo.eds): NMT, an SDO server, a heartbeat every
   0x1017 ms, RPDO 1 (controlword, target torque, target position) and TPDO 1 (statusword,
-  torque actual, position actual, sent every tick) as their mapping objects say (the driver
-  writes them by SDO), the power state machine of ``buses.cia402``, modes 8 (position) and
-  10 (torque) through 0x6060. Only in operation enabled does the drive pull: a target torque
+  torque actual, position actual, sent in answer to each RPDO: the cycle is the master's, as
+  with a SYNC) as their mapping objects say (the driver writes them by SDO), the power
+  state machine of ``buses.cia402``, modes 8 (position) and 10 (torque) through 0x6060.
+  Only in operation enabled does the drive pull: a target torque
   T (per mille of rated) becomes the bench's force set value F = T i / r, a target position
   its contraction set value r theta; every other state turns the drive off.
 
-Faults, for the tests of the drivers: ``stop_modbus`` (the server goes away), ``emcy`` (the
+Faults, for the tests of the drivers: ``stop_modbus`` (the server goes away; back with
+``restart_modbus``), ``emcy`` (the
 drive faults and sends an EMCY), ``silence_can`` (heartbeat and PDOs stop), ``corrupt``
 (a register holds an out-of-range value for a while).
 """
@@ -27,12 +31,12 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import math
-import socket
 import struct
 import threading
 import time
 from typing import Any
 
+from pam_bench.buses.canopen_drive import eds_path
 from pam_bench.buses.cia402 import (
     MODE_CSP,
     MODE_CST,
@@ -48,24 +52,11 @@ from pam_bench.models.constants import ATMOSPHERE_PA
 from pam_bench.models.loading_servo import LoadMode
 from pam_bench.twin.bench import SingleMuscleBench
 
-__all__ = ['EmulatedBench', 'free_port', 'eds_path']
+__all__ = ['EmulatedBench']
 
 MAX_STEP_S = 0.005
 """Longest step the bench takes at once after the loop was late (a longer lag is dropped:
 the bench's own clock does not stop, but the physics is stepped in pieces it can take)."""
-
-
-def free_port() -> int:
-    """A TCP port free on 127.0.0.1 now."""
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(('127.0.0.1', 0))
-        return int(s.getsockname()[1])
-
-
-def eds_path() -> str:
-    """The EDS of the emulated loading-servo drive (config/buses/loading_servo.eds)."""
-    from pam_bench.config.paths import config_dir
-    return str(config_dir() / 'buses' / 'loading_servo.eds')
 
 
 _FORMATS = {0x0002: 'b', 0x0003: 'h', 0x0004: 'i', 0x0005: 'B', 0x0006: 'H', 0x0007: 'I'}
@@ -116,6 +107,9 @@ class EmulatedBench:
         self._tpdo_cob = 0x180 + node_id
         self.valve_voltage_v = 0.0
         self.rejected_outputs = 0
+        self.watchdog_s = 0.1
+        self._written: float | None = None      # last write of the holding registers
+        self.watchdog_trips = 0
 
     # --- life ---------------------------------------------------------------------------
     def start(self) -> EmulatedBench:
@@ -193,10 +187,16 @@ class EmulatedBench:
             if set_values is not None:
                 for k, v in enumerate(set_values):
                     self.words[('holding', address + k)] = int(v)
+                self._written = time.monotonic()
             for k in range(len(current_registers)):
                 w = self.words.get((kind, start_address + k))
                 if w is not None:
                     current_registers[k] = w
+
+    def restart_modbus(self) -> None:
+        """The Modbus server comes back on the same port (after ``stop_modbus``)."""
+        if self._server is None:
+            self._start_modbus()
 
     def stop_modbus(self) -> None:
         """The Modbus server goes away (a fault: the DAQ is unplugged)."""
@@ -294,6 +294,7 @@ class EmulatedBench:
         if OD['modes_of_operation'] in values:
             self.mode = values[OD['modes_of_operation']]
         self._controlword(values.get(OD['controlword'], self._cw))
+        self._send_tpdo()             # one TPDO per RPDO: the cycle the master sets
 
     def _controlword(self, cw: int) -> None:
         self.state, self._cw = next_state(self.state, cw, self._cw), cw
@@ -369,6 +370,14 @@ class EmulatedBench:
         if not math.isfinite(u):
             self.rejected_outputs += 1
             u = 0.0                                   # a command the map refuses: vent
+        written = self._written
+        if written is not None and time.monotonic() - written > self.watchdog_s:
+            if u != 0.0 or self.valve_voltage_v != 0.0:
+                self.watchdog_trips += 1
+            u = 0.0               # the DAQ's own watchdog: no write for a while, outputs safe
+            with self._lock:
+                for k in range(c.count):
+                    self.words[('holding', c.address + k)] = 0
         self.valve_voltage_v = u
         self.bench.command_valve(u)
 
@@ -390,7 +399,6 @@ class EmulatedBench:
             with self._lock:
                 self.bench.step(dt)
             self._publish_inputs()
-            self._send_tpdo()
             self.ticks += 1
 
 

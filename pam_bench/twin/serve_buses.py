@@ -1,4 +1,4 @@
-"""``python -m pam_bench.buses.serve``: the simulated bench of a scene behind its buses, until
+"""``python -m pam_bench.twin.serve_buses``: the simulated bench of a scene behind its buses, until
 SIGINT or SIGTERM (``pam-bench emulate --buses`` and ``run --wallclock --buses`` start it).
 
 It builds the single-muscle bench from the scene's device settings (a params file as the
@@ -19,7 +19,7 @@ from typing import Any
 
 from pam_bench.vocabulary.errors import PamBenchError
 
-__all__ = ['bench_of', 'main', 'READY']
+__all__ = ['bench_of', 'main', 'READY', 'run_faults']
 
 READY = 'buses:'
 """How the ready line starts."""
@@ -38,20 +38,49 @@ def bench_of(settings: dict[str, Any]) -> Any:
                              laws=getattr(muscle, 'laws', None))
 
 
+def run_faults(emu: Any, faults: list[Any], stop: threading.Event) -> None:
+    """Inject each bus fault at its ``at_s`` (s from now) until ``stop`` is set; each start
+    and end is one line on stdout."""
+    import time
+    t0 = time.monotonic()
+    pending = sorted(faults, key=lambda f: f.at_s)
+    ending: list[tuple[float, Any]] = []
+    while not stop.wait(0.01):
+        t = time.monotonic() - t0
+        while pending and pending[0].at_s <= t:
+            f = pending.pop(0)
+            print(f'buses: fault {f.kind} at {t:.2f} s', flush=True)
+            if f.kind == 'modbus_down':
+                emu.stop_modbus()
+                ending.append((f.at_s + f.duration_s, f))
+            elif f.kind == 'register_out_of_range':
+                emu.corrupt('load_cell_1.force', f.value or 5.0e4, f.duration_s)
+            elif f.kind == 'can_emcy':
+                emu.emcy()
+            elif f.kind == 'can_silent':
+                emu.silence_can()
+        for end, f in [e for e in ending if e[0] <= t]:
+            ending.remove((end, f))
+            emu.restart_modbus()
+            print(f'buses: fault {f.kind} ended at {t:.2f} s', flush=True)
+
+
 def main(argv: list[str] | None = None) -> None:
     """Serve (module docstring)."""
     from pam_bench.buses.can_hub import CanHub, bus_config
     from pam_bench.buses.cia402 import DriveScale
-    from pam_bench.buses.emulated import EmulatedBench
     from pam_bench.buses.register_map import load_register_map
     from pam_bench.config.scene import node_of_key, settings_of_params_file
-    from pam_bench.vocabulary.yaml_io import read_yaml
-    p = argparse.ArgumentParser(prog='python -m pam_bench.buses.serve')
+    from pam_bench.sim.faults import Fault
+    from pam_bench.twin.buses import EmulatedBench
+    from pam_bench.vocabulary.yaml_io import load_yaml, read_yaml
+    p = argparse.ArgumentParser(prog='python -m pam_bench.twin.serve_buses')
     p.add_argument('params_file')
     p.add_argument('--modbus-port', type=int, required=True)
     p.add_argument('--can-port', type=int, required=True)
     p.add_argument('--map', default='daq_generic')
     p.add_argument('--node-id', type=int, default=5)
+    p.add_argument('--faults', default='[]', help='YAML list of bus faults (sim.faults)')
     args = p.parse_args(argv)
     stop = threading.Event()
     signal.signal(signal.SIGINT, lambda *_: stop.set())
@@ -72,8 +101,8 @@ def main(argv: list[str] | None = None) -> None:
                             settings['valve_1'].rate_hz).start()
         print(f'{READY} modbus 127.0.0.1:{args.modbus_port}, can socketcand '
               f'127.0.0.1:{hub.port}, map {rmap.name}', flush=True)
-        while not stop.wait(0.2):
-            pass
+        faults = [Fault(**f) for f in load_yaml(args.faults, '--faults') or []]
+        run_faults(emu, faults, stop)
     except PamBenchError as exc:
         print(f'buses: error: {exc}', file=sys.stderr, flush=True)
         sys.exit(2)
