@@ -37,12 +37,13 @@ import os
 import pathlib
 import threading
 import time
-from typing import Any
+from typing import Any, NamedTuple
 
 __all__ = ['available', 'enabled', 'wanted', 'LOAD_AT', 'use', 'start_loading', 'cache_dir',
-           'zoh_run', 'solve_mckibben', 'replay_drive', 'MUSCLE_SLOTS', 'DRIVE_SLOTS',
-           'STATE_SLOTS', 'MODE_OFF', 'MODE_FORCE', 'MODE_POSITION', 'OK', 'BAD_POSITION',
-           'warm_up']
+           'zoh_run', 'solve_mckibben', 'replay_drive', 'McKibbenRecord', 'DriveRecord',
+           'Prep', 'PHI', 'W', 'INTEGRAL', 'FORCE', 'ENCODER', 'CONTRACTION', 'TORQUE',
+           'SATURATED', 'STATE_SIZE', 'MODE_OFF', 'MODE_FORCE', 'MODE_POSITION', 'OK',
+           'BAD_POSITION', 'warm_up']
 
 
 def cache_dir() -> pathlib.Path:
@@ -120,18 +121,86 @@ def start_loading() -> None:
             _LOADER.start()
 
 
-# --- layouts of the arrays the kernels take ----------------------------------------------
-MUSCLE_SLOTS = ('g0', 'gm', 'xm', 'n', 'gr', 'pth', 'w', 'e0', 'kbl', 'ks', 'kl', 'xl',
-                'hysteresis', 'ct')
-"""McKibben parameters, in the order of the muscle array (``models.muscle``)."""
-DRIVE_SLOTS = ('r', 'j', 'c', 'tau_max', 'half_play', 'count_rad', 'backlash_force_n',
-               'belt_stiffness', 'travel_min', 'travel_max', 'speed_limit', 'force_kp',
-               'force_ki', 'force_kd', 'force_band', 'position_kp', 'position_ki',
-               'position_kd', 'force_limit', 'dynamics')
-"""Loading-drive parameters, in the order of the drive array (``models.loading_servo``)."""
-STATE_SLOTS = ('phi', 'w', 'integral', 'force_n', 'encoder_rad', 'contraction_m', 'torque',
-               'saturated')
-"""Loading-drive state, in the order of the state array."""
+# --- what the kernels take ------------------------------------------------------------------
+class McKibbenRecord(NamedTuple):
+    """The McKibben muscle's parameters by name (``models.muscle``; built by
+    ``McKibbenMuscle.record``): gains N/Pa (g0, gm), the gain minimum's contraction xm m, the
+    exponent n, the rise gr N/(Pa m), the contact band (threshold pth Pa, width w Pa, offset
+    e0 Pa), the stiffnesses kbl, ks, kl N/m, the lock-up contraction xl m, whether the braid
+    has friction (hysteresis, 1 or 0) and its slip compliance ct m/N."""
+
+    g0: float
+    gm: float
+    xm: float
+    n: float
+    gr: float
+    pth: float
+    w: float
+    e0: float
+    kbl: float
+    ks: float
+    kl: float
+    xl: float
+    hysteresis: float
+    ct: float
+
+
+class DriveRecord(NamedTuple):
+    """The loading drive's parameters by name (``models.loading_servo``; built by
+    ``LoadingServoModel.record``): pulley radius r m, inertia j kg m^2, damping c N m s/rad,
+    torque limit tau_max N m, half the backlash rad, the encoder's count rad, the backlash
+    force N, belt stiffness N/m, travel end stops m, speed limit rad/s, the force loop's gains
+    and integral band, the position loop's gains, the force limit N, and whether the drive's
+    mechanics are simulated (dynamics, 1) or the ideal holder stands in (0)."""
+
+    r: float
+    j: float
+    c: float
+    tau_max: float
+    half_play: float
+    count_rad: float
+    backlash_force_n: float
+    belt_stiffness: float
+    travel_min: float
+    travel_max: float
+    speed_limit: float
+    force_kp: float
+    force_ki: float
+    force_kd: float
+    force_band: float
+    position_kp: float
+    position_ki: float
+    position_kd: float
+    force_limit: float
+    dynamics: float
+
+
+class Prep(NamedTuple):
+    """One sub-step of the drive prepared (``_prepare``): its length d s and the damping
+    divisor den, the torque t0 + t1 F and the integral i0 + i1 F as functions of the end force
+    F, the integral's limit and gain, and the position loop's rate w_pos when it fixes one
+    (has_w_pos 1)."""
+
+    d: float
+    den: float
+    t0: float
+    t1: float
+    i0: float
+    i1: float
+    i_lim: float
+    ki: float
+    w_pos: float
+    has_w_pos: float
+
+
+NO_PREP = Prep(0.0, 1.0, 0.0, 0.0, 0.0, 0.0, math.inf, 0.0, 0.0, 0.0)
+"""The ideal holder's (no sub-step is prepared for it)."""
+
+PHI, W, INTEGRAL, FORCE, ENCODER, CONTRACTION, TORQUE, SATURATED = range(8)
+"""Where the drive's state sits in the state array the kernels update in place: gear output
+angle rad, rate rad/s, position-loop integral, force N, encoder angle rad, contraction m,
+torque N m, saturated (1 or 0) (``LoadingServoModel.state_array``)."""
+STATE_SIZE = 8
 MODE_OFF, MODE_FORCE, MODE_POSITION = 0, 1, 2
 OK, BAD_POSITION = 0, 1
 FORCE_TOLERANCE_N = 1.0e-7
@@ -156,17 +225,17 @@ def _softplus(z):
 
 
 def _effective_pressure(p, mp):
-    w, pth = mp[6], mp[5]
+    w, pth = mp.w, mp.pth
     p = p if p > 0.0 else 0.0
     if w <= 0.0:
         return p - pth if p > pth else 0.0
     z = (p - pth) / w
-    e = w * _softplus(z) - mp[7]
+    e = w * _softplus(z) - mp.e0
     return e if e > 0.0 else 0.0
 
 
 def _backbone(e, x, mp):
-    g0, gm, xm, n, gr = mp[0], mp[1], mp[2], mp[3], mp[4]
+    g0, gm, xm, n, gr = mp.g0, mp.gm, mp.xm, mp.n, mp.gr
     if x <= xm:
         r = 1.0 - x / xm
         rn = r ** (n - 1.0)
@@ -175,15 +244,15 @@ def _backbone(e, x, mp):
     else:
         g = gm + gr * (x - xm)
         dg = gr
-    kbl = mp[8]
+    kbl = mp.kbl
     f = g * e - kbl * x
     k = -dg * e + kbl
     if x < 0.0:
-        f -= mp[9] * x
-        k += mp[9]
-    elif x > mp[11]:
-        f -= mp[10] * (x - mp[11])
-        k += mp[10]
+        f -= mp.ks * x
+        k += mp.ks
+    elif x > mp.xl:
+        f -= mp.kl * (x - mp.xl)
+        k += mp.kl
     return f, k
 
 
@@ -192,9 +261,9 @@ def _muscle_trial(e, x, mp, fk, ff0, fmu, z, zt, st):
     f_bb, k_bb = _backbone(e, x, mp)
     ff = 0.0
     kf = 0.0
-    if mp[12] != 0.0:
+    if mp.hysteresis != 0.0:
         tension = f_bb if f_bb > 0.0 else 0.0
-        ct = mp[13]
+        ct = mp.ct
         s = x + ct * tension
         load = tension if tension > 0.0 else 0.0
         force = 0.0
@@ -225,142 +294,131 @@ def _muscle_trial(e, x, mp, fk, ff0, fmu, z, zt, st):
 
 # --- drive ---------------------------------------------------------------------------------
 def _play(f, dp):
-    a = f / dp[6]
-    return dp[4] * (1.0 if a > 1.0 else (-1.0 if a < -1.0 else a))
+    a = f / dp.backlash_force_n
+    return dp.half_play * (1.0 if a > 1.0 else (-1.0 if a < -1.0 else a))
 
 
-def _prepare(d, dp, ds, mode, sp, prep):
-    """The sub-step of length d into prep: (d, den, t0, t1, i0, i1, i_lim, ki, w_pos,
-    has_w_pos)."""
-    r, j, c = dp[0], dp[1], dp[2]
+def _prepare(d, dp, ds, mode, sp):
+    """The sub-step of length d: its ``Prep`` (the torque and the integral as affine
+    functions of the end force, the position loop's rate when it fixes one)."""
+    r, j, c = dp.r, dp.j, dp.c
     den = 1.0 + d * c / j
-    prep[0], prep[1] = d, den
-    prep[9] = 0.0
     if mode == MODE_FORCE:
-        e0 = sp - ds[3]
-        ki = dp[12]
-        gain = dp[11] + dp[13] / d
-        integrate = abs(e0) <= dp[14]
+        e0 = sp - ds[FORCE]
+        ki = dp.force_ki
+        gain = dp.force_kp + dp.force_kd / d
+        integrate = abs(e0) <= dp.force_band
         if integrate:
             gain += ki * d
-        prep[2] = r * (sp * (1.0 + gain) + ki * ds[2] - dp[13] * e0 / d)
-        prep[3] = -r * gain
+        t0 = r * (sp * (1.0 + gain) + ki * ds[INTEGRAL] - dp.force_kd * e0 / d)
         if integrate:
-            prep[4], prep[5] = ds[2] + d * sp, -d
+            i0, i1 = ds[INTEGRAL] + d * sp, -d
         else:
-            prep[4], prep[5] = ds[2], 0.0
-        prep[6] = 0.25 * dp[18] / ki if ki > 0.0 else math.inf
-        prep[7] = ki
-    elif mode == MODE_POSITION:
-        kp, kd, ki = dp[15], dp[17], dp[16]
-        i_lim = 0.25 * dp[18] / ki if ki > 0.0 else math.inf
-        i_c = ds[2] + d * (r * ds[4] - sp)
-        w_new = ((j * ds[1] / d - r * kp * (r * ds[0] - sp) - r * ki * i_c)
+            i0, i1 = ds[INTEGRAL], 0.0
+        return Prep(d, den, t0, -r * gain, i0, i1,
+                    0.25 * dp.force_limit / ki if ki > 0.0 else math.inf, ki, 0.0, 0.0)
+    if mode == MODE_POSITION:
+        kp, kd, ki = dp.position_kp, dp.position_kd, dp.position_ki
+        i_lim = 0.25 * dp.force_limit / ki if ki > 0.0 else math.inf
+        i_c = ds[INTEGRAL] + d * (r * ds[ENCODER] - sp)
+        w_new = ((j * ds[W] / d - r * kp * (r * ds[PHI] - sp) - r * ki * i_c)
                  / (j / d + c + r * r * kd + r * r * kp * d + r * r * ki * d * d))
         i_new = min(max(i_c + d * d * r * w_new, -i_lim), i_lim)
-        prep[2] = r * (kp * (r * (ds[0] + d * w_new) - sp) + kd * r * w_new + ki * i_new)
-        prep[3] = r
-        prep[4], prep[5] = i_new, 0.0
-        prep[6] = math.inf
-        prep[7] = 0.0
-        prep[8] = w_new
-        prep[9] = 1.0
-    else:
-        prep[2], prep[3], prep[4], prep[5] = 0.0, 0.0, 0.0, 0.0
-        prep[6] = math.inf
-        prep[7] = 0.0
+        t0 = r * (kp * (r * (ds[PHI] + d * w_new) - sp) + kd * r * w_new + ki * i_new)
+        return Prep(d, den, t0, r, i_new, 0.0, math.inf, 0.0, w_new, 1.0)
+    return Prep(d, den, 0.0, 0.0, 0.0, 0.0, math.inf, 0.0, 0.0, 0.0)
 
 
 def _end(f, dp, ds, prep):
     """(phi_+, w_+, I_+, tau_+, saturated) of the prepared sub-step for the force f."""
-    d, den, t0, t1, i0, i1, i_lim, ki = (prep[0], prep[1], prep[2], prep[3], prep[4],
-                                         prep[5], prep[6], prep[7])
-    r, j = dp[0], dp[1]
-    tau_max = dp[3]
+    d, den, t0, t1, i0, i1, i_lim, ki = (prep.d, prep.den, prep.t0, prep.t1, prep.i0,
+                                         prep.i1, prep.i_lim, prep.ki)
+    r, j = dp.r, dp.j
+    tau_max = dp.tau_max
     tau = t0 + t1 * f
     sat = abs(tau) > tau_max
     if sat:
         tau = tau_max if tau > 0.0 else -tau_max
-        i_new = ds[2]
-        w = (ds[1] + d / j * (r * f - tau)) / den
+        i_new = ds[INTEGRAL]
+        w = (ds[W] + d / j * (r * f - tau)) / den
     else:
         i_new = i0 + i1 * f
         if i_new > i_lim or i_new < -i_lim:
             i_new = i_lim if i_new > 0.0 else -i_lim
             tau += ki * r * (i_new - i0 - i1 * f)
-        if prep[9] != 0.0:
-            w = prep[8]
+        if prep.has_w_pos != 0.0:
+            w = prep.w_pos
         else:
-            w = (ds[1] + d / j * (r * f - tau)) / den
-    wm = dp[10]
+            w = (ds[W] + d / j * (r * f - tau)) / den
+    wm = dp.speed_limit
     if w > wm:
         w = wm
     elif w < -wm:
         w = -wm
-    return ds[0] + d * w, w, i_new, tau, sat
+    return ds[PHI] + d * w, w, i_new, tau, sat
 
 
 def _ideal_contraction(f, dp, ds, mode, sp):
-    kb = dp[7]
+    kb = dp.belt_stiffness
     if mode == MODE_POSITION:
         x = sp + f / kb
     else:
         target = sp if mode == MODE_FORCE else 0.0
-        x = ds[5] + IDEAL_FORCE_COMPLIANCE_M_PER_N * (f - target)
-    return min(max(x, dp[8]), dp[9])
+        x = ds[CONTRACTION] + IDEAL_FORCE_COMPLIANCE_M_PER_N * (f - target)
+    return min(max(x, dp.travel_min), dp.travel_max)
 
 
 def _contraction_and_compliance(f, dp, ds, mode, sp, prep):
-    kb = dp[7]
-    if dp[19] == 0.0:                                     # the ideal holder
+    kb = dp.belt_stiffness
+    if dp.dynamics == 0.0:                                     # the ideal holder
         x = _ideal_contraction(f, dp, ds, mode, sp)
         return x, (1.0 / kb if mode == MODE_POSITION else IDEAL_FORCE_COMPLIANCE_M_PER_N)
-    r, j = dp[0], dp[1]
+    r, j = dp.r, dp.j
     phi, w, _, _, sat = _end(f, dp, ds, prep)
     x = r * (phi + _play(f, dp)) + f / kb
-    if x <= dp[8]:
-        return dp[8], 0.0
-    if x >= dp[9]:
-        return dp[9], 0.0
-    d, den, t1 = prep[0], prep[1], prep[3]
-    if abs(w) >= dp[10] or (prep[9] != 0.0 and not sat):
+    if x <= dp.travel_min:
+        return dp.travel_min, 0.0
+    if x >= dp.travel_max:
+        return dp.travel_max, 0.0
+    d, den, t1 = prep.d, prep.den, prep.t1
+    if abs(w) >= dp.speed_limit or (prep.has_w_pos != 0.0 and not sat):
         dw = 0.0
     elif sat:
         dw = d / j * r / den
     else:
         dw = d / j * (r - t1) / den
-    bf = dp[6]
-    play = dp[4] / bf if abs(f) < bf else 0.0
+    bf = dp.backlash_force_n
+    play = dp.half_play / bf if abs(f) < bf else 0.0
     return x, r * (d * dw + play) + 1.0 / kb
 
 
 def _commit(f, dp, ds, mode, sp, prep):
-    kb = dp[7]
-    r = dp[0]
-    if dp[19] == 0.0:                                     # the ideal holder
+    kb = dp.belt_stiffness
+    r = dp.r
+    if dp.dynamics == 0.0:                                     # the ideal holder
         x = _ideal_contraction(f, dp, ds, mode, sp)
-        ds[0] = (x - f / kb) / r
-        ds[1] = 0.0
+        ds[PHI] = (x - f / kb) / r
+        ds[W] = 0.0
         torque = r * f
-        sat = abs(torque) > dp[3]
+        sat = abs(torque) > dp.tau_max
         if sat:
-            torque = math.copysign(dp[3], torque)
-        ds[6] = torque
-        ds[7] = 1.0 if sat else 0.0
+            torque = math.copysign(dp.tau_max, torque)
+        ds[TORQUE] = torque
+        ds[SATURATED] = 1.0 if sat else 0.0
     else:
         phi, w, i_new, tau, sat = _end(f, dp, ds, prep)
         x = r * (phi + _play(f, dp)) + f / kb
-        if x < dp[8] or x > dp[9]:
-            x = dp[8] if x < dp[8] else dp[9]
+        if x < dp.travel_min or x > dp.travel_max:
+            x = dp.travel_min if x < dp.travel_min else dp.travel_max
             phi = (x - f / kb) / r - _play(f, dp)
             w = 0.0
-        ds[0], ds[1], ds[2] = phi, w, i_new
-        ds[6] = tau
-        ds[7] = 1.0 if sat else 0.0
-    ds[3] = f
-    ds[5] = x
-    angle = ds[0] + _play(f, dp)
-    ds[4] = round(angle / dp[5]) * dp[5]
+        ds[PHI], ds[W], ds[INTEGRAL] = phi, w, i_new
+        ds[TORQUE] = tau
+        ds[SATURATED] = 1.0 if sat else 0.0
+    ds[FORCE] = f
+    ds[CONTRACTION] = x
+    angle = ds[PHI] + _play(f, dp)
+    ds[ENCODER] = round(angle / dp.count_rad) * dp.count_rad
 
 
 # --- the coupled sub-steps -----------------------------------------------------------------
@@ -376,7 +434,7 @@ def solve_mckibben(steps, pressures, f, mp, fk, ff0, fmu, z, st, dp, ds, mode, s
     n = steps.shape[0]
     zt = z.copy()
     stt = st.copy()
-    prep = [0.0] * 10
+    prep = NO_PREP
     k_last = 0.0
     ff_last = 0.0
     iters = 0
@@ -393,8 +451,8 @@ def solve_mckibben(steps, pressures, f, mp, fk, ff0, fmu, z, st, dp, ds, mode, s
         d = steps[idx]
         p = pressures[idx]
         e = _effective_pressure(p, mp)
-        if dp[19] != 0.0:
-            _prepare(d, dp, ds, mode, sp, prep)
+        if dp.dynamics != 0.0:
+            prep = _prepare(d, dp, ds, mode, sp)
         lo, hi = 0.0, math.inf
         f = f if f > 0.0 else 0.0
         f_hi = -1.0
@@ -424,7 +482,7 @@ def solve_mckibben(steps, pressures, f, mp, fk, ff0, fmu, z, st, dp, ds, mode, s
                 f = 0.0
             else:
                 f = 2.0 * f_hi
-        if mp[12] != 0.0:
+        if mp.hysteresis != 0.0:
             for i in range(n_el):
                 z[i] = zt[i]
                 st[i] = stt[i]
@@ -441,10 +499,10 @@ def solve_mckibben(steps, pressures, f, mp, fk, ff0, fmu, z, st, dp, ds, mode, s
             for i in range(ds.shape[0]):
                 saved[i] = ds[i]
             for j in range(idx + 1, n):
-                if dp[19] != 0.0:
-                    _prepare(steps[j], dp, ds, mode, sp, prep)
+                if dp.dynamics != 0.0:
+                    prep = _prepare(steps[j], dp, ds, mode, sp)
                 _commit(f, dp, ds, mode, sp, prep)
-            if abs(ds[5] - x) <= tol[1]:
+            if abs(ds[CONTRACTION] - x) <= tol[1]:
                 for j in range(idx + 1, n):
                     out_f[j] = f
                     out_x[j] = x
@@ -458,10 +516,10 @@ def solve_mckibben(steps, pressures, f, mp, fk, ff0, fmu, z, st, dp, ds, mode, s
 def replay_drive(steps, forces, dp, ds, mode, sp):
     """Follow the sub-steps a coupled solve took (``LoadingServoModel.replay``): prepare and
     commit each with its end force; ``ds`` updated in place."""
-    prep = [0.0] * 10
+    prep = NO_PREP
     for idx in range(steps.shape[0]):
-        if dp[19] != 0.0:
-            _prepare(steps[idx], dp, ds, mode, sp, prep)
+        if dp.dynamics != 0.0:
+            prep = _prepare(steps[idx], dp, ds, mode, sp)
         _commit(forces[idx], dp, ds, mode, sp, prep)
 
 
@@ -494,11 +552,11 @@ def _run_each(g: dict[str, Any]) -> None:
     import numpy as np
     out = np.zeros(2)
     g['zoh_run'](0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 2, 1.0, out, 0)
-    mp = np.array([3e-3, 2e-4, 0.095, 1.4, 2.6e-4, 8e4, 4e4, 0.0, 350.0, 1e5, 5e5, 0.15, 1.0,
-                   8e-7])
-    dp = np.array([0.032, 0.15, 0.5, 88.0, 1e-3, 1e-4, 5.0, 2e6, -0.05, 0.16, 4.5, 5.0, 12.0,
-                   1.8, 25.0, 2e6, 1e7, 3e4, 2792.0, 1.0])
-    ds = np.zeros(len(STATE_SLOTS))
+    mp = McKibbenRecord(3e-3, 2e-4, 0.095, 1.4, 2.6e-4, 8e4, 4e4, 0.0, 350.0, 1e5, 5e5, 0.15,
+                        1.0, 8e-7)
+    dp = DriveRecord(0.032, 0.15, 0.5, 88.0, 1e-3, 1e-4, 5.0, 2e6, -0.05, 0.16, 4.5, 5.0, 12.0,
+                     1.8, 25.0, 2e6, 1e7, 3e4, 2792.0, 1.0)
+    ds = np.zeros(STATE_SIZE)
     g['solve_mckibben'](np.full(2, 0.005), np.full(2, 1e5), 0.0, mp, np.array([1e5]),
                         np.ones(1), np.full(1, 0.01), np.zeros(1), np.ones(1, np.uint8), dp,
                         ds, MODE_POSITION, 0.0, np.zeros(2), np.zeros(2), np.full(3, -1.0))

@@ -240,17 +240,19 @@ class MuscleModel(FrictionMuscle):
         """Friction relaxed at the given state."""
         self.friction.reset(self.slip(contraction_m, pressure_pa))
 
-    def arrays(self) -> tuple[np.ndarray, ...]:
-        """The muscle as the compiled core takes it (``models.compiled``): parameters in the
-        order of ``MUSCLE_SLOTS``, then the friction elements' stiffness, break force, growth,
-        positions and sticking flags, shapes (14,) and (n,)."""
+    def arrays(self) -> tuple[Any, ...]:
+        """The muscle as the compiled core takes it (``models.compiled``): its parameters by
+        name (``McKibbenRecord``), then the friction elements' stiffness, break force, growth,
+        positions and sticking flags, shapes (n,)."""
+        from pam_bench.models.compiled import McKibbenRecord
         p = self.p
-        mp = np.array([p.gain_n_per_pa, p.gain_min_n_per_pa, p.gain_min_contraction_m,
-                       p.gain_exponent, p.gain_rise_n_per_pa_m, p.threshold_pressure_pa,
-                       p.threshold_width_pa, self._e0, p.bladder_stiffness_n_per_m,
-                       p.stretch_stiffness_n_per_m, p.lock_stiffness_n_per_m,
-                       self.lock_contraction_m, 1.0 if p.hysteresis else 0.0,
-                       p.slip_compliance_m_per_n])
+        mp = McKibbenRecord(
+            g0=p.gain_n_per_pa, gm=p.gain_min_n_per_pa, xm=p.gain_min_contraction_m,
+            n=p.gain_exponent, gr=p.gain_rise_n_per_pa_m, pth=p.threshold_pressure_pa,
+            w=p.threshold_width_pa, e0=self._e0, kbl=p.bladder_stiffness_n_per_m,
+            ks=p.stretch_stiffness_n_per_m, kl=p.lock_stiffness_n_per_m,
+            xl=self.lock_contraction_m, hysteresis=1.0 if p.hysteresis else 0.0,
+            ct=p.slip_compliance_m_per_n)
         fr = self.friction
         return (mp, np.array(fr.k), np.array(fr.f0), np.array(fr.mu), np.array(fr.z),
                 np.array(fr.sticking, dtype=np.uint8))

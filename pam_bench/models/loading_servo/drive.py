@@ -53,7 +53,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -285,26 +285,37 @@ class LoadingServoModel:
         self.contraction_m = x
         self.encoder_rad = self.quantised(self.angle)
 
-    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
-        """The drive as the compiled core takes it (``models.compiled``): parameters in the
-        order of ``DRIVE_SLOTS`` and state in that of ``STATE_SLOTS``, shapes (20,), (8,)."""
+    def arrays(self) -> tuple[Any, np.ndarray]:
+        """The drive as the compiled core takes it (``models.compiled``): its parameters by
+        name (``DriveRecord``) and its state array (indexed by ``compiled.PHI`` ...), shape
+        (``STATE_SIZE``,)."""
+        c = compiled
         p = self.p
-        dp = np.array([self.r, p.inertia_kg_m2, p.damping_nm_s_per_rad, self.tau_max,
-                       self.half_play, self.count_rad, p.backlash_force_n,
-                       p.belt_stiffness_n_per_m, p.travel_min_m, p.travel_max_m,
-                       p.speed_limit_rad_s, p.force_kp, p.force_ki_per_s, p.force_kd_s,
-                       p.force_integral_band_n, p.position_kp_n_per_m,
-                       p.position_ki_n_per_m_s, p.position_kd_n_s_per_m, p.force_limit_n,
-                       1.0 if p.dynamics else 0.0])
-        ds = np.array([self.phi, self.w, self.integral, self.force_n, self.encoder_rad,
-                       self.contraction_m, self.torque, 1.0 if self.saturated else 0.0])
+        dp = c.DriveRecord(
+            r=self.r, j=p.inertia_kg_m2, c=p.damping_nm_s_per_rad, tau_max=self.tau_max,
+            half_play=self.half_play, count_rad=self.count_rad,
+            backlash_force_n=p.backlash_force_n, belt_stiffness=p.belt_stiffness_n_per_m,
+            travel_min=p.travel_min_m, travel_max=p.travel_max_m,
+            speed_limit=p.speed_limit_rad_s, force_kp=p.force_kp, force_ki=p.force_ki_per_s,
+            force_kd=p.force_kd_s, force_band=p.force_integral_band_n,
+            position_kp=p.position_kp_n_per_m, position_ki=p.position_ki_n_per_m_s,
+            position_kd=p.position_kd_n_s_per_m, force_limit=p.force_limit_n,
+            dynamics=1.0 if p.dynamics else 0.0)
+        ds = np.empty(c.STATE_SIZE)
+        ds[c.PHI], ds[c.W], ds[c.INTEGRAL], ds[c.FORCE] = (self.phi, self.w, self.integral,
+                                                           self.force_n)
+        ds[c.ENCODER], ds[c.CONTRACTION], ds[c.TORQUE] = (self.encoder_rad, self.contraction_m,
+                                                          self.torque)
+        ds[c.SATURATED] = 1.0 if self.saturated else 0.0
         return dp, ds
 
     def set_state(self, ds: np.ndarray) -> None:
-        """Take the state (``STATE_SLOTS``) a compiled solve or replay left."""
-        (self.phi, self.w, self.integral, self.force_n, self.encoder_rad,
-         self.contraction_m, self.torque) = (float(v) for v in ds[:7])
-        self.saturated = bool(ds[7])
+        """Take the state a compiled solve or replay left (indexed by ``compiled.PHI`` ...)."""
+        c = compiled
+        self.phi, self.w, self.integral = float(ds[c.PHI]), float(ds[c.W]), float(ds[c.INTEGRAL])
+        self.force_n, self.encoder_rad = float(ds[c.FORCE]), float(ds[c.ENCODER])
+        self.contraction_m, self.torque = float(ds[c.CONTRACTION]), float(ds[c.TORQUE])
+        self.saturated = bool(ds[c.SATURATED])
 
     def output(self) -> ServoOutput:
         """Pulley angle and rate, muscle end, torque and saturation of the kept state."""
