@@ -1,4 +1,3 @@
-# mypy: disable-error-code="no-untyped-def"
 """The physics' hot loops compiled with numba: the reference's equations, in machine code.
 
 What is compiled (``@njit(cache=True)``, plain floats and arrays in and out):
@@ -21,6 +20,12 @@ points, the braid lock-up, the valve's clamp and whole protocol runs). The pure-
 stay the reference; ``PAM_BENCH_CORE=python`` (or ``use('python')``) runs them instead, and
 000's straight-fibre muscle always does (its law interpolates 000's printed graph).
 
+The kernels are written once, as typed Python over named records (``McKibbenRecord``,
+``DriveRecord``, ``Prep``): numba compiles the three entry points (``zoh_run``,
+``solve_mckibben``, ``replay_drive``) into ``_COMPILED`` and the helpers into them
+(``register_jitable``); nothing in the module is replaced. Until they are loaded, an entry point
+runs the same function interpreted.
+
 The kernels load in a background thread the first time an exchange brings ``LOAD_AT`` sub-steps
 or more (``wanted``): numba's import and its cache cost about half a second, which a short
 run with few sub-steps per exchange (the demo, a servo scene) never wins back. Until they are
@@ -37,7 +42,15 @@ import os
 import pathlib
 import threading
 import time
-from typing import Any, NamedTuple
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, NamedTuple, cast
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    Array = np.ndarray
+else:
+    Array = Any
 
 __all__ = ['available', 'enabled', 'wanted', 'LOAD_AT', 'use', 'start_loading', 'cache_dir',
            'zoh_run', 'solve_mckibben', 'replay_drive', 'McKibbenRecord', 'DriveRecord',
@@ -209,7 +222,8 @@ IDEAL_FORCE_COMPLIANCE_M_PER_N = 1.0e-3
 
 
 # --- valve ---------------------------------------------------------------------------------
-def zoh_run(s0, s1, a00, a01, a10, a11, b0, b1, n, p_max, out, start):
+def _zoh_run(s0: float, s1: float, a00: float, a01: float, a10: float, a11: float, b0: float,
+             b1: float, n: int, p_max: float, out: Array, start: int) -> tuple[float, float]:
     """``n`` equal ZOH sub-steps from the state (s0 Pa, s1 Pa/s) with the (already scaled)
     input terms b0, b1; the clamped gauge pressure of each into ``out[start:start + n]``.
     Returns the state after them."""
@@ -220,11 +234,11 @@ def zoh_run(s0, s1, a00, a01, a10, a11, b0, b1, n, p_max, out, start):
 
 
 # --- muscle --------------------------------------------------------------------------------
-def _softplus(z):
+def _softplus(z: float) -> float:
     return (z if z > 0.0 else 0.0) + math.log1p(math.exp(-abs(z)))
 
 
-def _effective_pressure(p, mp):
+def _effective_pressure(p: float, mp: McKibbenRecord) -> float:
     w, pth = mp.w, mp.pth
     p = p if p > 0.0 else 0.0
     if w <= 0.0:
@@ -234,7 +248,7 @@ def _effective_pressure(p, mp):
     return e if e > 0.0 else 0.0
 
 
-def _backbone(e, x, mp):
+def _backbone(e: float, x: float, mp: McKibbenRecord) -> tuple[float, float]:
     g0, gm, xm, n, gr = mp.g0, mp.gm, mp.xm, mp.n, mp.gr
     if x <= xm:
         r = 1.0 - x / xm
@@ -256,7 +270,8 @@ def _backbone(e, x, mp):
     return f, k
 
 
-def _muscle_trial(e, x, mp, fk, ff0, fmu, z, zt, st):
+def _muscle_trial(e: float, x: float, mp: McKibbenRecord, fk: Array, ff0: Array, fmu: Array,
+                  z: Array, zt: Array, st: Array) -> tuple[float, float, float]:
     """(F, -dF/dx, friction) at (e(p), x); the friction elements' trial state into zt, st."""
     f_bb, k_bb = _backbone(e, x, mp)
     ff = 0.0
@@ -293,12 +308,12 @@ def _muscle_trial(e, x, mp, fk, ff0, fmu, z, zt, st):
 
 
 # --- drive ---------------------------------------------------------------------------------
-def _play(f, dp):
+def _play(f: float, dp: DriveRecord) -> float:
     a = f / dp.backlash_force_n
     return dp.half_play * (1.0 if a > 1.0 else (-1.0 if a < -1.0 else a))
 
 
-def _prepare(d, dp, ds, mode, sp):
+def _prepare(d: float, dp: DriveRecord, ds: Array, mode: int, sp: float) -> Prep:
     """The sub-step of length d: its ``Prep`` (the torque and the integral as affine
     functions of the end force, the position loop's rate when it fixes one)."""
     r, j, c = dp.r, dp.j, dp.c
@@ -329,7 +344,8 @@ def _prepare(d, dp, ds, mode, sp):
     return Prep(d, den, 0.0, 0.0, 0.0, 0.0, math.inf, 0.0, 0.0, 0.0)
 
 
-def _end(f, dp, ds, prep):
+def _end(f: float, dp: DriveRecord, ds: Array, prep: Prep
+         ) -> tuple[float, float, float, float, bool]:
     """(phi_+, w_+, I_+, tau_+, saturated) of the prepared sub-step for the force f."""
     d, den, t0, t1, i0, i1, i_lim, ki = (prep.d, prep.den, prep.t0, prep.t1, prep.i0,
                                          prep.i1, prep.i_lim, prep.ki)
@@ -358,7 +374,7 @@ def _end(f, dp, ds, prep):
     return ds[PHI] + d * w, w, i_new, tau, sat
 
 
-def _ideal_contraction(f, dp, ds, mode, sp):
+def _ideal_contraction(f: float, dp: DriveRecord, ds: Array, mode: int, sp: float) -> float:
     kb = dp.belt_stiffness
     if mode == MODE_POSITION:
         x = sp + f / kb
@@ -368,7 +384,8 @@ def _ideal_contraction(f, dp, ds, mode, sp):
     return min(max(x, dp.travel_min), dp.travel_max)
 
 
-def _contraction_and_compliance(f, dp, ds, mode, sp, prep):
+def _contraction_and_compliance(f: float, dp: DriveRecord, ds: Array, mode: int, sp: float,
+                                prep: Prep) -> tuple[float, float]:
     kb = dp.belt_stiffness
     if dp.dynamics == 0.0:                                     # the ideal holder
         x = _ideal_contraction(f, dp, ds, mode, sp)
@@ -392,7 +409,7 @@ def _contraction_and_compliance(f, dp, ds, mode, sp, prep):
     return x, r * (d * dw + play) + 1.0 / kb
 
 
-def _commit(f, dp, ds, mode, sp, prep):
+def _commit(f: float, dp: DriveRecord, ds: Array, mode: int, sp: float, prep: Prep) -> None:
     kb = dp.belt_stiffness
     r = dp.r
     if dp.dynamics == 0.0:                                     # the ideal holder
@@ -422,8 +439,10 @@ def _commit(f, dp, ds, mode, sp, prep):
 
 
 # --- the coupled sub-steps -----------------------------------------------------------------
-def solve_mckibben(steps, pressures, f, mp, fk, ff0, fmu, z, st, dp, ds, mode, sp,
-                   out_f, out_x, tol):
+def _solve_mckibben(steps: Array, pressures: Array, f: float, mp: McKibbenRecord, fk: Array,
+                    ff0: Array, fmu: Array, z: Array, st: Array, dp: DriveRecord, ds: Array,
+                    mode: int, sp: float, out_f: Array, out_x: Array, tol: Array
+                    ) -> tuple[float, float, int, int, int]:
     """Every sub-step of an exchange (``models.coupling.solve_substeps``) for a McKibben muscle
     on the loading drive. ``z``, ``st`` (friction) and ``ds`` (drive) are updated in place;
     forces and contractions go to ``out_f``, ``out_x``. ``tol``: the settle tolerances (force
@@ -513,7 +532,8 @@ def solve_mckibben(steps, pressures, f, mp, fk, ff0, fmu, z, st, dp, ds, mode, s
     return k_last, ff_last, iters, OK, 0
 
 
-def replay_drive(steps, forces, dp, ds, mode, sp):
+def _replay_drive(steps: Array, forces: Array, dp: DriveRecord, ds: Array, mode: int,
+                  sp: float) -> None:
     """Follow the sub-steps a coupled solve took (``LoadingServoModel.replay``): prepare and
     commit each with its end force; ``ds`` updated in place."""
     prep = NO_PREP
@@ -523,32 +543,57 @@ def replay_drive(steps, forces, dp, ds, mode, sp):
         _commit(forces[idx], dp, ds, mode, sp, prep)
 
 
-_KERNELS = ('_softplus', '_effective_pressure', '_backbone', '_muscle_trial', '_play',
-            '_prepare', '_end', '_ideal_contraction', '_contraction_and_compliance',
-            '_commit', 'zoh_run', 'solve_mckibben', 'replay_drive')
-"""Compiled in this order: a kernel's callees are compiled before it."""
+_HELPERS = ('_softplus', '_effective_pressure', '_backbone', '_muscle_trial', '_play',
+            '_prepare', '_end', '_ideal_contraction', '_contraction_and_compliance', '_commit')
+"""Called by the kernels: registered with numba (``register_jitable``), which compiles them
+into their callers and leaves the Python functions as they are."""
+_KERNELS: dict[str, Callable[..., Any]] = {
+    'zoh_run': _zoh_run, 'solve_mckibben': _solve_mckibben, 'replay_drive': _replay_drive}
+"""The kernels the models call, by name: each compiled into ``_COMPILED`` when loaded."""
+_COMPILED: dict[str, Callable[..., Any]] = {}
+
+
+def zoh_run(*args: Any) -> tuple[float, float]:
+    """``_zoh_run`` compiled once loaded (else interpreted: the same function)."""
+    return cast('tuple[float, float]', _COMPILED.get('zoh_run', _zoh_run)(*args))
+
+
+def solve_mckibben(*args: Any) -> tuple[float, float, int, int, int]:
+    """``_solve_mckibben`` compiled once loaded (else interpreted: the same function)."""
+    return cast('tuple[float, float, int, int, int]',
+                _COMPILED.get('solve_mckibben', _solve_mckibben)(*args))
+
+
+def replay_drive(*args: Any) -> None:
+    """``_replay_drive`` compiled once loaded (else interpreted: the same function)."""
+    _COMPILED.get('replay_drive', _replay_drive)(*args)
 
 
 def _load() -> None:
-    """Compile every kernel (from numba's cache when it holds them) and switch them in."""
+    """Compile every kernel (from numba's cache when it holds them); the Python functions
+    stay what they are, the compiled ones go to ``_COMPILED``."""
     with _LOCK:
         if _READY.is_set() or _FAILED:
             return
         try:
             import numba
+            from numba.extending import register_jitable
             setattr(numba.config, 'CACHE_DIR', os.environ['NUMBA_CACHE_DIR'])  # noqa: B010
             g = globals()
-            for name in _KERNELS:
-                g[name] = numba.njit(cache=True, nogil=True)(g[name])
-            _run_each(g)
+            for name in _HELPERS:
+                register_jitable(g[name])
+            compiled = {name: numba.njit(cache=True, nogil=True)(fn)
+                        for name, fn in _KERNELS.items()}
+            _run_each(compiled)
         except Exception as exc:  # noqa: BLE001 - the reference runs instead, and says why
             _FAILED.append(f'{type(exc).__name__}: {exc}')
             return
+        _COMPILED.update(compiled)
         _READY.set()
 
 
 def _run_each(g: dict[str, Any]) -> None:
-    """Call every top-level kernel once with the types a run uses (compiles or loads them)."""
+    """Call every kernel once with the types a run uses (compiles or loads them)."""
     import numpy as np
     out = np.zeros(2)
     g['zoh_run'](0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 2, 1.0, out, 0)

@@ -174,3 +174,20 @@ def test_the_drive_replay_is_bit_equal(mode: LoadMode, sp: float) -> None:
         return dataclasses.astuple(out), _state(MuscleModel(), d)
     py, nb = _both(go)
     assert py == nb
+
+
+@pytest.mark.parametrize('name', list(CASES))
+def test_the_kernels_interpreted_are_the_compiled_ones(name: str,
+                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    """One source: the kernels run by the interpreter (nothing compiled in) give the compiled
+    results and the reference's, bit for bit."""
+    params, (mode, sp, x0), pressures = CASES[name]
+    muscle, drive = MuscleModel(params), _drive(mode, sp, x0)
+    muscle.reset(x0, float(pressures[0]))
+    py, nb = _both(lambda: _run(muscle, drive, pressures, settle=SettleParams()))
+    compiled.use('compiled')
+    monkeypatch.setattr(compiled, '_COMPILED', {})          # the same functions, interpreted
+    interpreted = _run(muscle, drive, pressures, settle=SettleParams())
+    for a, b, c in zip(py, nb, interpreted, strict=True):
+        np.testing.assert_array_equal(np.asarray(a, dtype=object), np.asarray(c, dtype=object))
+        np.testing.assert_array_equal(np.asarray(b, dtype=object), np.asarray(c, dtype=object))
