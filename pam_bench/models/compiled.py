@@ -55,7 +55,8 @@ else:
 __all__ = ['available', 'enabled', 'wanted', 'LOAD_AT', 'use', 'start_loading', 'cache_dir',
            'zoh_run', 'solve_mckibben', 'replay_drive', 'McKibbenRecord', 'DriveRecord',
            'Prep', 'PHI', 'W', 'INTEGRAL', 'FORCE', 'ENCODER', 'CONTRACTION', 'TORQUE',
-           'SATURATED', 'STATE_SIZE', 'MODE_OFF', 'MODE_FORCE', 'MODE_POSITION', 'OK',
+           'SATURATED', 'STATE_SIZE', 'softplus', 'backbone', 'MODE_OFF', 'MODE_FORCE',
+           'MODE_POSITION', 'OK',
            'BAD_POSITION', 'warm_up']
 
 
@@ -234,7 +235,8 @@ def _zoh_run(s0: float, s1: float, a00: float, a01: float, a10: float, a11: floa
 
 
 # --- muscle --------------------------------------------------------------------------------
-def _softplus(z: float) -> float:
+def softplus(z: float) -> float:
+    """log(1 + e^z), overflow-free (the contact band's smooth threshold, ``models.muscle``)."""
     return (z if z > 0.0 else 0.0) + math.log1p(math.exp(-abs(z)))
 
 
@@ -244,11 +246,13 @@ def _effective_pressure(p: float, mp: McKibbenRecord) -> float:
     if w <= 0.0:
         return p - pth if p > pth else 0.0
     z = (p - pth) / w
-    e = w * _softplus(z) - mp.e0
+    e = w * softplus(z) - mp.e0
     return e if e > 0.0 else 0.0
 
 
-def _backbone(e: float, x: float, mp: McKibbenRecord) -> tuple[float, float]:
+def backbone(e: float, x: float, mp: McKibbenRecord) -> tuple[float, float]:
+    """(F_bb N, -dF_bb/dx N/m) at the effective pressure e Pa and contraction x m: g(x) e -
+    k_bl x, the stretch and lock-up stiffnesses past 0 and x_l (``models.muscle``)."""
     g0, gm, xm, n, gr = mp.g0, mp.gm, mp.xm, mp.n, mp.gr
     if x <= xm:
         r = 1.0 - x / xm
@@ -273,7 +277,7 @@ def _backbone(e: float, x: float, mp: McKibbenRecord) -> tuple[float, float]:
 def _muscle_trial(e: float, x: float, mp: McKibbenRecord, fk: Array, ff0: Array, fmu: Array,
                   z: Array, zt: Array, st: Array) -> tuple[float, float, float]:
     """(F, -dF/dx, friction) at (e(p), x); the friction elements' trial state into zt, st."""
-    f_bb, k_bb = _backbone(e, x, mp)
+    f_bb, k_bb = backbone(e, x, mp)
     ff = 0.0
     kf = 0.0
     if mp.hysteresis != 0.0:
@@ -543,7 +547,7 @@ def _replay_drive(steps: Array, forces: Array, dp: DriveRecord, ds: Array, mode:
         _commit(forces[idx], dp, ds, mode, sp, prep)
 
 
-_HELPERS = ('_softplus', '_effective_pressure', '_backbone', '_muscle_trial', '_play',
+_HELPERS = ('softplus', '_effective_pressure', 'backbone', '_muscle_trial', '_play',
             '_prepare', '_end', '_ideal_contraction', '_contraction_and_compliance', '_commit')
 """Called by the kernels: registered with numba (``register_jitable``), which compiles them
 into their callers and leaves the Python functions as they are."""

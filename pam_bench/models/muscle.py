@@ -60,6 +60,8 @@ from typing import Any
 
 import numpy as np
 
+from pam_bench.models.compiled import McKibbenRecord, backbone
+from pam_bench.models.compiled import softplus as _softplus
 from pam_bench.models.errors import ModelError
 from pam_bench.models.friction import FrictionTrial, MaxwellSlip
 from pam_bench.vocabulary.params import field
@@ -235,26 +237,29 @@ class MuscleModel(FrictionMuscle):
         w, pth = self.p.threshold_width_pa, self.p.threshold_pressure_pa
         self._e0 = w * _softplus(-pth / w) if w > 0.0 else 0.0
         self._e_memo = (math.nan, 0.0)   # (p Pa, e(p) Pa): a sub-step tries one pressure
+        self.record = self._record()
 
     def reset(self, contraction_m: float = 0.0, pressure_pa: float = 0.0) -> None:
         """Friction relaxed at the given state."""
         self.friction.reset(self.slip(contraction_m, pressure_pa))
 
-    def arrays(self) -> tuple[Any, ...]:
-        """The muscle as the compiled core takes it (``models.compiled``): its parameters by
-        name (``McKibbenRecord``), then the friction elements' stiffness, break force, growth,
-        positions and sticking flags, shapes (n,)."""
-        from pam_bench.models.compiled import McKibbenRecord
+    def _record(self) -> McKibbenRecord:
+        """The parameters by name as the kernels take them (``compiled.McKibbenRecord``)."""
         p = self.p
-        mp = McKibbenRecord(
+        return McKibbenRecord(
             g0=p.gain_n_per_pa, gm=p.gain_min_n_per_pa, xm=p.gain_min_contraction_m,
             n=p.gain_exponent, gr=p.gain_rise_n_per_pa_m, pth=p.threshold_pressure_pa,
             w=p.threshold_width_pa, e0=self._e0, kbl=p.bladder_stiffness_n_per_m,
             ks=p.stretch_stiffness_n_per_m, kl=p.lock_stiffness_n_per_m,
             xl=self.lock_contraction_m, hysteresis=1.0 if p.hysteresis else 0.0,
             ct=p.slip_compliance_m_per_n)
+
+    def arrays(self) -> tuple[Any, ...]:
+        """The muscle as the compiled core takes it (``models.compiled``): its parameters by
+        name (``McKibbenRecord``), then the friction elements' stiffness, break force, growth,
+        positions and sticking flags, shapes (n,)."""
         fr = self.friction
-        return (mp, np.array(fr.k), np.array(fr.f0), np.array(fr.mu), np.array(fr.z),
+        return (self.record, np.array(fr.k), np.array(fr.f0), np.array(fr.mu), np.array(fr.z),
                 np.array(fr.sticking, dtype=np.uint8))
 
     # --- static parts -------------------------------------------------------------------
@@ -289,23 +294,14 @@ class MuscleModel(FrictionMuscle):
 
     def backbone_and_stiffness(self, pressure_pa: float, contraction_m: float
                                ) -> tuple[float, float]:
-        """(F_bb(p, x) N, -dF_bb/dx N/m): friction-free, before the clamp (may be negative)."""
-        p = self.p
+        """(F_bb(p, x) N, -dF_bb/dx N/m): friction-free, before the clamp (may be negative);
+        the compiled core's own function (``compiled.backbone``), here interpreted."""
         if self._e_memo[0] == pressure_pa:
             e = self._e_memo[1]
         else:
             e = self.effective_pressure(pressure_pa)[0]
             self._e_memo = (pressure_pa, e)
-        g, dg = self.gain_and_slope(contraction_m)
-        f = g * e - p.bladder_stiffness_n_per_m * contraction_m
-        k = -dg * e + p.bladder_stiffness_n_per_m
-        if contraction_m < 0.0:
-            f -= p.stretch_stiffness_n_per_m * contraction_m
-            k += p.stretch_stiffness_n_per_m
-        elif contraction_m > self.lock_contraction_m:
-            f -= p.lock_stiffness_n_per_m * (contraction_m - self.lock_contraction_m)
-            k += p.lock_stiffness_n_per_m
-        return f, k
+        return backbone(e, contraction_m, self.record)
 
     def backbone_stiffness(self, pressure_pa: float, contraction_m: float) -> float:
         """-dF_bb/dx, N/m."""
@@ -322,8 +318,3 @@ class MuscleModel(FrictionMuscle):
         c = min(max(c, 1.0e-6), 1.0)
         s2 = 1.0 - c * c
         return self._thread_m ** 3 * s2 * c / (4.0 * math.pi * self._turns ** 2)
-
-
-def _softplus(z: float) -> float:
-    """ln(1 + e^z) without overflow."""
-    return (z if z > 0.0 else 0.0) + math.log1p(math.exp(-abs(z)))
