@@ -34,6 +34,17 @@ def test_a_run_through_the_buses_lands_on_the_lockstep_readings(tmp_path: pathli
     assert diff.matched == 6 and diff.only_a == diff.only_b == 0
     assert diff.max_force_n <= FORCE_BOUND_N, diff
     assert diff.max_contraction_m <= CONTRACTION_BOUND_M, diff
+    from mcap.reader import make_reader  # the MCAP project's own reader too
+    from mcap_ros2.decoder import DecoderFactory
+
+    from pam_bench.analysis.baginfo import bag_info
+    mcap_file = next((tmp_path / 'bus').glob('*.mcap'))
+    with open(mcap_file, 'rb') as fh:
+        points = [ros for _, _, _, ros in make_reader(
+            fh, decoder_factories=[DecoderFactory()]).iter_decoded_messages(
+                topics=['/protocol/point'])]
+    assert len(points) == 6
+    assert bag_info(str(tmp_path / 'bus'))['end']['state'] == 'done'
     states = bag_messages(tmp_path / 'bus', '/loading_servo/state')      # from the drive
     assert states and all(s.name[0] == 'motor' for s in states[-10:])
     diags = bag_messages(tmp_path / 'bus', '/diagnostics')
