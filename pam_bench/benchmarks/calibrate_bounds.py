@@ -264,5 +264,6 @@ STUDY = Study(
     'calibrate_bounds', 'pam-bench calibrate on muscles drawn over the whole fit intervals, '
     "at their ends, another size, and issue 42's three tries",
     lambda quick, out, scenes: {'calibrate_bounds': measure(quick)},
-    (('calibrate_bounds', lambda r, root: section(r)),), results)
+    (('calibrate_bounds', lambda r, root: section(r)),), results,
+    quick=False)   # its figures need the whole set; `calibrate` covers a quick run's calibration
 """The calibration across the bounds (bench.json ``calibrate_bounds``)."""
