@@ -205,6 +205,15 @@ class CanopenDrive:
         self._send(cw, torque, position)
 
     def _send(self, cw: int, torque: int, position: int) -> None:
+        """Send RPDO 1.
+
+        Raises:
+            BusUnreachable: the bus is gone (its interface or the hub closed).
+        """
         self._cw = cw
-        self.network.send_message(0x200 + self.node_id,
-                                  struct.pack(_RPDO_FMT, cw, torque, position))
+        try:
+            self.network.send_message(0x200 + self.node_id,
+                                      struct.pack(_RPDO_FMT, cw, torque, position))
+        except Exception as exc:  # noqa: BLE001 - python-can and the OS raise several types
+            raise BusUnreachable(f'CAN bus {self.can.get("interface")} '
+                                 f'{self.can.get("channel")} lost: {exc}') from None

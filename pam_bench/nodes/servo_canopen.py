@@ -98,7 +98,13 @@ class ServoCanopenNode(BenchNode):
                 self.exit_code = 2
                 return
             self.started = True
-        self.drive.tick(now)
+        try:
+            self.drive.tick(now)
+        except BusUnreachable as exc:             # the bus itself is gone: nothing to send
+            self.diagnose(DiagnosticStatus.STALE, f'{exc}: no set value reaches the drive '
+                          '(a drive consuming the master heartbeat, 0x1016, stops itself)',
+                          'drive')
+            return
         stale = self.drive.stale(now)
         if stale != self._stale:
             self._stale = stale
