@@ -106,7 +106,7 @@ def _namespace(text: str) -> str:
     import re
     ns = '/' + text.strip().strip('/')
     if ns != '/' and not re.fullmatch(r'(/[A-Za-z_][A-Za-z0-9_]*)+', ns):
-        raise argparse.ArgumentTypeError(f'{shorten(text)!r} is not a ROS namespace (tokens '
+        raise argparse.ArgumentTypeError(f'{shorten(text)} is not a ROS namespace (tokens '
                                          'of letters, digits and _, e.g. /bench_a)')
     return '' if ns == '/' else ns
 
@@ -321,6 +321,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if args.wallclock and (args.processes or args.realtime or args.resume):
         raise UsageError('--wallclock runs the devices in the emulator on the wall clock: drop '
                          '--processes, --realtime and --resume')
+    if (args.buses or args.namespace) and not args.wallclock:
+        raise UsageError(f'{"--buses" if args.buses else "--namespace"} runs the bench on the '
+                         'wall clock: add --wallclock')
+    if args.buses:
+        from pam_bench.buses.register_map import load_register_map
+        load_register_map(args.buses)           # a bad map: one line, before anything
     out = pathlib.Path(args.out or f'bags/{scene.name}')
     inputs = [p for p in (args.resume, args.replay, args.params) if p]
     check_output(out, 'pam-bench run', args.overwrite, inputs, bag=True)

@@ -79,6 +79,19 @@ def test_run_overwrite_never_wipes_a_folder_that_is_not_its_bag(tmp_path: pathli
     assert tree_digest(folder) == before
 
 
+@pytest.mark.parametrize('args, words', [
+    (['--wallclock', '--buses', 'no_such_map'], 'no_such_map.yaml'),
+    (['--buses'], 'add --wallclock'),
+    (['--namespace', '/bench_a'], 'add --wallclock'),
+])
+def test_run_checks_its_bus_options_before_it_touches_the_bag(
+        demo_bag: pathlib.Path, tmp_path: pathlib.Path, args: list[str], words: str) -> None:
+    bag = _copy(demo_bag, tmp_path / 'bag')
+    before = tree_digest(bag)
+    line = one_line_error(*cli('run', 'demo', '--out', bag, '--overwrite', *args)[::2])
+    assert words in line and tree_digest(bag) == before
+
+
 @pytest.mark.parametrize('override, words', [
     ('ramp_rate_v_per_s: 0', ['ramp_rate_v_per_s', 'minimum']),
     ('ramp_rate_v_per_s: .nan', ['ramp_rate_v_per_s', 'finite']),
