@@ -318,9 +318,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
             raise UsageError(f'--set {shorten(item)}: write PATH=VALUE')
         scene.set(path.strip(), parse_value(value))
     apply_bag_options(scene, args)
-    if args.wallclock and (args.processes or args.realtime or args.resume):
+    if args.wallclock and (args.processes or args.realtime):
         raise UsageError('--wallclock runs the devices in the emulator on the wall clock: drop '
-                         '--processes, --realtime and --resume')
+                         '--processes and --realtime')
     if (args.buses or args.namespace) and not args.wallclock:
         raise UsageError(f'{"--buses" if args.buses else "--namespace"} runs the bench on the '
                          'wall clock: add --wallclock')

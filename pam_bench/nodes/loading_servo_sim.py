@@ -144,8 +144,8 @@ class LoadingServoSim(BenchNode):
             positions = [th, states[0].contraction[-1], states[1].contraction[-1]]
             names = ['pulley', 'muscle_1', 'muscle_2']
             velocity = [0.0, 0.0, 0.0]
-            motor: dict[str, Any] = dict(name=['motor'], position=[th * i], velocity=[0.0],
-                                         effort=[r * (f1 - f2) / i])
+            motor: dict[str, Any] = dict(name=[topics.MOTOR_JOINT], position=[th * i],
+                                         velocity=[0.0], effort=[r * (f1 - f2) / i])
         else:
             m: MuscleSamples = inputs[self.muscle_topics[0]]
             out = self.model.replay(list(m.step), list(m.force))
@@ -155,7 +155,7 @@ class LoadingServoSim(BenchNode):
             positions = [out.pulley_angle_rad, out.contraction_m]
             names = ['pulley', f'muscle_{self.channel}']
             velocity = [out.pulley_rate_rad_s, out.pulley_rate_rad_s * r]
-            motor = dict(name=['motor'], position=[self.model.phi * i],
+            motor = dict(name=[topics.MOTOR_JOINT], position=[self.model.phi * i],
                          velocity=[out.pulley_rate_rad_s * i], effort=[out.output_torque_nm / i])
         if self.cmd_topic in inputs:
             self.apply_command(inputs[self.cmd_topic])

@@ -1,6 +1,7 @@
 """sequencer: runs a characterisation protocol over the measured topics only.
 
-Reads ``load_cell_N/force``, ``encoder/joint_state`` and ``valve_N/pressure``; commands
+Reads ``load_cell_N/force``, ``encoder/joint_state`` and ``valve_N/pressure`` (and on a wall
+clock ``loading_servo/state``, whose age says the drive follows: input ``drive``); commands
 ``valve_N/command`` and ``loading_servo/command`` at every tick; publishes one
 ``protocol/point`` at the end of every dwell, one ``protocol/step_response`` per recorded step,
 and ``protocol/status``. The protocol logic and its policies (start gating, stale and
@@ -60,7 +61,7 @@ from pam_bench.runtime.intra import bus_publisher
 from pam_bench.runtime.messages import ns_of, time_of
 from pam_bench.runtime.process import run_node
 from pam_bench.runtime.qos import LATCHED
-from pam_bench.runtime.stamped import joint_position, stamped
+from pam_bench.runtime.stamped import joint_effort, joint_position, stamped
 from pam_bench.vocabulary.errors import PamBenchError, ParameterError
 
 __all__ = ['SequencerNode', 'main']
@@ -92,7 +93,7 @@ class SequencerNode(BenchNode):
         self.enc_topic = topics.ENCODER
         self.p_topic = topics.valve_pressure(ch)
         self.inputs = {self.cell_topic: 'force', self.enc_topic: 'contraction',
-                       self.p_topic: 'pressure'}
+                       self.p_topic: 'pressure', topics.LOAD_STATE: 'drive'}
         self.runner = Runner(s, self.lockstep, end_run=s.stop_on_end and s.autostart,
                              labels={v: f'topic {k}' for k, v in self.inputs.items()})
         self.table = load_protocols(s.protocols_file or None)
@@ -128,7 +129,7 @@ class SequencerNode(BenchNode):
             self.start_lockstep()
         else:
             for cls, topic in ((WrenchStamped, self.cell_topic), (JointState, self.enc_topic),
-                               (FluidPressure, self.p_topic)):
+                               (FluidPressure, self.p_topic), (JointState, topics.LOAD_STATE)):
                 self.create_subscription(cls, topic, functools.partial(self._measured, topic),
                                          SENSOR)
             self.start_wall_ticks(s.tick_period_s)
@@ -159,6 +160,8 @@ class SequencerNode(BenchNode):
             return float(msg.wrench.force.x)
         if topic == self.enc_topic:
             return joint_position(msg, self.settings.joint_name) * self.pulley_radius_m
+        if topic == topics.LOAD_STATE:
+            return joint_effort(msg, topics.MOTOR_JOINT)
         return float(msg.fluid_pressure - ATMOSPHERE_PA)
 
     def _update(self, topic: str, msg: Any) -> None:

@@ -9,7 +9,9 @@ range is rejected and the last valid one kept (``docs/drivers.md``).
 
 Watching, on ``/diagnostics`` (concern ``drive``): the power state; an EMCY is an ERROR and
 the drive is left disabled until ``loading_servo/reset`` (std_srvs/Trigger); no heartbeat for
-``heartbeat_timeout_s`` is STALE, the driver sends quick stop and stops publishing the state.
+``heartbeat_timeout_s`` is STALE, the driver sends quick stop. While the drive is silent, in
+fault or in quick stop no state is published: the sequencer's ``drive`` input goes stale and a
+suspender on it suspends the run (``protocol.suspenders``) until the drive follows again.
 The python-can interface is a setting: ``socketcan`` on a lab's bench, ``socketcand`` against
 the hub of ``pam-bench emulate --buses`` (``buses.can_hub``: why not vcan or udp_multicast).
 """
@@ -41,6 +43,8 @@ __all__ = ['ServoCanopenNode', 'main']
 
 RESET = 'loading_servo/reset'
 """Service that clears a drive fault the driver keeps."""
+UNFIT = (State.FAULT, State.FAULT_REACTION_ACTIVE, State.QUICK_STOP_ACTIVE)
+"""Power states in which the drive does not follow its set value (no state is published)."""
 
 
 class ServoCanopenNode(BenchNode):
@@ -118,12 +122,13 @@ class ServoCanopenNode(BenchNode):
         elif not stale and self.drive.state != self._state:
             self._state = self.drive.state
             self.diagnose(DiagnosticStatus.OK, f'drive {self.drive.state.value}', 'drive')
-        if stale or self.drive.last_tpdo_s is None:
-            return
+        if stale or self.drive.fault or self.drive.last_tpdo_s is None \
+                or self.drive.state in UNFIT:
+            return                   # a drive that cannot follow has no state to publish
         s = self.drive.scale
         angle = s.angle_of(self.drive.position_counts)
         torque = self.drive.torque_permille * 1e-3 * s.rated_torque_nm
-        self.state_pub.publish(stamped(JointState, self.now_ns(), name=['motor'],
+        self.state_pub.publish(stamped(JointState, self.now_ns(), name=[topics.MOTOR_JOINT],
                                        position=[angle * s.gear_ratio], velocity=[0.0],
                                        effort=[torque]))
 

@@ -5,8 +5,9 @@ The sequencer node and the twin tick the same ``Runner``; the node only turns me
 ``protocol.sequencer.Sequencer`` the runner decides:
 
 - **start gating** (wall clock): an autostart protocol begins once every measured input
-  (force, contraction, pressure) has arrived and whatever the node gates on (``gate``: the
-  run's recorder listening) is there; until then the commands vent the valve;
+  (force, contraction, pressure, and the loading servo's state: ``drive``) has arrived and
+  whatever the node gates on (``gate``: the run's recorder listening) is there; until then
+  the commands vent the valve;
 - **bad input**: a measurement that is not finite is rejected and aborts a running protocol,
   which vents the valve;
 - **stale inputs** (wall clock): an input older than ``stale_timeout_s`` aborts the run,
@@ -112,6 +113,7 @@ class Runner:
         self.suspenders = suspenders_of(settings.suspenders_yaml)
         self.core: Sequencer | None = None
         self.meas = Measurement(0.0, 0.0, 0.0)
+        self.drive_torque_nm = 0.0                       # the loading servo's, on a wall clock
         self.samples: list[tuple[float, float]] = []     # load-cell (stamp s, N) since a tick
         self.x_samples: list[tuple[float, float]] = []   # encoder (stamp s, m) since a tick
         self.bands = {r.input: (r.low, r.high) for r in self.suspenders.rules
@@ -164,9 +166,10 @@ class Runner:
 
     # --- inputs -------------------------------------------------------------------------
     def measured(self, name: str, value: float, stamp_s: float) -> str:
-        """The latest ``name`` ('force' N, 'contraction' m, 'pressure' gauge Pa) at
-        ``stamp_s``. A value that is not finite is rejected: it aborts a running protocol
-        (vented at the next tick). Returns the rejection ('' when accepted)."""
+        """The latest ``name`` ('force' N, 'contraction' m, 'pressure' gauge Pa, 'drive' the
+        loading servo's torque N m) at ``stamp_s``. A value that is not finite is rejected: it
+        aborts a running protocol (vented at the next tick). Returns the rejection ('' when
+        accepted)."""
         if not math.isfinite(value):
             if self.core is not None and self.core.running:
                 self.core.stop(Phase.ABORTED, f'measured {self.labels[name]} not finite')
@@ -179,6 +182,8 @@ class Runner:
         elif name == 'contraction':
             self.meas = Measurement(m.force_n, value, m.pressure_pa)
             self.x_samples.append((stamp_s, value))
+        elif name == 'drive':
+            self.drive_torque_nm = value
         else:
             self.meas = Measurement(m.force_n, m.contraction_m, value)
         return ''
@@ -328,7 +333,8 @@ class Runner:
         if core is None or not core.running or not self.suspenders.rules:
             return
         m = self.meas
-        values = {'force': m.force_n, 'contraction': m.contraction_m, 'pressure': m.pressure_pa}
+        values = {'force': m.force_n, 'contraction': m.contraction_m, 'pressure': m.pressure_pa,
+                  'drive': self.drive_torque_nm}
         ages = (dict.fromkeys(values, 0.0) if self.lockstep else
                 {n: t_s - self.stamps.get(n, -math.inf) for n in values})
         action, why = self.suspenders.update(t_s, values, ages)

@@ -1,8 +1,10 @@
 """Suspenders: conditions on the measured inputs that pause a run by themselves and resume it
 when the inputs are good again (the pattern of bluesky's suspenders, for a pneumatic bench).
 
-A rule watches one measured quantity: ``force`` (N), ``contraction`` (m) or ``pressure``
-(gauge Pa). It trips when the value leaves [low, high] or (on a wall clock) when the input is
+A rule watches one measured quantity: ``force`` (N), ``contraction`` (m), ``pressure``
+(gauge Pa) or ``drive`` (the loading servo's torque on ``loading_servo/state``, N m: on a wall
+clock its age says whether the drive follows; a CANopen drive in fault or quick stop publishes
+no state). It trips when the value leaves [low, high] or (on a wall clock) when the input is
 older than ``stale_s``; the run resumes once every rule has been satisfied for
 ``resume_after_s`` without a break. Rules come from YAML (the sequencer's
 ``suspenders_yaml``), strictly: an unknown key is an error naming it.
@@ -20,7 +22,7 @@ from pam_bench.vocabulary.params import check_known
 
 __all__ = ['Rule', 'Suspenders', 'parse_rules', 'INPUTS']
 
-INPUTS = ('force', 'contraction', 'pressure')
+INPUTS = ('force', 'contraction', 'pressure', 'drive')
 
 
 @dataclasses.dataclass(frozen=True)

@@ -40,7 +40,7 @@ from std_msgs.msg import Header
 from pam_bench.runtime.cdr import ARRAY_CODES, element_of, fields_of
 from pam_bench.runtime.messages import time_of
 
-__all__ = ['joint_position', 'stamped', 'header_of']
+__all__ = ['joint_position', 'joint_effort', 'stamped', 'header_of']
 
 _NUMBERS = {'float': '0.0', 'double': '0.0', 'boolean': 'False',
             **{k: '0' for k in ('int8', 'uint8', 'int16', 'uint16', 'int32', 'uint32', 'int64',
@@ -138,16 +138,27 @@ def joint_position(msg: Any, name: str) -> float:
     publish several joints in any order. An unnamed message with one position counts as that
     joint; a missing joint, an empty message or a position list shorter than the names gives
     NaN (the caller rejects it, it does not crash)."""
+    return _joint_value(msg, name, 'position')
+
+
+def joint_effort(msg: Any, name: str) -> float:
+    """The effort of the joint ``name`` in a JointState (N m for a revolute joint), read by
+    name as ``joint_position`` reads the position (NaN where that gives NaN)."""
+    return _joint_value(msg, name, 'effort')
+
+
+def _joint_value(msg: Any, name: str, field: str) -> float:
     names = list(getattr(msg, 'name', []) or [])
-    position = getattr(msg, 'position', None)
-    if position is None:
+    values = getattr(msg, field, None)
+    if values is None:
         return math.nan
     try:
         if name in names:
             i = names.index(name)
-            return float(position[i]) if i < len(position) else math.nan
-        if not names and len(position) == 1:
-            return float(position[0])
+            return float(values[i]) if i < len(values) else math.nan
+        if not names and len(values) == 1:
+            return float(values[0])
     except (TypeError, ValueError):
         return math.nan
+    return math.nan
     return math.nan

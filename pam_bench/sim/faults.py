@@ -14,7 +14,10 @@ kind's size. Kinds:
   the start of the buses): ``modbus_down`` (daq_modbus: the DAQ's server goes away for
   ``duration_s``), ``register_out_of_range`` (daq_modbus: the load cell's register holds
   ``value`` N, outside the map's range), ``can_emcy`` (servo_canopen: the drive faults and
-  sends an EMCY), ``can_silent`` (servo_canopen: the drive stops its heartbeat and PDOs).
+  sends an EMCY), ``can_silent`` (servo_canopen: the drive stops its heartbeat and PDOs for
+  ``duration_s``).
+  A driver whose device is down publishes nothing: a suspender on the input it carries
+  (``stale_s``) suspends the run, ``drive`` for the CAN drive.
 
 Faults run on a wall clock (a lock-step participant that drops a message stalls the run by
 design). Parsed strictly: an unknown key, kind or target is an error naming it.

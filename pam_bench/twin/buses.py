@@ -22,7 +22,8 @@ serves it as a lab's hardware would be:
 
 Faults, for the tests of the drivers: ``stop_modbus`` (the server goes away; back with
 ``restart_modbus``), ``emcy`` (the
-drive faults and sends an EMCY), ``silence_can`` (heartbeat and PDOs stop), ``corrupt``
+drive faults and sends an EMCY), ``silence_can`` (heartbeat and PDOs stop; ``talk_can``
+ends it), ``corrupt``
 (a register holds an out-of-range value for a while).
 """
 
@@ -325,6 +326,14 @@ class EmulatedBench:
         self._silent = True
         with contextlib.suppress(Exception):
             self.node.nmt.stop_heartbeat()
+
+    def talk_can(self) -> None:
+        """The drive talks again after ``silence_can`` (the cable plugged back): heartbeat
+        and PDOs resume, in whatever power state the master's last controlword left."""
+        self._silent = False
+        if self._heartbeat_ms:
+            with contextlib.suppress(Exception):
+                self.node.nmt.start_heartbeat(self._heartbeat_ms)
 
     def _send_tpdo(self) -> None:
         if self._silent or not self._tpdo or self.node.nmt.state != 'OPERATIONAL':

@@ -59,9 +59,13 @@ def run_faults(emu: Any, faults: list[Any], stop: threading.Event) -> None:
                 emu.emcy()
             elif f.kind == 'can_silent':
                 emu.silence_can()
+                ending.append((f.at_s + f.duration_s, f))
         for end, f in [e for e in ending if e[0] <= t]:
             ending.remove((end, f))
-            emu.restart_modbus()
+            if f.kind == 'modbus_down':
+                emu.restart_modbus()
+            else:
+                emu.talk_can()
             print(f'buses: fault {f.kind} ended at {t:.2f} s', flush=True)
 
 

@@ -123,13 +123,63 @@ def test_a_daq_fault_is_detected_suspends_the_run_and_loses_no_reading(
                    for st in daq)
 
 
-def test_a_drive_fault_is_a_fault_diagnostic(tmp_path: pathlib.Path, ros_domain: int) -> None:
-    from pam_bench.benchmarks.faults import SCENE
-    path = tmp_path / 'emcy.yaml'
-    path.write_text(SCENE.format(fault='{kind: can_emcy, target: servo_canopen, at_s: 3.0}'))
+def test_a_drive_fault_stops_the_run_vented_and_resume_takes_the_rest(
+        tmp_path: pathlib.Path, ros_domain: int) -> None:
+    """An EMCY: a fault diagnostic, the drive disabled and its state gone, so the sequencer
+    aborts on the stale ``loading_servo/state`` with the valve vented and the drive off; a
+    ``--resume`` through the buses takes the readings the bag lacks, none lost or repeated."""
+    from pam_bench.benchmarks.faults import READINGS, SCENE
+    (tmp_path / 'first').mkdir()
+    (tmp_path / 'again').mkdir()
+    path = tmp_path / 'first' / 'drive.yaml'
+    path.write_text(SCENE.format(fault='{kind: can_emcy, target: servo_canopen, at_s: 8.0}'))
     res = run_scene(load_scene(str(path)), str(tmp_path / 'bag'),
                     RunOptions(layout=Layout.WALL_CLOCK, quiet=True, buses='daq_generic'))
-    drive = [st for d in bag_messages(tmp_path / 'bag', '/diagnostics') for st in d.status
+    bag = tmp_path / 'bag'
+    drive = [st for d in bag_messages(bag, '/diagnostics') for st in d.status
              if st.name == 'servo_canopen: drive']
     assert any(_level(st) == 2 and 'EMCY 0x2310' in st.message for st in drive), \
         (res.code, [st.message for st in drive])
+    status = bag_messages(bag, '/protocol/status')
+    assert res.code == 4 and 'loading_servo/state stale' in status[-1].reason, \
+        (res.summary, [s.reason for s in status])
+    assert bag_messages(bag, '/valve_1/command')[-1].voltage == 0.0
+    assert bag_messages(bag, '/loading_servo/command')[-1].mode == 0
+    first = {(p.series, p.step) for p in bag_messages(bag, '/protocol/point')}
+    assert 1 <= len(first) < READINGS     # bus faults count from the buses' start (at_s 8 s:
+    # about 5 s into the protocol after a bring-up of about 3 s)
+    again = tmp_path / 'again' / 'drive.yaml'          # the same scene, its fault repaired
+    again.write_text(SCENE.format(fault=''))
+    out = subprocess.run([sys.executable, '-m', 'pam_bench.cli', 'run', str(again),
+                          '--wallclock', '--buses', 'daq_generic', '--resume', str(bag),
+                          '--out', str(tmp_path / 'rest')], capture_output=True, text=True,
+                         timeout=120)
+    assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-2000:]
+    rest = [(p.series, p.step) for p in bag_messages(tmp_path / 'rest', '/protocol/point')]
+    assert len(set(rest)) == len(rest) and not first & set(rest)
+    assert len(first) + len(rest) == READINGS
+
+
+def test_a_silent_drive_suspends_the_run_until_it_talks_again(tmp_path: pathlib.Path,
+                                                              ros_domain: int) -> None:
+    """The drive stops its heartbeat and PDOs for 0.6 s: STALE on /diagnostics, quick stop,
+    no state; a suspender on ``drive`` suspends the run vented, and once the drive talks
+    again (quick stop, then enabled) the run resumes and takes every reading."""
+    from pam_bench.benchmarks.faults import READINGS, SCENE
+    path = tmp_path / 'silent.yaml'
+    text = SCENE.replace('resume_after_s: 0.3}}]"}}', 'resume_after_s: 0.3}}, {{input: drive, '
+                         'stale_s: 0.2, resume_after_s: 0.3}}]"}}')
+    assert text != SCENE
+    path.write_text(text.format(fault='{kind: can_silent, target: servo_canopen, at_s: 4.5, '
+                                      'duration_s: 0.6}'))
+    res = run_scene(load_scene(str(path)), str(tmp_path / 'bag'),
+                    RunOptions(layout=Layout.WALL_CLOCK, quiet=True, buses='daq_generic'))
+    bag = tmp_path / 'bag'
+    status = bag_messages(bag, '/protocol/status')
+    drive = [st for d in bag_messages(bag, '/diagnostics') for st in d.status
+             if st.name == 'servo_canopen: drive']
+    assert res.code == 0, (res.summary, [s.reason for s in status])
+    assert any(_level(st) == 3 and 'quick stop' in st.message for st in drive)   # STALE
+    assert any(s.phase == 'paused' and 'drive stale' in s.reason for s in status), \
+        [s.reason for s in status]
+    assert len(bag_messages(bag, '/protocol/point')) == READINGS

@@ -88,12 +88,18 @@ def test_an_emcy_is_a_fault_the_driver_keeps(rig: Rig) -> None:
     assert rig.emu.state == State.OPERATION_ENABLED
 
 
-def test_a_silent_drive_goes_stale(rig: Rig) -> None:
-    rig.run(0.5)
+def test_a_silent_drive_goes_stale_and_is_enabled_again_when_it_talks(rig: Rig) -> None:
+    rig.drive.command(LoadMode.POSITION, 0.02)
+    rig.run(0.8)
     assert not rig.drive.stale(time.monotonic())
     rig.emu.silence_can()
-    time.sleep(rig.drive.heartbeat_timeout_s + 0.1)
+    rig.run(rig.drive.heartbeat_timeout_s + 0.1)         # the driver sends quick stop
     assert rig.drive.stale(time.monotonic())
+    rig.emu.talk_can()                                     # heard again: quick stop, then on
+    rig.run(0.3)
+    assert not rig.drive.stale(time.monotonic())
+    rig.run(0.8)
+    assert rig.drive.state == rig.emu.state == State.OPERATION_ENABLED
 
 
 def test_a_lost_server_and_a_corrupt_register(rig: Rig) -> None:

@@ -40,6 +40,7 @@ def harness_factory(ros_domain: int):
         h.publisher(WrenchStamped, 'load_cell_1/force')
         h.publisher(JointState, 'encoder/joint_state')
         h.publisher(FluidPressure, 'valve_1/pressure')
+        h.publisher(JointState, 'loading_servo/state')
         h.listen(ProtocolStatus, 'protocol/status')
         h.listen(ValveCommand, 'valve_1/command')
         h.listen(LoadCommand, 'loading_servo/command')
@@ -61,6 +62,8 @@ def feed(h: Harness, seconds: float, with_force: bool = True) -> None:
             h.send('load_cell_1/force', WrenchStamped(), now)
         h.send('encoder/joint_state', JointState(name=['pulley'], position=[0.0]), now)
         h.send('valve_1/pressure', FluidPressure(fluid_pressure=ATMOSPHERE_PA), now)
+        h.send('loading_servo/state', JointState(name=['motor'], position=[0.0],
+                                                 velocity=[0.0], effort=[0.0]), now)
         h.executor.spin_once(timeout_sec=0.005)
 
 
@@ -164,6 +167,8 @@ def test_pause_and_resume_services_and_a_suspender(harness_factory) -> None:
         h.send('load_cell_1/force', m, now)
         h.send('encoder/joint_state', JointState(name=['pulley'], position=[0.0]), now)
         h.send('valve_1/pressure', FluidPressure(fluid_pressure=ATMOSPHERE_PA), now)
+        h.send('loading_servo/state', JointState(name=['motor'], position=[0.0],
+                                                 velocity=[0.0], effort=[0.0]), now)
         h.executor.spin_once(timeout_sec=0.005)
     last = h.received['protocol/status'][-1]
     assert last.phase == 'paused' and 'suspended' in last.reason and 'force' in last.reason
