@@ -2,4 +2,5 @@
 
 from __future__ import annotations
 
-__all__ = ['emulator', 'errors', 'provenance', 'resume', 'runner']
+__all__ = ['buses', 'common', 'composed', 'emulator', 'errors', 'lifecycle', 'live', 'processes',
+           'provenance', 'resume', 'runner', 'wallclock']

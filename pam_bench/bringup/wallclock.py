@@ -3,8 +3,10 @@ false``.
 
 The recorder starts first, then the devices (by default composed in one emulator process,
 ``bringup.emulator``; with ``device_processes`` one process each), then the sequencer and the
-torque servo. The run ends when the sequencer or the servo exits (end of the protocol,
-``duration_s`` of the servo) or on Ctrl-C; the other nodes are then stopped, the recorder last.
+torque servo; the devices (or the drivers) and the servo are lifecycle nodes that this run
+configures and activates (``bringup.lifecycle``). The run ends when the sequencer or the servo
+exits (end of the protocol, ``duration_s`` of the servo) or on Ctrl-C; the other nodes are then
+stopped, the recorder last.
 The recorder records the topics a real bench has (no ``sim/`` ground truth, which would double
 what crosses DDS). Every node writes its publish counts and tick periods (``stats_file``),
 which come back in ``RunResult.stats`` with the recorder's delivery table, and are kept with
@@ -39,6 +41,7 @@ from pam_bench.bringup.common import (
     write_params_file,
 )
 from pam_bench.bringup.errors import LayoutError
+from pam_bench.bringup.lifecycle import activate_nodes
 from pam_bench.config.nodes import controllers, devices
 from pam_bench.config.scene import Scene
 from pam_bench.vocabulary.outputs import note_output_file
@@ -108,6 +111,11 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
             from pam_bench.bringup.buses import DRIVERS, bus_settings, start_buses
             settings, ports = bus_settings(settings, buses, tmp)
             driver_names = list(DRIVERS)
+        # the devices (or the drivers), then the servo: lifecycle nodes the run manages
+        managed = [n for n in (driver_names if buses else device_names) + controller_names
+                   if hasattr(settings[n], 'managed')]
+        settings = {n: dataclasses.replace(s, managed=True) if n in managed else s
+                    for n, s in settings.items()}
         pfile = os.path.join(tmp, 'params.yaml')
         write_params_file(settings, pfile)
         log = open(os.path.join(tmp, 'nodes.log'), 'w+', encoding='utf-8')
@@ -152,6 +160,14 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
             for name in controller_names:
                 start(name, node_cmd(name, pfile, namespace),
                       pipe=name == controller_names[0])
+            took = activate_nodes(managed, namespace, int(env['ROS_DOMAIN_ID']),
+                                  lambda n: procs[n if n in procs else 'emulator']
+                                  .poll() is not None)
+            line = (f'lifecycle: {", ".join(managed)} configured and active in {took:.2f} s'
+                    if managed else '')
+            log.write(line + '\n')
+            if line and not quiet:
+                print(line, flush=True)
             kills = [f for f in scene.faults if f.kind == 'node_kill']
             main = procs[controller_names[0] if controller_names else
                          'buses' if buses else 'emulator']
@@ -186,9 +202,9 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
         except _NotStarted:
             code = procs['recorder'].wait()
             dead = ['recorder'] if code == 2 else []
-        except LayoutError as exc:                  # the buses did not come up
-            code, dead = 2, ['buses']
-            log.write(f'buses: error: {exc}\n')
+        except LayoutError as exc:      # the buses did not come up, or a node's lifecycle
+            code, dead = 2, ['bring-up']
+            log.write(f'bring-up: error: {exc}\n')
         finally:
             write_end_state(settings, code)
             stop_processes(procs)

@@ -28,7 +28,7 @@ from pam_bench.vocabulary.params import field, section
 __all__ = ['NodeSettings', 'DeviceSettings', 'ControllerSettings', 'ClockSettings',
            'ValveSettings', 'MuscleSettings', 'LoadCellSettings', 'EncoderSettings',
            'LoadingServoSettings', 'SequencerSettings', 'TorqueServoSettings',
-           'RecorderSettings', 'LiveViewSettings', 'LIVE_FULL_RATE_TOPICS']
+           'RecorderSettings', 'LiveViewSettings', 'LIVE_FULL_RATE_TOPICS', 'ManagedSettings']
 
 
 @dataclasses.dataclass
@@ -46,7 +46,17 @@ class NodeSettings:
 
 
 @dataclasses.dataclass
-class DeviceSettings(NodeSettings):
+class ManagedSettings:
+    """A lifecycle node on a wall clock (``runtime.lifecycle``): a device, a driver, the
+    torque servo."""
+
+    managed: bool = field(False, '-', 'wall clock: come up unconfigured and wait for a '
+                          'lifecycle manager (the bring-up, ros2 lifecycle set) instead of '
+                          'configuring and activating itself at its first tick')
+
+
+@dataclasses.dataclass
+class DeviceSettings(NodeSettings, ManagedSettings):
     """A simulated device: its rate on a wall clock and the faults injected into it."""
 
     rate_hz: float = field(1000.0, 'Hz', 'update rate on a wall clock (lockstep false)',
@@ -187,7 +197,7 @@ CONTROLLERS = (*(m.value for m in ServoMode), *(f.name for f in dataclasses.fiel
 
 
 @dataclasses.dataclass
-class TorqueServoSettings(ControllerSettings):
+class TorqueServoSettings(ControllerSettings, ManagedSettings):
     """torque_servo: the set point, the controller and the control loop."""
 
     muscles: int = field(2, '-', 'muscles driven: 2 (torque, N m) or 1 (force, N)', 1, 2)
@@ -261,7 +271,7 @@ LIVE_FULL_RATE_TOPICS = ['/protocol/point', '/protocol/status', '/protocol/step_
 
 
 @dataclasses.dataclass
-class DriverSettings(NodeSettings):
+class DriverSettings(NodeSettings, ManagedSettings):
     """A driver of real hardware on a field bus (``buses``): it runs on the wall clock only."""
 
     lockstep: bool = field(False, '-', 'drivers run on the wall clock only: keep false')

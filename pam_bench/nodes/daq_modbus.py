@@ -151,13 +151,18 @@ class DaqModbusNode(BenchNode):
         """A failed tick: every valve to 0 V at the next write."""
         self.voltages = dict.fromkeys(self.voltages, 0.0)
 
-    def destroy_node(self) -> None:
-        """Vent before going (best effort), then close the connection."""
+    def safe_state(self) -> None:
+        """Every valve to 0 V, written now (best effort: a lost DAQ's watchdog vents)."""
+        self.voltages = dict.fromkeys(self.voltages, 0.0)
         if self.connected:
             try:
-                self.io.write_outputs(dict.fromkeys(self.voltages, 0.0))
+                self.io.write_outputs(self.voltages)
             except BusUnreachable:
                 pass
+
+    def destroy_node(self) -> None:
+        """Vent before going (best effort), then close the connection."""
+        self.safe_state()
         self.io.close()
         super().destroy_node()
 

@@ -178,9 +178,13 @@ class LoadingServoSim(BenchNode):
             law.parameters, law.state = law_of(self.model)
         self.law_pub.publish(law)
 
-    def on_fault(self, reason: str) -> None:
+    def safe_state(self) -> None:
         """Torque off."""
         self.model.command(LoadMode.OFF, 0.0)
+
+    def on_fault(self, reason: str) -> None:
+        """Torque off."""
+        self.safe_state()
 
 
 def main(args: list[str] | None = None) -> None:

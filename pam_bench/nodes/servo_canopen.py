@@ -58,7 +58,6 @@ class ServoCanopenNode(BenchNode):
         self.drive = CanopenDrive(bus_config(s.can_interface, s.can_channel, s.can_port),
                                   s.node_id, s.eds_file or eds_path(), s.drive, s.heartbeat_ms,
                                   s.heartbeat_timeout_s)
-        self.started = False
         self._state: State | None = None
         self._stale = False
         self.state_pub = self.create_step_publisher(JointState, topics.LOAD_STATE)
@@ -94,14 +93,6 @@ class ServoCanopenNode(BenchNode):
         """One exchange: RPDO out, the drive's state and actuals in and published."""
         self.count_tick()
         now = time.monotonic()
-        if not self.started:
-            try:
-                self.drive.start()
-            except BusUnreachable as exc:
-                self.diagnose(DiagnosticStatus.ERROR, str(exc), 'drive')
-                self.exit_code = 2
-                return
-            self.started = True
         try:
             self.drive.tick(now)
         except BusUnreachable as exc:             # the bus itself is gone: nothing to send
@@ -132,9 +123,28 @@ class ServoCanopenNode(BenchNode):
                                        position=[angle * s.gear_ratio], velocity=[0.0],
                                        effort=[torque]))
 
+    def configure_device(self) -> str:
+        """Configure: the drive set up over SDO (PDO mapping, heartbeat, mode) and started
+        (NMT); returns why it could not be ('' when it was)."""
+        try:
+            self.drive.start()
+        except BusUnreachable as exc:
+            return str(exc)
+        return ''
+
     def on_fault(self, reason: str) -> None:
         """A failed tick: the drive off."""
         self.drive.command(LoadMode.OFF, 0.0)
+
+    def safe_state(self) -> None:
+        """The drive off, sent now (shutdown: its power stage off)."""
+        self.drive.command(LoadMode.OFF, 0.0)
+        if self.drive.network is None:
+            return                   # never configured: nothing to send
+        try:
+            self.drive.tick(time.monotonic())
+        except BusUnreachable:
+            pass                     # a drive consuming the master heartbeat stops itself
 
     def destroy_node(self) -> None:
         """Turn the drive off and leave the bus, then go."""

@@ -258,6 +258,10 @@ class TorqueServoNode(BenchNode):
 
     def on_fault(self, reason: str) -> None:
         """Vent both valves."""
+        self.safe_state()
+
+    def safe_state(self) -> None:
+        """Vent both valves: a 0 V command on each, now."""
         stamp = time_of(self._last_ns or 0)
         for pub in self.valve_pubs:
             msg = ValveCommand(voltage=0.0)

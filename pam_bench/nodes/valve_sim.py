@@ -103,10 +103,14 @@ class ValveSim(BenchNode):
                                          pressure=floats(pressures), record=record))
         self.max_next_step_s = self.model.max_step(self.voltage_v, self.evidence)
 
-    def on_fault(self, reason: str) -> None:
-        """Vent."""
+    def safe_state(self) -> None:
+        """Vent: 0 V, the chamber at atmosphere."""
         self.voltage_v = 0.0
         self.model.reset(0.0)
+
+    def on_fault(self, reason: str) -> None:
+        """Vent."""
+        self.safe_state()
         self.diagnose(DiagnosticStatus.ERROR, f'valve vented: {reason}')
 
 

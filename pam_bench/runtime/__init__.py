@@ -2,5 +2,6 @@
 
 from __future__ import annotations
 
-__all__ = ['base', 'cdr', 'core', 'faults', 'intra', 'lockstep', 'messages', 'params',
-           'process', 'profiling', 'qos', 'stamped', 'stats', 'wallclock']
+__all__ = ['base', 'cdr', 'core', 'diagnostics', 'faults', 'intra', 'lifecycle', 'lockstep',
+           'messages', 'params', 'process', 'profiling', 'qos', 'stamped', 'stats', 'tuning',
+           'wallclock']

@@ -5,8 +5,9 @@ dataclass (``SETTINGS``, ``config.settings``; ``runtime.params``) and keeps the 
 ``settings``, publishes diagnostics (``runtime.core``), and steps either in lock-step with the
 sim clock (``runtime.lockstep``) or on its own wall clock (``runtime.wallclock``), with faults
 injected on a wall clock (``runtime.faults``), its publish counts and loop periods kept for
-the run's statistics (``runtime.stats``) and its tunable settings changed while it runs
-(``runtime.tuning``). ``spin_mode`` says how its process spins it
+the run's statistics (``runtime.stats``), its tunable settings changed while it runs
+(``runtime.tuning``) and, for a device, a driver or the torque servo on a wall clock, a
+lifecycle (``runtime.lifecycle``). ``spin_mode`` says how its process spins it
 (``runtime.process.run_node``). In lock-step a node starts without its parameter services
 (parameters are read once; fewer entities per wake-up); on a wall clock it has them.
 """
@@ -23,6 +24,7 @@ from pam_bench.runtime.core import NodeCore, Spin
 from pam_bench.runtime.diagnostics import Diagnostics
 from pam_bench.runtime.faults import FaultInjection
 from pam_bench.runtime.intra import IntraProcessBus, bus_publisher
+from pam_bench.runtime.lifecycle import Lifecycle
 from pam_bench.runtime.lockstep import Lockstep
 from pam_bench.runtime.params import declare_settings
 from pam_bench.runtime.qos import DRIVER, LOCKSTEP, RELIABLE, SENSOR
@@ -33,7 +35,7 @@ from pam_bench.runtime.wallclock import WallClock
 __all__ = ['BenchNode', 'Spin', 'RELIABLE', 'LOCKSTEP', 'DRIVER', 'SENSOR', 'NodeCore']
 
 
-class BenchNode(Lockstep, WallClock, FaultInjection, Stats, Tuning):
+class BenchNode(Lockstep, WallClock, FaultInjection, Stats, Tuning, Lifecycle):
     """Base of every bench node (module docstring)."""
 
     SETTINGS: ClassVar[type] = NodeSettings
@@ -66,6 +68,7 @@ class BenchNode(Lockstep, WallClock, FaultInjection, Stats, Tuning):
         self._init_faults()
         self._init_stats()
         self._init_tuning()
+        self._init_lifecycle()
         if getattr(self.settings, 'lockstep', True) is False:
             from rclpy.parameter_service import ParameterService
             self._parameter_service = ParameterService(self)

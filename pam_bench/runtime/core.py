@@ -47,6 +47,7 @@ class NodeCore(Node):
     _sent: list[Output]
     _start_outputs: list[Output] | None
     rejected_count: int
+    exit_code: int | None
 
     # --- diagnostics (runtime.diagnostics) ---------------------------------------------
     def diagnose(self, level: bytes, message: str, concern: str = 'state',
@@ -82,6 +83,10 @@ class NodeCore(Node):
 
     def apply_tuning(self) -> None:
         """Take the settings changed since the last step (``runtime.tuning``)."""
+        raise NotImplementedError
+
+    def may_step(self) -> bool:
+        """Whether the node steps now: its lifecycle is active (``runtime.lifecycle``)."""
         raise NotImplementedError
 
     # --- to override -------------------------------------------------------------------

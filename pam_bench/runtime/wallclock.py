@@ -56,8 +56,11 @@ class WallClock(NodeCore):
 
     def wall_tick(self, t_ns: int | None = None) -> None:
         """``on_wall_tick`` guarded: whatever it raises is diagnosed and puts the node in its
-        safe state (``step_failed``) instead of leaving the timer's callback."""
+        safe state (``step_failed``) instead of leaving the timer's callback. A managed node
+        that is not active does not step (``runtime.lifecycle``)."""
         try:
+            if not self.may_step():
+                return
             self.apply_tuning()
             self.on_wall_tick(t_ns)
         except Exception as exc:  # noqa: BLE001 - a callback must never let an exception out

@@ -68,6 +68,14 @@ def test_wallclock_readings_land_on_the_lockstep_ones(tmp_path: pathlib.Path, ro
     stamp_ns = [d[1].header.stamp.sec * 10**9 + d[1].header.stamp.nanosec for d in decoded]
     lag_s = [(log - st) * 1e-9 for (log, _), st in zip(decoded, stamp_ns, strict=True)]
     assert 0.0 <= min(lag_s) and sorted(lag_s)[len(lag_s) // 2] < 0.05
+    # the run brought its devices up as lifecycle nodes: configured, then active
+    life = {}
+    for d in bag_messages(tmp_path / 'wall', '/diagnostics'):
+        for st in d.status:
+            if st.name.endswith(': lifecycle'):
+                life.setdefault(st.name.split(':')[0], []).append(st.message)
+    assert set(life) == {'valve_1', 'muscle_1', 'load_cell_1', 'encoder', 'loading_servo'}
+    assert all(m[:2] == ['configured', 'active'] for m in life.values()), life
     assert len(bag_messages(tmp_path / 'wall', '/protocol/point')) == 6
 
 

@@ -1,0 +1,124 @@
+"""Managed (lifecycle) nodes: the devices, the drivers and the torque servo on a wall clock.
+
+A node whose settings have the field ``managed`` (``config.settings.ManagedSettings``: the
+devices, the drivers, the torque servo) is a ROS 2 lifecycle node when it runs on a wall clock
+(``rclpy.lifecycle``, the same state machine and ``~/change_state``, ``~/get_state`` services
+as ros2_control's hardware and most driver packages). Its transitions mean:
+
+* **configure**: the settings were declared and checked at construction (structural ones are
+  read-only from then on); a driver sets its device up here (``configure_device``: the CAN
+  drive's SDO configuration and PDO mapping). A failure is one ERROR diagnostic and the
+  transition fails;
+* **activate**: the node starts stepping (``on_wall_tick``);
+* **deactivate**: its outputs go to their safe state at once (``safe_state``: valves vented,
+  the drive off, the servo's valves vented) and it stops stepping;
+* **cleanup** and **shutdown**: as deactivate, from any state.
+
+With ``managed: false`` (the default, a node started by hand) the node configures and
+activates itself at its first tick; with ``managed: true`` it waits, unconfigured, for a
+manager: the wall-clock bring-up (``bringup.lifecycle``) or ``ros2 lifecycle set``. In
+lock-step a node is not managed: the sim clock gates it (``runtime.lockstep``), and its
+readings stay those of every earlier run.
+"""
+
+from __future__ import annotations
+
+from diagnostic_msgs.msg import DiagnosticStatus
+from rclpy.lifecycle import LifecycleNodeMixin, LifecycleState, TransitionCallbackReturn
+
+from pam_bench.runtime.core import NodeCore
+
+__all__ = ['Lifecycle', 'SUCCESS', 'FAILURE']
+
+SUCCESS = TransitionCallbackReturn.SUCCESS
+FAILURE = TransitionCallbackReturn.FAILURE
+
+
+class Lifecycle(NodeCore, LifecycleNodeMixin):
+    """The lifecycle of a managed node (module docstring)."""
+
+    def _init_lifecycle(self) -> None:
+        # a node whose settings carry ``managed`` (a device, a driver, the torque servo) is
+        # a lifecycle node on a wall clock
+        self.managed = hasattr(self.settings, 'managed') and not self.lockstep
+        self.active = not self.managed               # unmanaged nodes step from the start
+        self._awaits_manager = self.managed and bool(getattr(self.settings, 'managed', False))
+        if self.managed:
+            LifecycleNodeMixin.__init__(self, enable_communication_interface=True)
+
+    @property
+    def lifecycle_state(self) -> str:
+        """'unconfigured', 'inactive', 'active', 'finalized' (or a transition's name); an
+        unmanaged node is always 'active'."""
+        if not self.managed:
+            return 'active'
+        return str(self._state_machine.current_state[1])
+
+    def may_step(self) -> bool:
+        """Whether the node steps now: active; a managed node that does not wait for a
+        manager configures and activates itself at its first tick."""
+        if self.active:
+            return True
+        if self.managed and not self._awaits_manager and \
+                self.lifecycle_state == 'unconfigured':
+            self._awaits_manager = True              # once: a failed configure stays failed
+            if self.trigger_configure() == SUCCESS:
+                self.trigger_activate()
+            else:
+                self.exit_code = 2                   # it cannot run: its diagnostic says why
+        return self.active
+
+    # --- to override ---------------------------------------------------------------------
+    def configure_device(self) -> str:
+        """Set the device up (a driver's bus configuration); returns why it failed ('':
+        it did not)."""
+        return ''
+
+    def safe_state(self) -> None:
+        """Put the node's outputs in their safe state now (valves vented, the drive off)."""
+
+    # --- the transitions ----------------------------------------------------------------
+    def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Configure: the device set up (module docstring)."""
+        why = self.configure_device()
+        if why:
+            self.diagnose(DiagnosticStatus.ERROR, f'configure failed: {why}', 'lifecycle')
+            return FAILURE
+        self.diagnose(DiagnosticStatus.OK, 'configured', 'lifecycle')
+        return SUCCESS
+
+    def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Activate: stepping starts."""
+        self.active = True
+        self.diagnose(DiagnosticStatus.OK, 'active', 'lifecycle')
+        return SUCCESS
+
+    def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Deactivate: the outputs safe, stepping stops."""
+        self._stop_stepping('inactive: outputs safe')
+        return SUCCESS
+
+    def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Cleanup: as deactivate."""
+        self._stop_stepping('unconfigured: outputs safe')
+        return SUCCESS
+
+    def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Shutdown: as deactivate."""
+        self._stop_stepping('finalized: outputs safe')
+        return SUCCESS
+
+    def on_error(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """An error in a transition: outputs safe; back to unconfigured."""
+        self._stop_stepping('error in a transition: outputs safe')
+        return SUCCESS
+
+    def _stop_stepping(self, text: str) -> None:
+        self.active = False
+        try:
+            self.safe_state()
+        except Exception as exc:  # noqa: BLE001 - a transition must never let an exception out
+            self.diagnose(DiagnosticStatus.ERROR, f'safe state failed: {exc}', 'lifecycle')
+            return
+        self.diagnose(DiagnosticStatus.WARN if text.startswith('inactive') else
+                      DiagnosticStatus.OK, text, 'lifecycle')
