@@ -262,7 +262,7 @@ class TorqueServoNode(BenchNode):
 
     def safe_state(self) -> None:
         """Vent both valves: a 0 V command on each, now."""
-        stamp = time_of(self._last_ns or 0)
+        stamp = time_of(self.stepping.last_ns or 0)
         for pub in self.valve_pubs:
             msg = ValveCommand(voltage=0.0)
             msg.header.stamp = stamp

@@ -1,9 +1,12 @@
-"""The bench node: typed settings, diagnostics, and one mixin per concept.
+"""The bench node: typed settings, diagnostics, its stepping, and one mixin per concept.
 
 Every node of the bench is a ``BenchNode``: it declares its ROS parameters from its settings
 dataclass (``SETTINGS``, ``config.settings``; ``runtime.params``) and keeps the result in
-``settings``, publishes diagnostics (``runtime.core``), and steps either in lock-step with the
-sim clock (``runtime.lockstep``) or on its own wall clock (``runtime.wallclock``), with faults
+``settings``, publishes diagnostics (``runtime.core``), and holds its stepping
+(``runtime.stepping``): in lock-step with the sim clock (``runtime.lockstep``) or on its own
+wall clock (``runtime.wallclock``), declared through ``sync_input`` and
+``create_step_publisher``. The concepts around it are mixins that keep to their own state:
+the wall-clock loop and helpers (``runtime.wallclock``), faults
 injected on a wall clock (``runtime.faults``), its publish counts and loop periods kept for
 the run's statistics (``runtime.stats``), its tunable settings changed while it runs
 (``runtime.tuning``) and, for a device, a driver or the torque servo on a wall clock, a
@@ -25,17 +28,22 @@ from pam_bench.runtime.diagnostics import Diagnostics
 from pam_bench.runtime.faults import FaultInjection
 from pam_bench.runtime.intra import IntraProcessBus, bus_publisher
 from pam_bench.runtime.lifecycle import Lifecycle
-from pam_bench.runtime.lockstep import Lockstep
+from pam_bench.runtime.lockstep import LockstepStepping
 from pam_bench.runtime.params import declare_settings
 from pam_bench.runtime.qos import DRIVER, LOCKSTEP, RELIABLE, SENSOR
 from pam_bench.runtime.stats import Stats
+from pam_bench.runtime.stepping import Stepping
 from pam_bench.runtime.tuning import Tuning
-from pam_bench.runtime.wallclock import WallClock
+from pam_bench.runtime.wallclock import WallClock, WallClockStepping
+from pam_bench.sim.lockstep import InputSpec, StopRequest
 
 __all__ = ['BenchNode', 'Spin', 'RELIABLE', 'LOCKSTEP', 'DRIVER', 'SENSOR', 'NodeCore']
 
+STEPPINGS: tuple[type[Stepping], ...] = (LockstepStepping, WallClockStepping)
+"""The two steppings (mypy checks that each is a ``Stepping``)."""
 
-class BenchNode(Lockstep, WallClock, FaultInjection, Stats, Tuning, Lifecycle):
+
+class BenchNode(WallClock, FaultInjection, Stats, Tuning, Lifecycle):
     """Base of every bench node (module docstring)."""
 
     SETTINGS: ClassVar[type] = NodeSettings
@@ -63,7 +71,10 @@ class BenchNode(Lockstep, WallClock, FaultInjection, Stats, Tuning, Lifecycle):
             self, self._diag_pub.publish,
             getattr(s, 'hardware_id', '') or f'pam_bench/{self.get_name()}',
             float(getattr(s, 'diagnostics_period_s', 1.0)))
-        self._init_lockstep()
+        self.stop_request: StopRequest | None = None   # sent with every acknowledgement
+        self.max_next_step_s = 0.0        # longest next exchange step wanted (0: any)
+        self.stepping: LockstepStepping | WallClockStepping = (
+            LockstepStepping(self) if self.lockstep else WallClockStepping(self))
         self._init_wallclock()
         self._init_faults()
         self._init_stats()
@@ -72,6 +83,39 @@ class BenchNode(Lockstep, WallClock, FaultInjection, Stats, Tuning, Lifecycle):
         if getattr(self.settings, 'lockstep', True) is False:
             from rclpy.parameter_service import ParameterService
             self._parameter_service = ParameterService(self)
+
+    # --- the stepping (runtime.stepping) -------------------------------------------------
+    def sync_input(self, msg_type: type, topic: str, raw: bool = False,
+                   same_step: bool = False, samples: bool = False,
+                   from_start: bool = False, stamped: bool = False) -> None:
+        """Subscribe to a synchronous input: in lock-step buffered by stamp and required at
+        every step (``same_step``, ``samples``, ``from_start``, ``stamped``:
+        ``runtime.lockstep``, ``sim.lockstep``; ``raw``: kept as CDR bytes until a step uses
+        it); on a wall clock the latest message."""
+        if isinstance(self.stepping, LockstepStepping):
+            self.stepping.input(msg_type, topic, raw,
+                                InputSpec(same_step, samples, from_start, stamped))
+        else:
+            self.stepping.input(msg_type, topic)
+
+    def create_step_publisher(self, msg_type: type, topic: str) -> Any:
+        """A publisher of a step output (lock-step: sent again when the clock repeats a
+        tick; wall clock: a counted driver publisher)."""
+        return self.stepping.publisher(msg_type, topic)
+
+    def publish_each(self, pub: Any, msgs: list[Any]) -> None:
+        """Publish ``msgs`` in order on ``pub``: at once where it takes lists (a lock-step
+        step publisher, ``runtime.intra``), else one by one."""
+        many = getattr(pub, 'publish_many', None) if self.lockstep else None
+        if many is not None and len(msgs) > 1:
+            many(msgs)
+        else:
+            for m in msgs:
+                pub.publish(m)
+
+    def start_lockstep(self) -> None:
+        """Start stepping on /clock (after every ``sync_input``)."""
+        self.stepping.start()
 
     def start_stepping(self) -> None:
         """Start a device stepping (call after all sync_input): in lock-step on /clock, else
@@ -91,8 +135,9 @@ class BenchNode(Lockstep, WallClock, FaultInjection, Stats, Tuning, Lifecycle):
         return Spin.DEADLINE if self.wall_period_s is not None else Spin.LEAN
 
     def destroy_node(self) -> None:
-        """Let subscribers acknowledge what was published (a recorder gets the last
-        messages), write the stats file, then go."""
+        """Step no more, let subscribers acknowledge what was published (a recorder gets the
+        last messages), write the stats file, then go."""
+        self.stepping.stop()
         self.wait_acknowledged()
         try:
             self.write_stats()

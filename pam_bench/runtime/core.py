@@ -1,8 +1,9 @@
 """What every bench node shares before its stepping: settings, diagnostics and the hooks.
 
 ``NodeCore`` is the rclpy ``Node`` the concept mixins of ``runtime.base`` build on
-(``lockstep``, ``wallclock``, ``faults``, ``stats``): it holds the state they share and the
-hooks a device or controller overrides (``on_start``, ``on_step``, ``on_fault``).
+(``wallclock``, ``faults``, ``stats``, ``tuning``, ``lifecycle``) and that a node's stepping
+(``runtime.stepping``) calls back: it declares what they read of each other and the hooks a
+device or controller overrides (``on_start``, ``on_step``, ``on_fault``).
 """
 
 from __future__ import annotations
@@ -41,11 +42,10 @@ class NodeCore(Node):
     _fqn: str
     _diag_pub: Any
     diagnostics: Diagnostics
-    _sync: dict[str, dict[int, Any]]
-    _latest: dict[str, Any]
-    _last_ns: int | None
-    _sent: list[Output]
-    _start_outputs: list[Output] | None
+    stepping: Any                     # runtime.stepping.Stepping
+    max_next_step_s: float
+    stop_request: Any
+    wall_period_s: float | None
     rejected_count: int
     exit_code: int | None
 
@@ -54,7 +54,7 @@ class NodeCore(Node):
                  **values: Any) -> None:
         """A status of one of this node's concerns (``runtime.diagnostics``: sent at once
         when its level changes, with the 1 Hz summary otherwise; logs throttled)."""
-        self.diagnostics.stamp_ns = self._last_ns or self.diagnostics.stamp_ns
+        self.diagnostics.stamp_ns = self.stepping.last_ns or self.diagnostics.stamp_ns
         self.diagnostics.report(concern, level, message, **values)
 
     def reject(self, what: str, value: Any) -> None:
@@ -83,6 +83,14 @@ class NodeCore(Node):
 
     def apply_tuning(self) -> None:
         """Take the settings changed since the last step (``runtime.tuning``)."""
+        raise NotImplementedError
+
+    def now_ns(self) -> int:
+        """The node's clock, ns (``runtime.wallclock``)."""
+        raise NotImplementedError
+
+    def wall_inputs(self, inputs: dict[str, Any], dt_s: float) -> dict[str, Any]:
+        """The latest inputs adapted to a wall-clock step (``runtime.wallclock``)."""
         raise NotImplementedError
 
     def may_step(self) -> bool:

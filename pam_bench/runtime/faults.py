@@ -53,9 +53,10 @@ class FaultInjection(NodeCore):
 
     def fault_time_s(self) -> float:
         """Seconds since the run started; -1 before."""
-        if self._fault_epoch_ns is None or self._last_ns is None:
+        last_ns = self.stepping.last_ns
+        if self._fault_epoch_ns is None or last_ns is None:
             return -1.0
-        return (self._last_ns - self._fault_epoch_ns) * 1e-9
+        return (last_ns - self._fault_epoch_ns) * 1e-9
 
     def faulty(self, value: float) -> float | None:
         """The measured ``value`` as the injected faults make it (None: not published)."""

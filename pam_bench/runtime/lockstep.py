@@ -40,38 +40,41 @@ from pam_bench.config import topics
 from pam_bench.runtime.core import NodeCore, Output
 from pam_bench.runtime.intra import bus_publisher, bus_subscription
 from pam_bench.runtime.messages import ack_message, clock_ns, stamp_of_cdr, stamp_of_msg
-from pam_bench.runtime.qos import DRIVER, LOCKSTEP, RELIABLE, SENSOR
-from pam_bench.sim.lockstep import Ack, InputSpec, StepPlan, StopRequest
+from pam_bench.runtime.qos import LOCKSTEP, RELIABLE
+from pam_bench.sim.lockstep import Ack, InputSpec, StepPlan
 
-__all__ = ['Lockstep']
+__all__ = ['LockstepStepping']
 
 
-class Lockstep(NodeCore):
-    """Synchronous inputs, step outputs and the /clock handshake (module docstring)."""
+class LockstepStepping:
+    """A node's stepping in lock-step (module docstring): a ``runtime.stepping.Stepping``.
 
-    def _init_lockstep(self) -> None:
-        self._sync = {}
+    It owns the inputs' buffers, the steps' outputs and the handshake; it calls the node's
+    ``on_start``, ``on_step`` and ``step_failed`` and reads its ``max_next_step_s`` and
+    ``stop_request`` when it acknowledges.
+    """
+
+    def __init__(self, node: NodeCore) -> None:
+        self.node = node
+        self.last_ns: int | None = None           # the latest step's stamp (None before t_0)
+        self._sync: dict[str, dict[int, Any]] = {}
         self._specs: dict[str, InputSpec] = {}
         self._decode: dict[str, type] = {}
         self._prev_prev_ns: int | None = None
-        self._last_ns = None
         self._pending_ns: int | None = None
         self._waiting: tuple[Any, int] | None = None     # (buffer, stamp) the step waits for
         self._step_index = 0
-        self.stop_request: StopRequest | None = None      # sent with every acknowledgement
-        self.max_next_step_s = 0.0        # longest next exchange step wanted (0: any)
-        self._sent = []                   # this step's outputs
+        self._sent: list[Output] = []                    # this step's outputs
         self._sent_before: list[Output] = []             # the step before's
         self._ack_pub: Any = None
         self._plan: StepPlan | None = None
+        self._stopped = False
 
-    def create_step_publisher(self, msg_type: type, topic: str) -> Any:
+    # --- declaring ----------------------------------------------------------------------
+    def publisher(self, msg_type: type, topic: str) -> Any:
         """A publisher of a step output: what it publishes in a step is sent again when the
-        clock repeats that tick (module docstring). On a wall clock: a counted driver
-        publisher (``runtime.stats``)."""
-        pub = bus_publisher(self, msg_type, topic, LOCKSTEP if self.lockstep else DRIVER)
-        if not self.lockstep:
-            return self.counted(pub, topic)
+        clock repeats that tick (module docstring)."""
+        pub = bus_publisher(self.node, msg_type, topic, LOCKSTEP)
         send = pub.publish
         send_many = getattr(pub, 'publish_many', None)
 
@@ -91,38 +94,15 @@ class Lockstep(NodeCore):
         pub.publish_many = publish_many
         return pub
 
-    def publish_each(self, pub: Any, msgs: list[Any]) -> None:
-        """Publish ``msgs`` in order on ``pub``: at once where it takes lists (a lock-step
-        step publisher, ``runtime.intra``), else one by one."""
-        many = getattr(pub, 'publish_many', None) if self.lockstep else None
-        if many is not None and len(msgs) > 1:
-            many(msgs)
-        else:
-            for m in msgs:
-                pub.publish(m)
-
-    def sync_input(self, msg_type: type, topic: str, raw: bool = False,
-                   same_step: bool = False, samples: bool = False,
-                   from_start: bool = False, stamped: bool = False) -> None:
-        """Subscribe to a synchronous input: buffered by stamp, required at every step.
-
-        With ``raw`` the message stays CDR bytes and its stamp is read from the header, which
-        every stamped message (and Clock) starts with. ``same_step``, ``samples``,
-        ``from_start`` and ``stamped``: see the module docstring and ``sim.lockstep``. On a
-        wall clock the input is the latest message (``runtime.wallclock``).
-        """
+    def input(self, msg_type: type, topic: str, raw: bool = False,
+              spec: InputSpec | None = None) -> None:
+        """Subscribe to a synchronous input: buffered by stamp, required at every step
+        (``spec``; with ``raw`` the message stays CDR bytes until a step uses it)."""
+        node = self.node
         buf: dict[int, Any] = {}
         self._sync[topic] = buf
-        self._specs[topic] = InputSpec(same_step, samples, from_start, stamped)
-        if not self.lockstep:                # wall clock: the latest message
-            latest = self._latest
-
-            def on_latest(msg: Any) -> None:
-                latest[topic] = msg
-
-            bus_subscription(self, msg_type, topic, on_latest, SENSOR)
-            return
-        if self._bus is not None:            # message objects, in process
+        self._specs[topic] = spec or InputSpec()
+        if node._bus is not None:            # message objects, in process
 
             def on_object(msg: Any) -> None:
                 # about thirty deliveries per servo exchange: the stamp from rosidl's slots
@@ -136,14 +116,14 @@ class Lockstep(NodeCore):
                 if self._pending_ns is not None:
                     waiting = self._waiting
                     if waiting is None or waiting[1] in waiting[0]:
-                        self._try_step()
+                        self.step()
 
             def on_objects(msgs: list[Any]) -> None:
                 for m in msgs:
                     buf[stamp_of_msg(m)] = m
-                self._try_step()
+                self.step()
 
-            bus_subscription(self, msg_type, topic, on_object, LOCKSTEP, many=on_objects)
+            bus_subscription(node, msg_type, topic, on_object, LOCKSTEP, many=on_objects)
             return
         if not raw:
             self._decode[topic] = msg_type
@@ -152,58 +132,32 @@ class Lockstep(NodeCore):
             # kept as CDR bytes and decoded only when a step uses it: sub-step samples that a
             # participant does not need cost a take, not a deserialisation
             buf[stamp_of_cdr(data)] = data
-            self._try_step()
+            self.step()
 
-        self.create_subscription(msg_type, topic, on_msg, LOCKSTEP, raw=True)
+        node.create_subscription(msg_type, topic, on_msg, LOCKSTEP, raw=True)
 
-    def start_lockstep(self) -> None:
-        """Subscribe to /clock and create the ack publisher (call after all sync_input)."""
-        self._ack_pub = bus_publisher(self, StepAck, topics.ACK, RELIABLE)
+    # --- the Stepping protocol ----------------------------------------------------------
+    def start(self) -> None:
+        """Subscribe to /clock and create the ack publisher (after every ``input``)."""
+        node = self.node
+        self._ack_pub = bus_publisher(node, StepAck, topics.ACK, RELIABLE)
         self._plan = StepPlan(self._sync, self._specs)
-        bus_subscription(self, Clock, topics.CLOCK, self._on_clock, RELIABLE)
-        if self._bus is None:        # a process of its own, maybe started by hand: say so once
-            self.get_logger().info(
+        bus_subscription(node, Clock, topics.CLOCK, self._on_clock, RELIABLE)
+        if node._bus is None:        # a process of its own, maybe started by hand: say so once
+            node.get_logger().info(
                 'lock-step: waiting for /clock from sim_clock (pam-bench run starts it); to '
                 'run this node on a wall clock, start it with -p lockstep:=false or a params '
                 'file from pam-bench params SCENE --ros-yaml')
 
-    def _on_clock(self, msg: Clock) -> None:
-        t = clock_ns(msg)
-        if self._last_ns is not None and t <= self._last_ns:
-            if t == self._last_ns:        # the clock repeats t_0 until all are ready, and any
-                for send, out in self._sent_before + self._sent:   # tick not acknowledged
-                    send(out)
-                self._ack(t)
-            return
-        if self._last_ns is None:
-            if all(self._has_publisher(tp) for tp in self._sync):
-                self._last_ns = t
-                self.on_start(t)
-                self._ack(t)
-            return
-        if self._pending_ns == t:
-            # the clock publishes a tick again when it is not acknowledged in time: a consumer
-            # may still miss what this participant sent at its last step (a reader matched
-            # late drops a writer's first messages), so that goes out again
-            for send, out in self._sent:
-                send(out)
-        self._pending_ns = t
-        self._waiting = None
-        self._try_step()
-
-    def _has_publisher(self, topic: str) -> bool:
-        if self._bus is not None:
-            return self._bus.has_publisher(self, topic)
-        return self.count_publishers(topic) > 0
-
-    def _try_step(self) -> None:
+    def step(self, t_ns: int | None = None) -> None:
+        """Step to the pending tick once its inputs are there (``t_ns`` is the clock's)."""
         t = self._pending_ns
-        if t is None or self._last_ns is None:
+        if t is None or self.last_ns is None:
             return
         waiting = self._waiting
         if waiting is not None and waiting[1] not in waiting[0]:
             return                        # what the step waits for has not come yet
-        prev = self._last_ns
+        prev = self.last_ns
         plan = self._plan
         assert plan is not None
         self._waiting = plan.missing(prev, t, self._step_index)
@@ -222,19 +176,65 @@ class Lockstep(NodeCore):
         self._pending_ns = None
         self._sent_before, self._sent = self._sent, []
         self._prev_prev_ns = prev
-        self._last_ns = t
+        self.last_ns = t
         self._step_index += 1
+        node = self.node
         try:
-            self.apply_tuning()
-            self.on_step(t, (t - prev) * 1e-9, inputs)
+            node.apply_tuning()
+            node.on_step(t, (t - prev) * 1e-9, inputs)
         except Exception as exc:  # noqa: BLE001 - a callback must never let an exception out
-            self.step_failed(exc)
-        self.diagnostics.tick(t)
+            self.fault(exc)
+        node.diagnostics.tick(t)
         self._ack(t)
 
+    def fault(self, exc: Exception) -> None:
+        """A step raised: the node diagnoses it and goes to its safe state; the run goes
+        on (the step is acknowledged)."""
+        self.node.step_failed(exc)
+
+    def stop(self) -> None:
+        """No step after this one: a tick still pending is dropped."""
+        self._stopped = True
+        self._pending_ns = None
+
+    # --- the handshake ------------------------------------------------------------------
+    def _on_clock(self, msg: Clock) -> None:
+        if self._stopped:
+            return
+        t = clock_ns(msg)
+        node = self.node
+        if self.last_ns is not None and t <= self.last_ns:
+            if t == self.last_ns:         # the clock repeats t_0 until all are ready, and any
+                for send, out in self._sent_before + self._sent:   # tick not acknowledged
+                    send(out)
+                self._ack(t)
+            return
+        if self.last_ns is None:
+            if all(self._has_publisher(tp) for tp in self._sync):
+                self.last_ns = t
+                node.on_start(t)
+                self._ack(t)
+            return
+        if self._pending_ns == t:
+            # the clock publishes a tick again when it is not acknowledged in time: a consumer
+            # may still miss what this participant sent at its last step (a reader matched
+            # late drops a writer's first messages), so that goes out again
+            for send, out in self._sent:
+                send(out)
+        self._pending_ns = t
+        self._waiting = None
+        self.step()
+
+    def _has_publisher(self, topic: str) -> bool:
+        node = self.node
+        if node._bus is not None:
+            return node._bus.has_publisher(node, topic)
+        return node.count_publishers(topic) > 0
+
     def _ack(self, t: int) -> None:
-        ack = Ack(t, self._fqn, float(self.max_next_step_s), self.stop_request)
-        if self._bus is not None:                 # in process: the plain object
+        node = self.node
+        ack = Ack(t, node._fqn, float(node.max_next_step_s), node.stop_request)
+        if node._bus is not None:                 # in process: the plain object
             self._ack_pub.publish(ack, ack_message)
         else:
             self._ack_pub.publish(ack_message(ack))

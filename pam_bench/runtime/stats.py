@@ -14,7 +14,7 @@ import time
 from typing import Any
 
 from pam_bench.analysis.timing import PeriodStats
-from pam_bench.runtime.core import NodeCore, Output
+from pam_bench.runtime.core import NodeCore
 
 __all__ = ['Stats', 'ACK_WAIT_S']
 
@@ -33,7 +33,6 @@ class Stats(NodeCore):
     def _init_stats(self) -> None:
         self.published: dict[str, int] = {}         # topic -> messages published on DDS
         self._counted_pubs: list[Any] = []
-        self._start_outputs: list[Output] | None = None
         self.periods: PeriodStats | None = None     # set by the loop that ticks the node
         self.dropped_ticks = 0                      # ticks its loop skipped, too far behind
         # when set: the monotonic time (s) by which a stop ends its wait for acknowledgments,
@@ -60,8 +59,6 @@ class Stats(NodeCore):
         def publish(msg: Any, *args: Any) -> None:
             if dds is None or pub.external:
                 self.published[name] += 1
-            if self._start_outputs is not None:
-                self._start_outputs.append((publish, msg))
             send(msg, *args)
 
         pub.publish = publish

@@ -16,9 +16,11 @@ from typing import Any
 from diagnostic_msgs.msg import DiagnosticStatus
 
 from pam_bench.models import compiled
-from pam_bench.runtime.core import NodeCore
+from pam_bench.runtime.core import NodeCore, Output
+from pam_bench.runtime.intra import bus_publisher, bus_subscription
+from pam_bench.runtime.qos import DRIVER, SENSOR
 
-__all__ = ['WallClock', 'RESEND_NS', 'MAX_CATCH_UP']
+__all__ = ['WallClock', 'WallClockStepping', 'RESEND_NS', 'MAX_CATCH_UP']
 
 RESEND_NS = 100_000_000
 """On a wall clock a device still waiting for an input publishes its t_0 outputs again this
@@ -32,9 +34,6 @@ class WallClock(NodeCore):
 
     def _init_wallclock(self) -> None:
         self.wall_period_s: float | None = None     # set: ticked by on_wall_tick
-        self._latest = {}
-        self._model_ns = 0                          # the model's time
-        self._resend_ns = 0
         self._first_tick_ns: int | None = None
         self._recorded: set[str] = set()        # topics the recorder was seen on
         self.exit_code: int | None = None    # set: the node's work is done, its process exits
@@ -80,43 +79,10 @@ class WallClock(NodeCore):
         return int(self.get_clock().now().nanoseconds)
 
     def on_wall_tick(self, t_ns: int | None = None) -> None:
-        """One wall-clock step of a device at ``t_ns`` (default: now on the node's clock).
-
-        At the first tick ``on_start``; then, once every synchronous input has arrived,
-        ``on_step`` with the latest inputs (``wall_inputs``) over the whole periods that have
-        passed: the model runs on a fixed grid of ``wall_period_s`` that follows the clock to
-        within half a period (a late tick steps two periods at once), so its exact
-        discretisations (ZOH) are computed once, not at every jittered step. Outputs are
-        stamped ``t_ns``. A step that raises puts the device in its safe state
-        (``on_fault``) and the node goes on."""
-        t = self.now_ns() if t_ns is None else t_ns
+        """One wall-clock step of a device at ``t_ns`` (default: now on the node's clock):
+        its stepping's (``WallClockStepping.step``); a controller overrides this."""
         self.count_tick()
-        assert self.wall_period_s is not None
-        period = round(self.wall_period_s * 1e9)
-        if self._last_ns is None:
-            self._last_ns = self._model_ns = self._resend_ns = t
-            self._start_outputs = []      # what on_start publishes: sent again while waiting
-            self.on_start(t)
-            self._sent, self._start_outputs = self._start_outputs, None
-            return
-        self._last_ns = t
-        n = (t - self._model_ns + period // 2) // period
-        if n <= 0:
-            return
-        if len(self._latest) < len(self._sync):   # a producer has not started yet
-            self._model_ns = t
-            if t - self._resend_ns >= RESEND_NS:  # what it waits for may need our t_0 outputs
-                self._resend_ns = t                 # (a subscriber that matched late missed
-                for send, msg in self._sent:        # them)
-                    send(msg)
-            return
-        n = min(n, MAX_CATCH_UP)
-        self._model_ns = max(self._model_ns + n * period, t - period)
-        try:
-            self.on_step(t, n * period * 1e-9, self.wall_inputs(dict(self._latest),
-                                                                 n * period * 1e-9))
-        except Exception as exc:  # noqa: BLE001 - a callback must never let an exception out
-            self.step_failed(exc)
+        self.stepping.step(self.now_ns() if t_ns is None else t_ns)
 
     def waited_too_long(self, t_ns: int, waiting_for: list[str], timeout_s: float,
                         since_ns: int | None = None, fatal: bool = True) -> str:
@@ -158,3 +124,100 @@ class WallClock(NodeCore):
         """On a wall clock: adapt the latest inputs to a step of ``dt_s`` (default: as they
         are)."""
         return inputs
+
+
+class WallClockStepping:
+    """A device's stepping on a wall clock: a ``runtime.stepping.Stepping``.
+
+    Each synchronous input is the latest message received; at the first tick the node's
+    ``on_start`` (what it publishes then is sent again every ``RESEND_NS`` while an input has
+    not come: a subscriber that matched late missed it); then, once every input has arrived,
+    ``on_step`` with the latest inputs (the node's ``wall_inputs``) over the whole periods
+    that have passed: the model runs on a fixed grid of the node's ``wall_period_s`` that
+    follows the clock to within half a period (a late tick steps two periods at once), so its
+    exact discretisations (ZOH) are computed once, not at every jittered step. Outputs are
+    stamped with the tick. A step that raises puts the device in its safe state and the node
+    goes on.
+    """
+
+    def __init__(self, node: NodeCore) -> None:
+        self.node = node
+        self.last_ns: int | None = None           # the latest tick's stamp (None before)
+        self._topics: list[str] = []
+        self._latest: dict[str, Any] = {}
+        self._model_ns = 0                          # the model's time
+        self._resend_ns = 0
+        self._start_outputs: list[Output] = []     # what on_start published
+        self._capturing = False
+        self._stopped = False
+
+    def publisher(self, msg_type: type, topic: str) -> Any:
+        """A counted driver publisher (``runtime.stats``); what it publishes in ``on_start``
+        is kept to be sent again while the node waits for an input."""
+        pub = self.node.counted(bus_publisher(self.node, msg_type, topic, DRIVER), topic)
+        send = pub.publish
+
+        def publish(msg: Any, *args: Any) -> None:
+            if self._capturing:
+                self._start_outputs.append((send, msg))
+            send(msg, *args)
+
+        pub.publish = publish
+        return pub
+
+    def input(self, msg_type: type, topic: str) -> None:
+        """A synchronous input: the latest message."""
+        self._topics.append(topic)
+        latest = self._latest
+
+        def on_latest(msg: Any) -> None:
+            latest[topic] = msg
+
+        bus_subscription(self.node, msg_type, topic, on_latest, SENSOR)
+
+    # --- the Stepping protocol ----------------------------------------------------------
+    def start(self) -> None:
+        """Nothing to subscribe: the node's loop ticks ``step``."""
+
+    def step(self, t_ns: int | None = None) -> None:
+        """One tick at ``t_ns`` (class docstring)."""
+        node = self.node
+        if self._stopped:
+            return
+        t = node.now_ns() if t_ns is None else t_ns
+        assert node.wall_period_s is not None
+        period = round(node.wall_period_s * 1e9)
+        if self.last_ns is None:
+            self.last_ns = self._model_ns = self._resend_ns = t
+            self._capturing = True
+            try:
+                node.on_start(t)
+            finally:
+                self._capturing = False
+            return
+        self.last_ns = t
+        n = (t - self._model_ns + period // 2) // period
+        if n <= 0:
+            return
+        if len(self._latest) < len(self._topics):   # a producer has not started yet
+            self._model_ns = t
+            if t - self._resend_ns >= RESEND_NS:  # what it waits for may need our t_0 outputs
+                self._resend_ns = t
+                for send, msg in self._start_outputs:
+                    send(msg)
+            return
+        n = min(n, MAX_CATCH_UP)
+        self._model_ns = max(self._model_ns + n * period, t - period)
+        try:
+            node.on_step(t, n * period * 1e-9, node.wall_inputs(dict(self._latest),
+                                                                n * period * 1e-9))
+        except Exception as exc:  # noqa: BLE001 - a callback must never let an exception out
+            self.fault(exc)
+
+    def fault(self, exc: Exception) -> None:
+        """A step raised: the node diagnoses it and goes to its safe state."""
+        self.node.step_failed(exc)
+
+    def stop(self) -> None:
+        """No step after this one."""
+        self._stopped = True
