@@ -46,11 +46,17 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, NamedTuple, cast
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     import numpy as np
 
     Array = np.ndarray
+    Values = np.ndarray | Sequence[float]
+    """Read: an array (compiled) or a sequence (the objects' interpreted calls)."""
+    Slots = np.ndarray | list[Any]
+    """Written in place: an array or a list."""
 else:
-    Array = Any
+    Array = Values = Slots = Any
 
 __all__ = ['available', 'enabled', 'wanted', 'LOAD_AT', 'use', 'start_loading', 'cache_dir',
            'zoh_run', 'solve_mckibben', 'replay_drive', 'McKibbenRecord', 'DriveRecord',
@@ -274,50 +280,98 @@ def backbone(e: float, x: float, mp: McKibbenRecord) -> tuple[float, float]:
     return f, k
 
 
-def _muscle_trial(e: float, x: float, mp: McKibbenRecord, fk: Array, ff0: Array, fmu: Array,
-                  z: Array, zt: Array, st: Array) -> tuple[float, float, float]:
-    """(F, -dF/dx, friction) at (e(p), x); the friction elements' trial state into zt, st."""
-    f_bb, k_bb = backbone(e, x, mp)
+def slip_elements(s: float, load: float, fk: Values, ff0: Values, fmu: Values, z: Values,
+                  zt: Slots, st: Slots) -> tuple[float, float]:
+    """The Maxwell-slip elements (``models.friction``, 004 section 2.2) moved to the slip
+    coordinate ``s`` m under ``load`` N >= 0 from their positions ``z`` m: element i
+    (stiffness fk_i N/m, break force ff0_i + fmu_i load N) sticks while |s - z_i| < lim_i =
+    (ff0_i + fmu_i load) / fk_i, else slides to s -+ lim_i. Its trial position goes to
+    ``zt[i]``, 1 (sticking) or 0 to ``st[i]``. Returns (F_f = sum fk_i (s - zt_i) N, the
+    sticking elements' stiffness N/m). Arrays or sequences of length n."""
+    force = 0.0
+    k_stick = 0.0
+    for i in range(len(fk)):
+        k = fk[i]
+        lim = (ff0[i] + fmu[i] * load) / k
+        zi = z[i]
+        d = s - zi
+        if d >= lim:
+            zi = s - lim
+            st[i] = 0
+        elif d <= -lim:
+            zi = s + lim
+            st[i] = 0
+        else:
+            k_stick += k
+            st[i] = 1
+        zt[i] = zi
+        force += k * (s - zi)
+    return force, k_stick
+
+
+def friction_on_backbone(f_bb: float, k_bb: float, x: float, hysteresis: float, ct: float,
+                         fk: Values, ff0: Values, fmu: Values, z: Values, zt: Slots,
+                         st: Slots) -> tuple[float, float, float, float]:
+    """A bench muscle at contraction ``x`` m from its backbone (F_bb N, K_bb = -dF_bb/dx N/m):
+    with ``hysteresis`` (1) the braid friction F_f on s = x + c_t F_bb^+ under the load F_bb^+
+    (``slip_elements``; trial state into ``zt``, ``st``), F = F_bb - F_f, never pushing, and
+    -dF/dx = K_bb + K_stick (1 - c_t K_bb while the braid is under tension). Returns
+    (F N, -dF/dx N/m, F_f N, K_stick N/m); F <= 0 gives (0, 0, F_f, K_stick)."""
     ff = 0.0
     kf = 0.0
-    if mp.hysteresis != 0.0:
+    k_stick = 0.0
+    if hysteresis != 0.0:
         tension = f_bb if f_bb > 0.0 else 0.0
-        ct = mp.ct
-        s = x + ct * tension
-        load = tension if tension > 0.0 else 0.0
-        force = 0.0
-        k_stick = 0.0
-        for i in range(fk.shape[0]):
-            k = fk[i]
-            lim = (ff0[i] + fmu[i] * load) / k
-            zi = z[i]
-            d = s - zi
-            if d >= lim:
-                zi = s - lim
-                st[i] = 0
-            elif d <= -lim:
-                zi = s + lim
-                st[i] = 0
-            else:
-                k_stick += k
-                st[i] = 1
-            zt[i] = zi
-            force += k * (s - zi)
-        ff = force
+        ff, k_stick = slip_elements(x + ct * tension, tension, fk, ff0, fmu, z, zt, st)
         kf = k_stick * (1.0 - ct * k_bb if f_bb > 0.0 else 1.0)
     f = f_bb - ff
     if f <= 0.0:
-        return 0.0, 0.0, ff
-    return f, k_bb + kf, ff
+        return 0.0, 0.0, ff, k_stick
+    return f, k_bb + kf, ff, k_stick
+
+
+def _muscle_trial(e: float, x: float, mp: McKibbenRecord, fk: Array, ff0: Array, fmu: Array,
+                  z: Array, zt: Array, st: Array) -> tuple[float, float, float]:
+    """(F, -dF/dx, friction) of the McKibben muscle at (e(p), x); the friction elements'
+    trial state into zt, st."""
+    f_bb, k_bb = backbone(e, x, mp)
+    f, k, ff, _ = friction_on_backbone(f_bb, k_bb, x, mp.hysteresis, mp.ct, fk, ff0, fmu, z,
+                                       zt, st)
+    return f, k, ff
+
+
+def newton_next(f: float, g: float, k: float, dxdf: float, lo: float, hi: float,
+                f_hi: float) -> float:
+    """The next iterate of the bracketed Newton on g(F) = F_m(p, X(F)) - F (``models.coupling``)
+    from F = ``f`` N with g = ``g`` N, the muscle's -dF_m/dx ``k`` N/m and the holder's dX/dF
+    ``dxdf`` m/N: the Newton step F + g / (1 + k dX/dF) inside the bracket (lo, hi), else the
+    bracket's midpoint once its ends are known, else 0 (while F_hi = F_m(X(0)), ``f_hi``, is
+    not tried: negative) or 2 F_hi."""
+    nxt = f + g / (1.0 + k * dxdf)
+    if lo < nxt < hi:
+        return nxt
+    if hi < math.inf and (lo > 0.0 or f_hi >= 0.0):
+        return 0.5 * (lo + hi)
+    if f_hi < 0.0:
+        return 0.0
+    return 2.0 * f_hi
+
+
+def suffix_extremes(values: Values, hi: Slots, lo: Slots) -> None:
+    """``hi[j]``, ``lo[j]`` = max, min of ``values[j:]`` for every j (``hi``, ``lo`` start as
+    copies of ``values``), shapes (n,)."""
+    for j in range(len(values) - 2, -1, -1):
+        hi[j] = hi[j] if hi[j] > hi[j + 1] else hi[j + 1]
+        lo[j] = lo[j] if lo[j] < lo[j + 1] else lo[j + 1]
 
 
 # --- drive ---------------------------------------------------------------------------------
-def _play(f: float, dp: DriveRecord) -> float:
+def drive_play(f: float, dp: DriveRecord) -> float:
     a = f / dp.backlash_force_n
     return dp.half_play * (1.0 if a > 1.0 else (-1.0 if a < -1.0 else a))
 
 
-def _prepare(d: float, dp: DriveRecord, ds: Array, mode: int, sp: float) -> Prep:
+def drive_prepare(d: float, dp: DriveRecord, ds: Slots, mode: int, sp: float) -> Prep:
     """The sub-step of length d: its ``Prep`` (the torque and the integral as affine
     functions of the end force, the position loop's rate when it fixes one)."""
     r, j, c = dp.r, dp.j, dp.c
@@ -348,7 +402,7 @@ def _prepare(d: float, dp: DriveRecord, ds: Array, mode: int, sp: float) -> Prep
     return Prep(d, den, 0.0, 0.0, 0.0, 0.0, math.inf, 0.0, 0.0, 0.0)
 
 
-def _end(f: float, dp: DriveRecord, ds: Array, prep: Prep
+def drive_end(f: float, dp: DriveRecord, ds: Slots, prep: Prep
          ) -> tuple[float, float, float, float, bool]:
     """(phi_+, w_+, I_+, tau_+, saturated) of the prepared sub-step for the force f."""
     d, den, t0, t1, i0, i1, i_lim, ki = (prep.d, prep.den, prep.t0, prep.t1, prep.i0,
@@ -378,7 +432,7 @@ def _end(f: float, dp: DriveRecord, ds: Array, prep: Prep
     return ds[PHI] + d * w, w, i_new, tau, sat
 
 
-def _ideal_contraction(f: float, dp: DriveRecord, ds: Array, mode: int, sp: float) -> float:
+def drive_ideal_contraction(f: float, dp: DriveRecord, ds: Slots, mode: int, sp: float) -> float:
     kb = dp.belt_stiffness
     if mode == MODE_POSITION:
         x = sp + f / kb
@@ -388,15 +442,15 @@ def _ideal_contraction(f: float, dp: DriveRecord, ds: Array, mode: int, sp: floa
     return min(max(x, dp.travel_min), dp.travel_max)
 
 
-def _contraction_and_compliance(f: float, dp: DriveRecord, ds: Array, mode: int, sp: float,
+def drive_contraction_and_compliance(f: float, dp: DriveRecord, ds: Slots, mode: int, sp: float,
                                 prep: Prep) -> tuple[float, float]:
     kb = dp.belt_stiffness
     if dp.dynamics == 0.0:                                     # the ideal holder
-        x = _ideal_contraction(f, dp, ds, mode, sp)
+        x = drive_ideal_contraction(f, dp, ds, mode, sp)
         return x, (1.0 / kb if mode == MODE_POSITION else IDEAL_FORCE_COMPLIANCE_M_PER_N)
     r, j = dp.r, dp.j
-    phi, w, _, _, sat = _end(f, dp, ds, prep)
-    x = r * (phi + _play(f, dp)) + f / kb
+    phi, w, _, _, sat = drive_end(f, dp, ds, prep)
+    x = r * (phi + drive_play(f, dp)) + f / kb
     if x <= dp.travel_min:
         return dp.travel_min, 0.0
     if x >= dp.travel_max:
@@ -413,11 +467,11 @@ def _contraction_and_compliance(f: float, dp: DriveRecord, ds: Array, mode: int,
     return x, r * (d * dw + play) + 1.0 / kb
 
 
-def _commit(f: float, dp: DriveRecord, ds: Array, mode: int, sp: float, prep: Prep) -> None:
+def drive_commit(f: float, dp: DriveRecord, ds: Slots, mode: int, sp: float, prep: Prep) -> None:
     kb = dp.belt_stiffness
     r = dp.r
     if dp.dynamics == 0.0:                                     # the ideal holder
-        x = _ideal_contraction(f, dp, ds, mode, sp)
+        x = drive_ideal_contraction(f, dp, ds, mode, sp)
         ds[PHI] = (x - f / kb) / r
         ds[W] = 0.0
         torque = r * f
@@ -427,18 +481,18 @@ def _commit(f: float, dp: DriveRecord, ds: Array, mode: int, sp: float, prep: Pr
         ds[TORQUE] = torque
         ds[SATURATED] = 1.0 if sat else 0.0
     else:
-        phi, w, i_new, tau, sat = _end(f, dp, ds, prep)
-        x = r * (phi + _play(f, dp)) + f / kb
+        phi, w, i_new, tau, sat = drive_end(f, dp, ds, prep)
+        x = r * (phi + drive_play(f, dp)) + f / kb
         if x < dp.travel_min or x > dp.travel_max:
             x = dp.travel_min if x < dp.travel_min else dp.travel_max
-            phi = (x - f / kb) / r - _play(f, dp)
+            phi = (x - f / kb) / r - drive_play(f, dp)
             w = 0.0
         ds[PHI], ds[W], ds[INTEGRAL] = phi, w, i_new
         ds[TORQUE] = tau
         ds[SATURATED] = 1.0 if sat else 0.0
     ds[FORCE] = f
     ds[CONTRACTION] = x
-    angle = ds[PHI] + _play(f, dp)
+    angle = ds[PHI] + drive_play(f, dp)
     ds[ENCODER] = round(angle / dp.count_rad) * dp.count_rad
 
 
@@ -467,21 +521,19 @@ def _solve_mckibben(steps: Array, pressures: Array, f: float, mp: McKibbenRecord
     hi_p = pressures.copy() if settle else pressures
     lo_p = pressures.copy() if settle else pressures
     if settle:
-        for j in range(n - 2, -1, -1):
-            hi_p[j] = hi_p[j] if hi_p[j] > hi_p[j + 1] else hi_p[j + 1]
-            lo_p[j] = lo_p[j] if lo_p[j] < lo_p[j + 1] else lo_p[j + 1]
+        suffix_extremes(pressures, hi_p, lo_p)
     for idx in range(n):
         d = steps[idx]
         p = pressures[idx]
         e = _effective_pressure(p, mp)
         if dp.dynamics != 0.0:
-            prep = _prepare(d, dp, ds, mode, sp)
+            prep = drive_prepare(d, dp, ds, mode, sp)
         lo, hi = 0.0, math.inf
         f = f if f > 0.0 else 0.0
         f_hi = -1.0
         it = 1
         while True:
-            x, dxdf = _contraction_and_compliance(f, dp, ds, mode, sp, prep)
+            x, dxdf = drive_contraction_and_compliance(f, dp, ds, mode, sp, prep)
             if not math.isfinite(x):
                 return k_last, ff_last, iters, BAD_POSITION, 0
             tf, tk, tff = _muscle_trial(e, x, mp, fk, ff0, fmu, z, zt, stt)
@@ -496,20 +548,12 @@ def _solve_mckibben(steps: Array, pressures: Array, f: float, mp: McKibbenRecord
                     it >= MAX_ITERATIONS:
                 break
             it += 1
-            nxt = f + g / (1.0 + tk * dxdf)
-            if lo < nxt < hi:
-                f = nxt
-            elif hi < math.inf and (lo > 0.0 or f_hi >= 0.0):
-                f = 0.5 * (lo + hi)
-            elif f_hi < 0.0:
-                f = 0.0
-            else:
-                f = 2.0 * f_hi
+            f = newton_next(f, g, tk, dxdf, lo, hi, f_hi)
         if mp.hysteresis != 0.0:
             for i in range(n_el):
                 z[i] = zt[i]
                 st[i] = stt[i]
-        _commit(f, dp, ds, mode, sp, prep)
+        drive_commit(f, dp, ds, mode, sp, prep)
         out_f[idx] = f
         out_x[idx] = x
         k_last, ff_last = tk, tff
@@ -523,8 +567,8 @@ def _solve_mckibben(steps: Array, pressures: Array, f: float, mp: McKibbenRecord
                 saved[i] = ds[i]
             for j in range(idx + 1, n):
                 if dp.dynamics != 0.0:
-                    prep = _prepare(steps[j], dp, ds, mode, sp)
-                _commit(f, dp, ds, mode, sp, prep)
+                    prep = drive_prepare(steps[j], dp, ds, mode, sp)
+                drive_commit(f, dp, ds, mode, sp, prep)
             if abs(ds[CONTRACTION] - x) <= tol[1]:
                 for j in range(idx + 1, n):
                     out_f[j] = f
@@ -543,12 +587,14 @@ def _replay_drive(steps: Array, forces: Array, dp: DriveRecord, ds: Array, mode:
     prep = NO_PREP
     for idx in range(steps.shape[0]):
         if dp.dynamics != 0.0:
-            prep = _prepare(steps[idx], dp, ds, mode, sp)
-        _commit(forces[idx], dp, ds, mode, sp, prep)
+            prep = drive_prepare(steps[idx], dp, ds, mode, sp)
+        drive_commit(forces[idx], dp, ds, mode, sp, prep)
 
 
-_HELPERS = ('softplus', '_effective_pressure', 'backbone', '_muscle_trial', '_play',
-            '_prepare', '_end', '_ideal_contraction', '_contraction_and_compliance', '_commit')
+_HELPERS = ('softplus', '_effective_pressure', 'backbone', 'slip_elements',
+            'friction_on_backbone', '_muscle_trial', 'newton_next', 'suffix_extremes',
+            'drive_play', 'drive_prepare', 'drive_end', 'drive_ideal_contraction',
+            'drive_contraction_and_compliance', 'drive_commit')
 """Called by the kernels: registered with numba (``register_jitable``), which compiles them
 into their callers and leaves the Python functions as they are."""
 _KERNELS: dict[str, Callable[..., Any]] = {

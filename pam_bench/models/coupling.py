@@ -168,15 +168,7 @@ def solve_substep(muscle: BenchMuscle, holder: Holder, d: float, pressure_pa: fl
         if abs(g) <= FORCE_TOLERANCE_N or hi - lo <= FORCE_TOLERANCE_N or it >= MAX_ITERATIONS:
             break
         it += 1
-        nxt = f + g / (1.0 + trial[1] * dxdf)
-        if lo < nxt < hi:
-            f = nxt
-        elif hi < math.inf and (lo > 0.0 or f_hi >= 0.0):
-            f = 0.5 * (lo + hi)
-        elif f_hi < 0.0:
-            f = 0.0
-        else:
-            f = 2.0 * f_hi
+        f = compiled.newton_next(f, g, trial[1], dxdf, lo, hi, f_hi)
     muscle.commit(trial)
     holder.commit(f)
     return f, x, trial[1], trial[2], it
@@ -233,11 +225,9 @@ def solve_substeps(muscle: BenchMuscle, holder: Holder, steps_s: list[float],
 
 
 def _suffix_extremes(values: list[float]) -> tuple[list[float], list[float]]:
-    """(max, min) of ``values[j:]`` for every j, shapes (n,)."""
+    """(max, min) of ``values[j:]`` for every j, shapes (n,) (``compiled.suffix_extremes``)."""
     hi, lo = list(values), list(values)
-    for j in range(len(values) - 2, -1, -1):
-        hi[j] = hi[j] if hi[j] > hi[j + 1] else hi[j + 1]
-        lo[j] = lo[j] if lo[j] < lo[j + 1] else lo[j + 1]
+    compiled.suffix_extremes(values, hi, lo)
     return hi, lo
 
 

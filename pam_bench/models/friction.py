@@ -15,12 +15,15 @@ sign(v), so it cannot chatter at a velocity reversal, and the result depends onl
 of s, not on the step size (rate independence). ``trial`` evaluates a move without keeping it
 (the implicit sub-step of ``pam_bench.models.coupling`` tries several); ``commit`` keeps one.
 The element bank is short (three elements by default) and evaluated thousands of times per
-simulated second, so it works on Python floats rather than numpy arrays.
+simulated second, so the object keeps Python floats and tuples; the law itself is the compiled
+core's (``compiled.slip_elements``), run here interpreted on them.
 """
 
 from __future__ import annotations
 
 from typing import Any
+
+from pam_bench.models import compiled
 
 __all__ = ['MaxwellSlip', 'FrictionTrial']
 
@@ -46,7 +49,6 @@ class MaxwellSlip:
             raise ValueError('friction element lists must have equal lengths')
         if any(k <= 0.0 for k in self.k):
             raise ValueError('friction element stiffnesses must be > 0 N/m')
-        self._elements = tuple(zip(self.k, self.f0, self.mu, strict=True))
         self.z: tuple[float, ...] = (0.0,) * len(self.k)
         self.sticking: tuple[bool, ...] = (True,) * len(self.k)
 
@@ -56,28 +58,13 @@ class MaxwellSlip:
         self.sticking = (True,) * len(self.k)
 
     def trial(self, s_m: float, load_n: float) -> FrictionTrial:
-        """The move to slip coordinate ``s_m`` (m) under the load ``load_n`` (N), not kept."""
-        load = load_n if load_n > 0.0 else 0.0
-        force = 0.0
-        k_stick = 0.0
-        zs = list(self.z)
-        st = [True] * len(zs)
-        i = 0
-        for k, f0, mu in self._elements:
-            lim = (f0 + mu * load) / k          # m of pre-slide
-            z = zs[i]
-            d = s_m - z
-            if d >= lim:
-                z = zs[i] = s_m - lim
-                st[i] = False
-            elif d <= -lim:
-                z = zs[i] = s_m + lim
-                st[i] = False
-            else:
-                k_stick += k
-            force += k * (s_m - z)
-            i += 1
-        return force, k_stick, tuple(zs), tuple(st)
+        """The move to slip coordinate ``s_m`` (m) under the load ``load_n`` (N), not kept
+        (the elements' law: ``compiled.slip_elements``)."""
+        zt = list(self.z)
+        st = [1] * len(zt)
+        force, k_stick = compiled.slip_elements(s_m, load_n if load_n > 0.0 else 0.0, self.k,
+                                                self.f0, self.mu, self.z, zt, st)
+        return force, k_stick, tuple(zt), tuple(v == 1 for v in st)
 
     def commit(self, trial: FrictionTrial) -> None:
         """Keep the element state of a ``trial``."""

@@ -60,6 +60,7 @@ from typing import Any
 
 import numpy as np
 
+from pam_bench.models import compiled
 from pam_bench.models.compiled import McKibbenRecord, backbone
 from pam_bench.models.compiled import softplus as _softplus
 from pam_bench.models.errors import ModelError
@@ -172,19 +173,18 @@ class FrictionMuscle:
         """
         p = self.p
         f_bb, k_bb = self.backbone_and_stiffness(pressure_pa, contraction_m)
-        fr = None
-        ff = kf = 0.0
-        if p.hysteresis:
-            tension = f_bb if f_bb > 0.0 else 0.0
-            ct = p.slip_compliance_m_per_n
-            fr = self.friction.trial(contraction_m + ct * tension, tension)
-            ff = fr[0]
-            # -dF/dx through s: ds/dx = 1 - c_t K_bb while the braid is under tension
-            kf = fr[1] * (1.0 - ct * k_bb if f_bb > 0.0 else 1.0)
-        f = f_bb - ff
-        if f <= 0.0:
-            return 0.0, 0.0, ff, fr
-        return f, k_bb + kf, ff, fr
+        if not p.hysteresis:
+            f, k, ff, _ = compiled.friction_on_backbone(f_bb, k_bb, contraction_m, 0.0, 0.0, (),
+                                                        (), (), (), [], [])
+            return f, k, ff, None
+        fr = self.friction
+        zt = list(fr.z)
+        st = [1] * len(zt)
+        # -dF/dx through s: ds/dx = 1 - c_t K_bb while the braid is under tension
+        f, k, ff, k_stick = compiled.friction_on_backbone(
+            f_bb, k_bb, contraction_m, 1.0, p.slip_compliance_m_per_n, fr.k, fr.f0, fr.mu,
+            fr.z, zt, st)
+        return f, k, ff, (ff, k_stick, tuple(zt), tuple(v == 1 for v in st))
 
     def commit(self, trial: MuscleTrial) -> None:
         """Keep the friction state of a ``trial``."""

@@ -32,8 +32,8 @@ def test_fault_time_counts_from_the_start_the_status_states(ros_domain: int,
         sent = time.monotonic()
         h.spin_until(lambda: node._fault_epoch_ns is not None)
         late_s = time.monotonic() - sent
-        first = node._last_ns
-        h.spin_until(lambda: node._last_ns != first)        # a step after the status
+        first = node.stepping.last_ns
+        h.spin_until(lambda: node.stepping.last_ns != first)        # a step after the status
         assert elapsed_s - 0.05 <= node.fault_time_s() <= elapsed_s + late_s + 0.5
         h.send('/protocol/status', ProtocolStatus(state=1, elapsed=elapsed_s + 30.0), 0)
         until = time.monotonic() + 0.3

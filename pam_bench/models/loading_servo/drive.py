@@ -44,7 +44,7 @@ muscle solves F_+ = F_muscle(p_+, X(F_+)) and the drive keeps the sub-step with 
 term against a sticking braid, about 7000 1/s) stay damped at any sub-step, and the error is
 first order in d (BENCHMARKS.md, 'Work-precision of the models', drive rows).
 
-``dynamics: false`` replaces the drive by an ideal holder (``holders.IdealHolder``). The law a
+``dynamics: false`` replaces the drive by an ideal holder (``holders`` states its law). The law a
 copy of the drive needs to follow the same sub-steps (the DriveLaw message) is
 ``models.loading_servo.law``.
 """
@@ -53,41 +53,20 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 
 from pam_bench.models import compiled
 from pam_bench.models.errors import ModelError
-from pam_bench.models.loading_servo.holders import IdealHolder
 from pam_bench.models.loading_servo.params import LoadingServoParams, LoadMode
 
 __all__ = ['LoadingServoModel', 'ServoOutput', 'SubStep']
 
 
-class SubStep(NamedTuple):
-    """The prepared sub-step: tau_+ = t0 + t1 F_+ and I_+ = i0 + i1 F_+ (unclamped).
-
-    Attributes:
-        d: sub-step length, s.
-        den: 1 + d c / J.
-        t0, t1: output torque at the end as an affine function of the force, N m, N m/N.
-        i0, i1: controller integral at the end, likewise (N s or m s).
-        i_limit: anti-windup bound of the integral.
-        ki: integral gain the clamped integral acts through.
-        w_position: output rate at the end in position mode (the load compensated), rad/s;
-            None in force and off modes.
-    """
-
-    d: float
-    den: float
-    t0: float
-    t1: float
-    i0: float
-    i1: float
-    i_limit: float
-    ki: float
-    w_position: float | None
+SubStep = compiled.Prep
+"""The prepared sub-step (``compiled.Prep``): tau_+ = t0 + t1 F_+ and I_+ = i0 + i1 F_+
+(unclamped), the integral's limit and gain, the position loop's rate when it fixes one."""
 
 
 @dataclasses.dataclass
@@ -102,7 +81,13 @@ class ServoOutput:
 
 
 class LoadingServoModel:
-    """Loading servo drive and belt mechanics as a sub-step law (module docstring)."""
+    """Loading servo drive and belt mechanics as a sub-step law (module docstring).
+
+    The law is the compiled core's (``compiled.drive_prepare``, ``drive_end``,
+    ``drive_contraction_and_compliance``, ``drive_commit``, the ideal holder of
+    ``dynamics: false`` included), run here interpreted over the drive's parameters by name
+    (``record``) and its state (``state``: a list indexed by ``compiled.PHI`` ...).
+    """
 
     def __init__(self, params: LoadingServoParams | None = None) -> None:
         self.p = params or LoadingServoParams()
@@ -113,18 +98,48 @@ class LoadingServoModel:
         self.count_rad = 2.0 * math.pi / 2 ** p.encoder_bits_per_rev
         self.mode = LoadMode.OFF
         self.setpoint = 0.0
-        self.phi = 0.0            # gear output angle, rad
-        self.w = 0.0              # its rate, rad/s
-        self.integral = 0.0       # controller integral (N s or m s)
-        self.force_n = 0.0        # muscle force of the last sub-step, N
-        self.encoder_rad = 0.0    # encoder reading of the last sub-step, rad
-        self.contraction_m = 0.0  # muscle end of the last sub-step, m
-        self.torque = 0.0
-        self.saturated = False
-        self._prep: SubStep | None = None
-        self._end_key: tuple[object, ...] = ()
-        self._end_out = (0.0, 0.0, 0.0, 0.0, False)
-        self._holder = IdealHolder(self) if not self.p.dynamics else None
+        self.record = compiled.DriveRecord(
+            r=self.r, j=p.inertia_kg_m2, c=p.damping_nm_s_per_rad, tau_max=self.tau_max,
+            half_play=self.half_play, count_rad=self.count_rad,
+            backlash_force_n=p.backlash_force_n, belt_stiffness=p.belt_stiffness_n_per_m,
+            travel_min=p.travel_min_m, travel_max=p.travel_max_m,
+            speed_limit=p.speed_limit_rad_s, force_kp=p.force_kp, force_ki=p.force_ki_per_s,
+            force_kd=p.force_kd_s, force_band=p.force_integral_band_n,
+            position_kp=p.position_kp_n_per_m, position_ki=p.position_ki_n_per_m_s,
+            position_kd=p.position_kd_n_s_per_m, force_limit=p.force_limit_n,
+            dynamics=1.0 if p.dynamics else 0.0)
+        # gear output angle rad, its rate rad/s, controller integral (N s or m s), muscle force
+        # of the last sub-step N, its encoder reading rad, muscle end m, torque N m, saturated
+        self.state: list[float] = [0.0] * compiled.STATE_SIZE
+        self._prep = compiled.NO_PREP
+
+    # --- the state by name --------------------------------------------------------------
+    phi = property(lambda self: self.state[compiled.PHI],
+                   lambda self, v: self.state.__setitem__(compiled.PHI, v),
+                   doc='Gear output angle, rad.')
+    w = property(lambda self: self.state[compiled.W],
+                 lambda self, v: self.state.__setitem__(compiled.W, v),
+                 doc='Gear output rate, rad/s.')
+    integral = property(lambda self: self.state[compiled.INTEGRAL],
+                        lambda self, v: self.state.__setitem__(compiled.INTEGRAL, v),
+                        doc='Controller integral, N s or m s.')
+    force_n = property(lambda self: self.state[compiled.FORCE],
+                       lambda self, v: self.state.__setitem__(compiled.FORCE, v),
+                       doc='Muscle force of the last sub-step, N.')
+    encoder_rad = property(lambda self: self.state[compiled.ENCODER],
+                           lambda self, v: self.state.__setitem__(compiled.ENCODER, v),
+                           doc='Encoder reading of the last sub-step, rad.')
+    contraction_m = property(lambda self: self.state[compiled.CONTRACTION],
+                             lambda self, v: self.state.__setitem__(compiled.CONTRACTION, v),
+                             doc='Muscle end of the last sub-step, m.')
+    torque = property(lambda self: self.state[compiled.TORQUE],
+                      lambda self, v: self.state.__setitem__(compiled.TORQUE, v),
+                      doc='Output torque, N m.')
+
+    @property
+    def saturated(self) -> bool:
+        """Whether the torque was at its limit in the last sub-step."""
+        return self.state[compiled.SATURATED] != 0.0
 
     # --- commands and state -------------------------------------------------------------
     def command(self, mode: LoadMode, setpoint: float) -> None:
@@ -157,81 +172,17 @@ class LoadingServoModel:
         """
         if not (d > 0.0 and math.isfinite(d)):
             raise ModelError(f'loading servo sub-step {d!r} s is not finite and positive')
-        p, r = self.p, self.r
-        j, c = p.inertia_kg_m2, p.damping_nm_s_per_rad
-        den = 1.0 + d * c / j
-        sp = self.setpoint
-        if self._holder is not None:
-            return
-        if self.mode == LoadMode.FORCE:
-            e0 = sp - self.force_n
-            ki = p.force_ki_per_s
-            gain = p.force_kp + p.force_kd_s / d
-            integrate = abs(e0) <= p.force_integral_band_n
-            if integrate:
-                gain += ki * d
-            # tau_+ = t0 + t1 F_+, I_+ = i0 + i1 F_+ (unclamped)
-            t0 = r * (sp * (1.0 + gain) + ki * self.integral - p.force_kd_s * e0 / d)
-            t1 = -r * gain
-            i0, i1 = (self.integral + d * sp, -d) if integrate else (self.integral, 0.0)
-            i_lim = 0.25 * p.force_limit_n / ki if ki > 0.0 else math.inf
-            self._prep = SubStep(d, den, t0, t1, i0, i1, i_lim, ki, None)
-        elif self.mode == LoadMode.POSITION:
-            kp, kd, ki = p.position_kp_n_per_m, p.position_kd_n_s_per_m, p.position_ki_n_per_m_s
-            i_lim = 0.25 * p.force_limit_n / ki if ki > 0.0 else math.inf
-            # I_+ = I + d (r theta_m,+ - x*), the encoder reading theta_+ with the rounding of
-            # the last count: theta_m,+ = theta_m,0 + d w_+, so I_+ = I_c + d^2 r w_+
-            i_c = self.integral + d * (r * self.encoder_rad - sp)
-            w_new = ((j * self.w / d - r * kp * (r * self.phi - sp) - r * ki * i_c)
-                     / (j / d + c + r * r * kd + r * r * kp * d + r * r * ki * d * d))
-            i_new = min(max(i_c + d * d * r * w_new, -i_lim), i_lim)
-            t0 = r * (kp * (r * (self.phi + d * w_new) - sp) + kd * r * w_new + ki * i_new)
-            self._prep = SubStep(d, den, t0, r, i_new, 0.0, math.inf, 0.0, w_new)
-        else:
-            self._prep = SubStep(d, den, 0.0, 0.0, 0.0, 0.0, math.inf, 0.0, None)
+        if self.p.dynamics:
+            self._prep = compiled.drive_prepare(d, self.record, self.state, int(self.mode),
+                                                self.setpoint)
 
     def play(self, force_n: float) -> float:
         """beta(F): where the pulley sits inside the gear play, rad."""
-        a = force_n / self.p.backlash_force_n
-        return self.half_play * (1.0 if a > 1.0 else (-1.0 if a < -1.0 else a))
+        return compiled.drive_play(force_n, self.record)
 
     def quantised(self, angle_rad: float) -> float:
         """The angle rounded to the encoder count the position loop reads, rad."""
         return round(angle_rad / self.count_rad) * self.count_rad
-
-    def _end(self, f: float) -> tuple[float, float, float, float, bool]:
-        """(phi_+, w_+, I_+, tau_+, saturated) of the prepared sub-step for the force f.
-
-        The coupled solve asks for the same force twice (its last iterate, then the commit):
-        the last answer is kept with the prepared sub-step, state and force it is for.
-        """
-        prep = self._prep
-        assert prep is not None, 'prepare() first'
-        key = (prep, f, self.phi, self.w, self.integral)
-        if key == self._end_key:
-            return self._end_out
-        d, den, t0, t1, i0, i1, i_lim, ki, w_pos = prep
-        p, r, j = self.p, self.r, self.p.inertia_kg_m2
-        tau = t0 + t1 * f
-        sat = abs(tau) > self.tau_max
-        if sat:
-            tau = self.tau_max if tau > 0.0 else -self.tau_max
-            i_new = self.integral
-            w = (self.w + d / j * (r * f - tau)) / den
-        else:
-            i_new = i0 + i1 * f
-            if i_new > i_lim or i_new < -i_lim:       # anti-windup: the clamped integral acts
-                i_new = i_lim if i_new > 0.0 else -i_lim
-                tau += ki * r * (i_new - i0 - i1 * f)
-            w = w_pos if w_pos is not None else (self.w + d / j * (r * f - tau)) / den
-        wm = p.speed_limit_rad_s
-        if w > wm:
-            w = wm
-        elif w < -wm:
-            w = -wm
-        out = (self.phi + d * w, w, i_new, tau, sat)
-        self._end_key, self._end_out = key, out
-        return out
 
     def contraction(self, force_n: float) -> float:
         """X(F): where the prepared sub-step puts the muscle end if the muscle pulls with
@@ -245,77 +196,24 @@ class LoadingServoModel:
     def contraction_and_compliance(self, force_n: float) -> tuple[float, float]:
         """(X(F) m, dX/dF m/N) of the prepared sub-step at ``force_n``: ``contraction`` and
         ``compliance`` in one evaluation (the coupled solve asks for both at every iterate)."""
-        p = self.p
-        if self._holder is not None:
-            return self._holder.contraction_and_compliance(force_n)
-        prep = self._prep
-        assert prep is not None, 'prepare() first'
-        phi, w, _, _, sat = self._end(force_n)
-        x = self.r * (phi + self.play(force_n)) + force_n / p.belt_stiffness_n_per_m
-        if x <= p.travel_min_m:
-            return p.travel_min_m, 0.0
-        if x >= p.travel_max_m:
-            return p.travel_max_m, 0.0
-        if abs(w) >= p.speed_limit_rad_s or (prep.w_position is not None and not sat):
-            dw = 0.0                                # at the speed limit; position: compensated
-        elif sat:
-            dw = prep.d / p.inertia_kg_m2 * self.r / prep.den
-        else:
-            dw = prep.d / p.inertia_kg_m2 * (self.r - prep.t1) / prep.den
-        bf = p.backlash_force_n
-        play = self.half_play / bf if abs(force_n) < bf else 0.0
-        return x, self.r * (prep.d * dw + play) + 1.0 / p.belt_stiffness_n_per_m
+        return compiled.drive_contraction_and_compliance(
+            force_n, self.record, self.state, int(self.mode), self.setpoint, self._prep)
 
     def commit(self, force_n: float) -> None:
         """Keep the prepared sub-step with the muscle force ``force_n`` (N) at its end
         (``output`` then tells where it left the drive)."""
-        p = self.p
-        if self._holder is not None:
-            x = self._holder.commit(force_n)
-        else:
-            phi, w, i_new, tau, sat = self._end(force_n)
-            x = self.r * (phi + self.play(force_n)) + force_n / p.belt_stiffness_n_per_m
-            if x < p.travel_min_m or x > p.travel_max_m:
-                x = p.travel_min_m if x < p.travel_min_m else p.travel_max_m
-                phi = (x - force_n / p.belt_stiffness_n_per_m) / self.r - self.play(force_n)
-                w = 0.0
-            self.phi, self.w, self.integral = phi, w, i_new
-            self.torque, self.saturated = tau, sat
-        self.force_n = force_n
-        self.contraction_m = x
-        self.encoder_rad = self.quantised(self.angle)
+        compiled.drive_commit(force_n, self.record, self.state, int(self.mode), self.setpoint,
+                              self._prep)
 
     def arrays(self) -> tuple[Any, np.ndarray]:
         """The drive as the compiled core takes it (``models.compiled``): its parameters by
-        name (``DriveRecord``) and its state array (indexed by ``compiled.PHI`` ...), shape
-        (``STATE_SIZE``,)."""
-        c = compiled
-        p = self.p
-        dp = c.DriveRecord(
-            r=self.r, j=p.inertia_kg_m2, c=p.damping_nm_s_per_rad, tau_max=self.tau_max,
-            half_play=self.half_play, count_rad=self.count_rad,
-            backlash_force_n=p.backlash_force_n, belt_stiffness=p.belt_stiffness_n_per_m,
-            travel_min=p.travel_min_m, travel_max=p.travel_max_m,
-            speed_limit=p.speed_limit_rad_s, force_kp=p.force_kp, force_ki=p.force_ki_per_s,
-            force_kd=p.force_kd_s, force_band=p.force_integral_band_n,
-            position_kp=p.position_kp_n_per_m, position_ki=p.position_ki_n_per_m_s,
-            position_kd=p.position_kd_n_s_per_m, force_limit=p.force_limit_n,
-            dynamics=1.0 if p.dynamics else 0.0)
-        ds = np.empty(c.STATE_SIZE)
-        ds[c.PHI], ds[c.W], ds[c.INTEGRAL], ds[c.FORCE] = (self.phi, self.w, self.integral,
-                                                           self.force_n)
-        ds[c.ENCODER], ds[c.CONTRACTION], ds[c.TORQUE] = (self.encoder_rad, self.contraction_m,
-                                                          self.torque)
-        ds[c.SATURATED] = 1.0 if self.saturated else 0.0
-        return dp, ds
+        name (``DriveRecord``) and its state as an array (indexed by ``compiled.PHI`` ...),
+        shape (``STATE_SIZE``,)."""
+        return self.record, np.array(self.state, dtype=float)
 
     def set_state(self, ds: np.ndarray) -> None:
         """Take the state a compiled solve or replay left (indexed by ``compiled.PHI`` ...)."""
-        c = compiled
-        self.phi, self.w, self.integral = float(ds[c.PHI]), float(ds[c.W]), float(ds[c.INTEGRAL])
-        self.force_n, self.encoder_rad = float(ds[c.FORCE]), float(ds[c.ENCODER])
-        self.contraction_m, self.torque = float(ds[c.CONTRACTION]), float(ds[c.TORQUE])
-        self.saturated = bool(ds[c.SATURATED])
+        self.state = [float(v) for v in ds]
 
     def output(self) -> ServoOutput:
         """Pulley angle and rate, muscle end, torque and saturation of the kept state."""
