@@ -57,8 +57,11 @@ def bus_settings(settings: dict[str, Any], register_map: str, stats_dir: str
 
 
 def start_buses(start: Callable[..., subprocess.Popen], pfile: str, ports: tuple[int, int],
-                register_map: str, log: Any, faults: Sequence[Any] = ()) -> subprocess.Popen:
-    """Start ``twin.serve_buses`` with the scene's bus faults and wait for its ready line.
+                register_map: str, log: Any, faults: Sequence[Any] = (),
+                at_start: bool = False) -> subprocess.Popen:
+    """Start ``twin.serve_buses`` with the scene's bus faults and wait for its ready line;
+    with ``at_start`` the faults' clock starts when the caller writes ``start`` to its stdin
+    (the protocol has started), else at once.
 
     Raises:
         LayoutError: it stopped before serving (its one line).
@@ -70,8 +73,9 @@ def start_buses(start: Callable[..., subprocess.Popen], pfile: str, ports: tuple
     ours = [dataclasses.asdict(f) for f in faults if f.kind in BUS_KINDS]
     proc = start('buses', [sys.executable, '-m', 'pam_bench.twin.serve_buses', pfile,
                            '--modbus-port', str(ports[0]), '--can-port', str(ports[1]),
-                           '--map', register_map, '--faults', yaml.safe_dump(ours)],
-                 pipe=True)
+                           '--map', register_map, '--faults', yaml.safe_dump(ours),
+                           *(['--faults-at-start'] if at_start and ours else [])],
+                 pipe=True, feed=at_start and bool(ours))
     assert proc.stdout is not None
     for line in proc.stdout:
         log.write(line)

@@ -120,9 +120,11 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
         write_params_file(settings, pfile)
         log = open(os.path.join(tmp, 'nodes.log'), 'w+', encoding='utf-8')
 
-        def start(name: str, cmd: list[str], pipe: bool = False) -> subprocess.Popen:
+        def start(name: str, cmd: list[str], pipe: bool = False,
+                  feed: bool = False) -> subprocess.Popen:
             procs[name] = subprocess.Popen(
                 cmd, env=env, stdout=subprocess.PIPE if pipe else log,
+                stdin=subprocess.PIPE if feed else None,
                 stderr=subprocess.STDOUT, text=True, preexec_fn=die_with_parent)
             return procs[name]
 
@@ -145,7 +147,8 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
                     raise _NotStarted                 # started (its one line is in the log)
             started = True
             if buses:
-                bus_proc = start_buses(start, pfile, ports, buses, log, scene.faults)
+                bus_proc = start_buses(start, pfile, ports, buses, log, scene.faults,
+                                       at_start=not devices_only)
                 threading.Thread(target=copy_lines, args=(bus_proc.stdout, log),
                                  daemon=True).start()
                 for name in driver_names:
@@ -188,6 +191,11 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
                     threading.Thread(target=_kill_on_time, args=(kills, procs, device_names),
                                      daemon=True).start()
                     kills = []
+                feed = procs['buses'].stdin if buses and progress else None
+                if feed is not None and not feed.closed:    # the bus faults' clock starts
+                    with contextlib.suppress(OSError):
+                        feed.write('start\n')
+                        feed.close()
                 if not quiet and progress:       # the controller logs it: shown bare
                     print(progress, end='', flush=True)
                 dead = [n for n, p in procs.items() if p.poll() is not None and p.returncode == 2]

@@ -10,12 +10,12 @@ kind's size. Kinds:
 * ``message_loss``: each measured message is dropped with probability ``value``;
 * ``valve_stuck`` (valve): commands are ignored, the last voltage stays;
 * ``node_kill`` (any node): the runner kills the node's process (SIGKILL) at ``at_s``;
-* on the buses (``run --wallclock --buses``, target the driver whose bus it hits, times from
-  the start of the buses): ``modbus_down`` (daq_modbus: the DAQ's server goes away for
-  ``duration_s``), ``register_out_of_range`` (daq_modbus: the load cell's register holds
-  ``value`` N, outside the map's range), ``can_emcy`` (servo_canopen: the drive faults and
-  sends an EMCY), ``can_silent`` (servo_canopen: the drive stops its heartbeat and PDOs for
-  ``duration_s``).
+* on the buses (``run --wallclock --buses``, target the driver whose bus it hits; times from
+  the protocol's start, with ``emulate --buses`` from the start of the buses):
+  ``modbus_down`` (daq_modbus: the DAQ's server goes away for ``duration_s``),
+  ``register_out_of_range`` (daq_modbus: the load cell's register holds ``value`` N, outside
+  the map's range), ``can_emcy`` (servo_canopen: the drive faults and sends an EMCY),
+  ``can_silent`` (servo_canopen: the drive stops its heartbeat and PDOs for ``duration_s``).
   A driver whose device is down publishes nothing: a suspender on the input it carries
   (``stale_s``) suspends the run, ``drive`` for the CAN drive.
 

@@ -38,10 +38,15 @@ def bench_of(settings: dict[str, Any]) -> Any:
                              laws=getattr(muscle, 'laws', None))
 
 
-def run_faults(emu: Any, faults: list[Any], stop: threading.Event) -> None:
-    """Inject each bus fault at its ``at_s`` (s from now) until ``stop`` is set; each start
-    and end is one line on stdout."""
+def run_faults(emu: Any, faults: list[Any], stop: threading.Event,
+               started: threading.Event | None = None) -> None:
+    """Inject each bus fault at its ``at_s`` (s from ``started``: the protocol's start, which
+    the bring-up says on stdin; None: from now) until ``stop`` is set; each start and end is
+    one line on stdout."""
     import time
+    while started is not None and not started.is_set():
+        if stop.wait(0.01):
+            return
     t0 = time.monotonic()
     pending = sorted(faults, key=lambda f: f.at_s)
     ending: list[tuple[float, Any]] = []
@@ -85,6 +90,8 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument('--map', default='daq_generic')
     p.add_argument('--node-id', type=int, default=5)
     p.add_argument('--faults', default='[]', help='YAML list of bus faults (sim.faults)')
+    p.add_argument('--faults-at-start', action='store_true', help="the faults' clock starts "
+                   'when a line "start" comes on stdin (the protocol has started)')
     args = p.parse_args(argv)
     stop = threading.Event()
     signal.signal(signal.SIGINT, lambda *_: stop.set())
@@ -106,7 +113,18 @@ def main(argv: list[str] | None = None) -> None:
         print(f'{READY} modbus 127.0.0.1:{args.modbus_port}, can socketcand '
               f'127.0.0.1:{hub.port}, map {rmap.name}', flush=True)
         faults = [Fault(**f) for f in load_yaml(args.faults, '--faults') or []]
-        run_faults(emu, faults, stop)
+        started = None
+        if args.faults_at_start and faults:
+            started = threading.Event()
+
+            def wait_for_start() -> None:
+                for line in sys.stdin:
+                    if line.strip() == 'start':
+                        started.set()
+                        return
+
+            threading.Thread(target=wait_for_start, daemon=True).start()
+        run_faults(emu, faults, stop, started)
     except PamBenchError as exc:
         print(f'buses: error: {exc}', file=sys.stderr, flush=True)
         sys.exit(2)

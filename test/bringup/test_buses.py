@@ -132,7 +132,7 @@ def test_a_drive_fault_stops_the_run_vented_and_resume_takes_the_rest(
     (tmp_path / 'first').mkdir()
     (tmp_path / 'again').mkdir()
     path = tmp_path / 'first' / 'drive.yaml'
-    path.write_text(SCENE.format(fault='{kind: can_emcy, target: servo_canopen, at_s: 8.0}'))
+    path.write_text(SCENE.format(fault='{kind: can_emcy, target: servo_canopen, at_s: 3.6}'))
     res = run_scene(load_scene(str(path)), str(tmp_path / 'bag'),
                     RunOptions(layout=Layout.WALL_CLOCK, quiet=True, buses='daq_generic'))
     bag = tmp_path / 'bag'
@@ -146,8 +146,7 @@ def test_a_drive_fault_stops_the_run_vented_and_resume_takes_the_rest(
     assert bag_messages(bag, '/valve_1/command')[-1].voltage == 0.0
     assert bag_messages(bag, '/loading_servo/command')[-1].mode == 0
     first = {(p.series, p.step) for p in bag_messages(bag, '/protocol/point')}
-    assert 1 <= len(first) < READINGS     # bus faults count from the buses' start (at_s 8 s:
-    # about 5 s into the protocol after a bring-up of about 3 s)
+    assert 1 <= len(first) < READINGS     # after the first reading (3.0 s), before the second
     again = tmp_path / 'again' / 'drive.yaml'          # the same scene, its fault repaired
     again.write_text(SCENE.format(fault=''))
     out = subprocess.run([sys.executable, '-m', 'pam_bench.cli', 'run', str(again),
@@ -170,7 +169,7 @@ def test_a_silent_drive_suspends_the_run_until_it_talks_again(tmp_path: pathlib.
     text = SCENE.replace('resume_after_s: 0.3}}]"}}', 'resume_after_s: 0.3}}, {{input: drive, '
                          'stale_s: 0.2, resume_after_s: 0.3}}]"}}')
     assert text != SCENE
-    path.write_text(text.format(fault='{kind: can_silent, target: servo_canopen, at_s: 4.5, '
+    path.write_text(text.format(fault='{kind: can_silent, target: servo_canopen, at_s: 3.6, '
                                       'duration_s: 0.6}'))
     res = run_scene(load_scene(str(path)), str(tmp_path / 'bag'),
                     RunOptions(layout=Layout.WALL_CLOCK, quiet=True, buses='daq_generic'))

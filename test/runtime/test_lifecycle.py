@@ -5,7 +5,6 @@ started by hand (``managed: false``) activates itself; in lock-step nothing is m
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator
 from typing import Any
 
 import pytest
@@ -23,16 +22,6 @@ from pam_bench.nodes.valve_sim import ValveSim
 pytestmark = pytest.mark.wallclock
 
 WALL = [Parameter('lockstep', value=False)]
-
-
-@pytest.fixture
-def context(ros_domain: int) -> Iterator[rclpy.Context]:
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx)
-    try:
-        yield ctx
-    finally:
-        rclpy.try_shutdown(context=ctx)
 
 
 class Manager:

@@ -4,7 +4,6 @@ at a safe point, wildcard sections warned about, not refused) and a word about t
 from __future__ import annotations
 
 import pathlib
-from collections.abc import Iterator
 from typing import Any
 
 import pytest
@@ -19,16 +18,6 @@ from pam_bench.runtime.process import reject_undeclared
 from pam_bench.vocabulary.errors import ParameterError
 
 WALL = [Parameter('lockstep', value=False)]
-
-
-@pytest.fixture
-def context(ros_domain: int) -> Iterator[rclpy.Context]:
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx)
-    try:
-        yield ctx
-    finally:
-        rclpy.try_shutdown(context=ctx)
 
 
 def _servo(ctx: rclpy.Context, **values: Any) -> TorqueServoNode:

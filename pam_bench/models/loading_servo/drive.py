@@ -80,6 +80,18 @@ class ServoOutput:
     saturated: bool
 
 
+def _slot(index: int, doc: str) -> Any:
+    """A property reading and writing ``state[index]``."""
+
+    def get(self: LoadingServoModel) -> float:
+        return self.state[index]
+
+    def put(self: LoadingServoModel, value: float) -> None:
+        self.state[index] = value
+
+    return property(get, put, doc=doc)
+
+
 class LoadingServoModel:
     """Loading servo drive and belt mechanics as a sub-step law (module docstring).
 
@@ -114,27 +126,13 @@ class LoadingServoModel:
         self._prep = compiled.NO_PREP
 
     # --- the state by name --------------------------------------------------------------
-    phi = property(lambda self: self.state[compiled.PHI],
-                   lambda self, v: self.state.__setitem__(compiled.PHI, v),
-                   doc='Gear output angle, rad.')
-    w = property(lambda self: self.state[compiled.W],
-                 lambda self, v: self.state.__setitem__(compiled.W, v),
-                 doc='Gear output rate, rad/s.')
-    integral = property(lambda self: self.state[compiled.INTEGRAL],
-                        lambda self, v: self.state.__setitem__(compiled.INTEGRAL, v),
-                        doc='Controller integral, N s or m s.')
-    force_n = property(lambda self: self.state[compiled.FORCE],
-                       lambda self, v: self.state.__setitem__(compiled.FORCE, v),
-                       doc='Muscle force of the last sub-step, N.')
-    encoder_rad = property(lambda self: self.state[compiled.ENCODER],
-                           lambda self, v: self.state.__setitem__(compiled.ENCODER, v),
-                           doc='Encoder reading of the last sub-step, rad.')
-    contraction_m = property(lambda self: self.state[compiled.CONTRACTION],
-                             lambda self, v: self.state.__setitem__(compiled.CONTRACTION, v),
-                             doc='Muscle end of the last sub-step, m.')
-    torque = property(lambda self: self.state[compiled.TORQUE],
-                      lambda self, v: self.state.__setitem__(compiled.TORQUE, v),
-                      doc='Output torque, N m.')
+    phi = _slot(compiled.PHI, 'Gear output angle, rad.')
+    w = _slot(compiled.W, 'Gear output rate, rad/s.')
+    integral = _slot(compiled.INTEGRAL, 'Controller integral, N s or m s.')
+    force_n = _slot(compiled.FORCE, 'Muscle force of the last sub-step, N.')
+    encoder_rad = _slot(compiled.ENCODER, 'Encoder reading of the last sub-step, rad.')
+    contraction_m = _slot(compiled.CONTRACTION, 'Muscle end of the last sub-step, m.')
+    torque = _slot(compiled.TORQUE, 'Output torque, N m.')
 
     @property
     def saturated(self) -> bool:
