@@ -14,6 +14,10 @@ against lock-step, and the host's stall floor beside it.
 4. **The host's stall floor**: during 3, a cyclictest-like probe in its own process sleeps
    1 ms a million times over and records how late each wake-up is: what the machine alone
    does to a 1 kHz loop, to set the bench's own lateness against.
+5. **Faults across the buses**: each bus fault in the short isometric series of
+   ``benchmarks.faults`` (4 readings), with suspenders on the four inputs: what the run did
+   (suspended and resumed by itself, or aborted vented), how long it was held, and, after an
+   abort, a ``--resume`` through the buses that takes the readings the bag lacks.
 
 The torque servo (two muscles) is not run through the buses: the emulated bench is the
 single-muscle one (``twin.buses``).
@@ -153,11 +157,81 @@ def _through_buses(quick: bool) -> dict[str, Any]:
         return out
 
 
+BUS_FAULTS = {
+    # kind: fault entry (times from the protocol's start; readings at 3.0, 4.5, 6.0, 7.5 s)
+    'modbus_down': '{kind: modbus_down, target: daq_modbus, at_s: 4.0, duration_s: 0.6}',
+    'register_out_of_range': '{kind: register_out_of_range, target: daq_modbus, at_s: 4.0, '
+                             'duration_s: 0.5, value: 50000.0}',
+    'can_silent': '{kind: can_silent, target: servo_canopen, at_s: 3.6, duration_s: 0.6}',
+    'can_emcy': '{kind: can_emcy, target: servo_canopen, at_s: 3.6}',
+}
+"""The bus faults tried: each in the short isometric series of ``benchmarks.faults``."""
+EVERY_INPUT = ('[{{input: force, low: -50.0, high: 1000.0, stale_s: 0.2, resume_after_s: 0.3}}, '
+               '{{input: contraction, stale_s: 0.2, resume_after_s: 0.3}}, '
+               '{{input: pressure, stale_s: 0.2, resume_after_s: 0.3}}, '
+               '{{input: drive, stale_s: 0.2, resume_after_s: 0.3}}]')
+"""Suspenders on the four inputs (a latched EMCY gets none on ``drive``: nothing resets the
+drive in a study, so the run aborts and ``--resume`` takes the rest)."""
+
+
+def _stamp_s(msg: Any) -> float:
+    return int(msg.header.stamp.sec) + int(msg.header.stamp.nanosec) * 1e-9
+
+
+def _bus_fault(kind: str, tmp: pathlib.Path) -> dict[str, Any]:
+    from pam_bench.analysis.bagread import topic_messages
+    from pam_bench.benchmarks.faults import READINGS, SCENE
+    from pam_bench.bringup.runner import Layout, RunOptions, run_scene
+    from pam_bench.config.scene import load_scene
+    old = ('[{{input: force, low: -50.0, high: 1000.0, stale_s: 0.2,\n    '
+           'resume_after_s: 0.3}}]')
+    rules = EVERY_INPUT if kind != 'can_emcy' else EVERY_INPUT.replace(
+        ', {{input: drive, stale_s: 0.2, resume_after_s: 0.3}}', '')
+    folder = tmp / kind
+    folder.mkdir()
+    path = folder / 'bus_fault.yaml'
+    path.write_text(SCENE.replace(old, rules).format(fault=BUS_FAULTS[kind]), encoding='utf-8')
+    bag = tmp / f'{kind}_bag'
+    res = run_scene(load_scene(str(path)), str(bag),
+                    RunOptions(layout=Layout.WALL_CLOCK, quiet=True, buses='daq_generic'))
+    status = topic_messages(bag, '/protocol/status')
+    taken = {(p.series, p.step) for p in topic_messages(bag, '/protocol/point')}
+    paused = [s for s in status if s.phase == 'paused']
+    held = [_stamp_s(s) for s in status if s.phase != 'paused' and paused
+            and _stamp_s(s) > _stamp_s(paused[0])]
+    out: dict[str, Any] = {
+        'code': res.code, 'readings': READINGS, 'taken': len(taken),
+        'reason': (paused[0].reason if paused else status[-1].reason if status else ''),
+        'suspended_s': (held[0] - _stamp_s(paused[0])) if paused and held else None}
+    if res.code == 4:                              # aborted: the rest by --resume
+        again = tmp / f'{kind}_again'
+        again.mkdir()
+        (again / 'bus_fault.yaml').write_text(SCENE.replace(old, rules).format(fault=''),
+                                              encoding='utf-8')
+        rest = subprocess.run([sys.executable, '-m', 'pam_bench.cli', 'run',
+                               str(again / 'bus_fault.yaml'), '--wallclock', '--buses',
+                               'daq_generic', '--resume', str(bag), '--out',
+                               str(tmp / f'{kind}_rest')], capture_output=True, text=True,
+                              timeout=300)
+        more = ({(p.series, p.step) for p in topic_messages(tmp / f'{kind}_rest',
+                                                            '/protocol/point')}
+                if rest.returncode == 0 else set())
+        out.update(resume_code=rest.returncode, resumed=len(more),
+                   overlap=len(more & taken))
+    return out
+
+
+def _bus_faults() -> dict[str, Any]:
+    with tempfile.TemporaryDirectory(prefix='pam_bench_bus_faults_') as tmp:
+        return {kind: _bus_fault(kind, pathlib.Path(tmp)) for kind in BUS_FAULTS}
+
+
 def measure(quick: bool, out: pathlib.Path, scenes: list[str] | None) -> dict[str, Any]:
-    """The four measurements (module docstring)."""
+    """The five measurements (module docstring)."""
     return {'buses': {'modbus': _modbus(3.0 if quick else 10.0),
                       'can': _can(500 if quick else 5000),
-                      'run': _through_buses(quick)}}
+                      'run': _through_buses(quick),
+                      'faults': _bus_faults()}}
 
 
 def section(r: dict[str, Any], root: pathlib.Path) -> list[str]:
@@ -191,6 +265,23 @@ def section(r: dict[str, Any], root: pathlib.Path) -> list[str]:
                      f"{f['p99_ms']:.3f} ms late", f"{f['max_ms']:.1f} ms late",
                      f"{f['over_1ms_share'] * 100:.2f} % over 1 ms"))
     lines += table(['loop during the run', 'rate', 'period p99', 'period max', 'late'], rows)
+    faults = b.get('faults')
+    if faults:
+        lines += ['', 'Each bus fault in the short isometric series of "Injected faults" (4 '
+                  'readings), at 3.6 or 4.0 s into the protocol, with suspenders (stale 0.2 s, '
+                  'resume after 0.3 s) on force, contraction, pressure and the drive (none on '
+                  'the drive for the latched EMCY: nothing resets the drive here).', '']
+        frows = []
+        for kind, f in faults.items():
+            did = ('suspended, resumed, done' if f['code'] == 0 and f['suspended_s'] is not None
+                   else 'done' if f['code'] == 0 else f"aborted (exit {f['code']})")
+            after = (f"{f['taken']} + {f['resumed']} by --resume (exit {f['resume_code']}, "
+                     f"{f['overlap']} twice)" if 'resume_code' in f else str(f['taken']))
+            held = f"{f['suspended_s']:.2f} s" if f['suspended_s'] is not None else '-'
+            frows.append((f'`{kind}`', did, f['reason'][:90], held,
+                          f"{after} of {f['readings']}"))
+        lines += table(['fault', 'the run', 'reason on protocol/status', 'held', 'readings'],
+                       frows)
     return lines
 
 
