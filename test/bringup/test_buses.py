@@ -88,39 +88,41 @@ def _level(status: object) -> int:
     return level[0] if isinstance(level, bytes) else int(level)
 
 
-DAQ_FAULTS = {
-    'modbus_down': '{kind: modbus_down, target: daq_modbus, at_s: 4.0, duration_s: 0.6}',
-    'register_out_of_range': '{kind: register_out_of_range, target: daq_modbus, at_s: 4.0, '
-                             'duration_s: 0.5, value: 50000.0}',
-}
+BUS_FAULTS = ('{kind: modbus_down, target: daq_modbus, at_s: 3.6, duration_s: 0.6}, '
+              '{kind: register_out_of_range, target: daq_modbus, at_s: 5.6, duration_s: 0.5, '
+              'value: 50000.0}, '
+              '{kind: can_silent, target: servo_canopen, at_s: 7.6, duration_s: 0.6}')
+"""Three bus faults in one run, each over before the next (times from the protocol's start)."""
 
 
-@pytest.mark.parametrize('kind', sorted(DAQ_FAULTS))
-def test_a_daq_fault_is_detected_suspends_the_run_and_loses_no_reading(
-        kind: str, tmp_path: pathlib.Path, ros_domain: int) -> None:
+def test_bus_faults_are_detected_suspend_the_run_and_lose_no_reading(
+        tmp_path: pathlib.Path, ros_domain: int) -> None:
+    """The DAQ's server goes away, then its load-cell register holds 50 kN, then the drive
+    falls silent: each is its driver's diagnostic (STALE, a rejected reading, STALE with quick
+    stop), each stops the topics it carries, and suspenders on the four inputs suspend the run
+    vented until the device is back; every reading is taken."""
+    from pam_bench.benchmarks.buses import EVERY_INPUT
     from pam_bench.benchmarks.faults import READINGS, SCENE
-    path = tmp_path / f'{kind}.yaml'
-    # the DAQ carries all three measured inputs: a suspender watches each one's staleness
-    every = ('[{{input: force, low: -50.0, high: 1000.0, stale_s: 0.2, resume_after_s: 0.3}}, '
-             '{{input: contraction, stale_s: 0.2, resume_after_s: 0.3}}, '
-             '{{input: pressure, stale_s: 0.2, resume_after_s: 0.3}}]')
+    path = tmp_path / 'bus_faults.yaml'
     text = SCENE.replace('[{{input: force, low: -50.0, high: 1000.0, stale_s: 0.2,\n    '
-                         'resume_after_s: 0.3}}]', every)
+                         'resume_after_s: 0.3}}]', EVERY_INPUT)
     assert text != SCENE
-    path.write_text(text.format(fault=DAQ_FAULTS[kind]))
+    path.write_text(text.format(fault=BUS_FAULTS))
     res = run_scene(load_scene(str(path)), str(tmp_path / 'bag'),
                     RunOptions(layout=Layout.WALL_CLOCK, quiet=True, buses='daq_generic'))
-    assert res.code == 0, res.summary
-    status = bag_messages(tmp_path / 'bag', '/protocol/status')
-    assert any('suspended' in s.reason for s in status), [s.reason for s in status]
-    assert len(bag_messages(tmp_path / 'bag', '/protocol/point')) == READINGS
-    daq = [st for d in bag_messages(tmp_path / 'bag', '/diagnostics') for st in d.status
-           if st.name.startswith('daq_modbus')]
-    if kind == 'modbus_down':
-        assert any(_level(st) == 3 and 'lost' in st.message for st in daq)   # STALE
-    else:
-        assert any('rejected' in st.message and 'load_cell_1.force' in st.message
-                   for st in daq)
+    bag = tmp_path / 'bag'
+    status = bag_messages(bag, '/protocol/status')
+    assert res.code == 0, (res.summary, [s.reason for s in status])
+    assert len(bag_messages(bag, '/protocol/point')) == READINGS
+    paused = {s.reason for s in status if s.phase == 'paused'}
+    assert any('force stale' in r for r in paused) and any('drive stale' in r for r in paused), \
+        paused
+    diags = [st for d in bag_messages(bag, '/diagnostics') for st in d.status]
+    daq = [st for st in diags if st.name.startswith('daq_modbus')]
+    drive = [st for st in diags if st.name == 'servo_canopen: drive']
+    assert any(_level(st) == 3 and 'lost' in st.message for st in daq)           # STALE
+    assert any('rejected' in st.message and 'load_cell_1.force' in st.message for st in daq)
+    assert any(_level(st) == 3 and 'quick stop' in st.message for st in drive)   # STALE
 
 
 def test_a_drive_fault_stops_the_run_vented_and_resume_takes_the_rest(
@@ -157,28 +159,3 @@ def test_a_drive_fault_stops_the_run_vented_and_resume_takes_the_rest(
     rest = [(p.series, p.step) for p in bag_messages(tmp_path / 'rest', '/protocol/point')]
     assert len(set(rest)) == len(rest) and not first & set(rest)
     assert len(first) + len(rest) == READINGS
-
-
-def test_a_silent_drive_suspends_the_run_until_it_talks_again(tmp_path: pathlib.Path,
-                                                              ros_domain: int) -> None:
-    """The drive stops its heartbeat and PDOs for 0.6 s: STALE on /diagnostics, quick stop,
-    no state; a suspender on ``drive`` suspends the run vented, and once the drive talks
-    again (quick stop, then enabled) the run resumes and takes every reading."""
-    from pam_bench.benchmarks.faults import READINGS, SCENE
-    path = tmp_path / 'silent.yaml'
-    text = SCENE.replace('resume_after_s: 0.3}}]"}}', 'resume_after_s: 0.3}}, {{input: drive, '
-                         'stale_s: 0.2, resume_after_s: 0.3}}]"}}')
-    assert text != SCENE
-    path.write_text(text.format(fault='{kind: can_silent, target: servo_canopen, at_s: 3.6, '
-                                      'duration_s: 0.6}'))
-    res = run_scene(load_scene(str(path)), str(tmp_path / 'bag'),
-                    RunOptions(layout=Layout.WALL_CLOCK, quiet=True, buses='daq_generic'))
-    bag = tmp_path / 'bag'
-    status = bag_messages(bag, '/protocol/status')
-    drive = [st for d in bag_messages(bag, '/diagnostics') for st in d.status
-             if st.name == 'servo_canopen: drive']
-    assert res.code == 0, (res.summary, [s.reason for s in status])
-    assert any(_level(st) == 3 and 'quick stop' in st.message for st in drive)   # STALE
-    assert any(s.phase == 'paused' and 'drive stale' in s.reason for s in status), \
-        [s.reason for s in status]
-    assert len(bag_messages(bag, '/protocol/point')) == READINGS
