@@ -9,7 +9,9 @@ as ros2_control's hardware and most driver packages). Its transitions mean:
   read-only from then on); a driver sets its device up here (``configure_device``: the CAN
   drive's SDO configuration and PDO mapping). A failure is one ERROR diagnostic and the
   transition fails;
-* **activate**: the node starts stepping (``on_wall_tick``);
+* **activate**: the node starts stepping (``on_wall_tick``); a controller's start gate counts
+  from here (the torque servo's ``startup_timeout_s`` for its inputs starts at its first
+  active tick, however long its manager took);
 * **deactivate**: its outputs go to their safe state at once (``safe_state``: valves vented,
   the drive off, the servo's valves vented) and it stops stepping;
 * **cleanup** and **shutdown**: as deactivate, from any state.

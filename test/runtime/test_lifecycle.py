@@ -177,3 +177,28 @@ def test_started_by_hand_a_drive_that_cannot_be_reached_ends_its_process(
         assert node.diagnostics.concerns['lifecycle'].message.startswith('configure failed:')
     finally:
         node.destroy_node()
+
+
+def test_a_managed_servo_counts_its_startup_timeout_from_its_activation(
+        context: rclpy.Context) -> None:
+    """The startup gate sits on the lifecycle: however long the manager takes, the servo's
+    ``startup_timeout_s`` for its inputs starts when it is activated."""
+    node = TorqueServoNode('torque_servo', context=context, parameter_overrides=[
+        *WALL, Parameter('controller', value='pid'), Parameter('managed', value=True),
+        Parameter('startup_timeout_s', value=0.2)])
+    node.take_wall_ticks()
+    m = Manager(context, node)
+    try:
+        end = time.monotonic() + 0.5                  # unconfigured for longer than 0.2 s
+        while time.monotonic() < end:
+            m.ticks(5)
+        assert node.exit_code is None
+        assert m.set(Transition.TRANSITION_CONFIGURE) and m.set(Transition.TRANSITION_ACTIVATE)
+        m.ticks(2)
+        assert node.exit_code is None                 # just activated: still within 0.2 s
+        end = time.monotonic() + 0.5
+        while time.monotonic() < end and node.exit_code is None:
+            m.ticks(5)
+        assert node.exit_code == 3                    # no inputs for 0.2 s once active
+    finally:
+        m.close()
