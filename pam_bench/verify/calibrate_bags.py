@@ -29,6 +29,13 @@ one reaches ``JOINT_CORRELATION`` is flagged too (the near-degenerate directions
 small differences keep from being exactly degenerate). The standard error from the residuals
 alone cannot tell, since residuals near zero make every error small.
 
+A fit that ends near the noise level may have stopped short of its optimum on a shallow valley
+(a weak braid friction moves the readings little): when the Gauss-Newton step from its end
+would still move a parameter by more than ``SETTLED_STEP`` of its value, the fit goes on
+without the early stop (``_settled``). A different minimum that reproduces the data as well
+(the gain curve's minimum traded against its exponent) it cannot see: that needs a profile of
+each parameter.
+
 Readings no replay can place are left out of the fit and listed: a reading at
 held load whose friction loop, at the starting parameters, is wider than ``PATH_WIDTH_M`` in
 contraction (the muscle settled at that load and voltage from 100 N above against 100 N
@@ -193,6 +200,10 @@ STOP_SHARE = 0.25
 """A local fit stops once every protocol's RMS is within this share of its noise level
 (``calibrate_verdict``): the parameters then sit well inside the noise's reach, and the
 evaluations after it would only chase the noise."""
+SETTLED_STEP = 0.01
+"""A fit whose Gauss-Newton step from its end, -(J^T J)^+ J^T r, would still move a parameter
+by more than this share of its value stopped short (the early stop near the noise level, on a
+shallow valley): it goes on without the early stop (``_settled``)."""
 FTOL = 1e-6
 """Relative change of the cost at which a local fit has converged: past it, noise."""
 XTOL = 1e-8
@@ -273,6 +284,26 @@ def _local_fit(problem: _Problem, z_start: np.ndarray, z_prior: np.ndarray, max_
     return least_squares(res, z_start, bounds=(0.0, 1.0), diff_step=1e-3, max_nfev=max_nfev,
                          x_scale=1.0, callback=callback, ftol=FTOL, xtol=XTOL,
                          **({'workers': workers} if workers is not None else {}))
+
+
+def gauss_newton_share(sol: Any, lower: np.ndarray, span: np.ndarray) -> np.ndarray:
+    """The Gauss-Newton step from a ``least_squares`` solution in z, -(J^T J)^+ J^T r, as a
+    share of each parameter's value (theta = lower + z span), shape (n,)."""
+    step = -np.linalg.lstsq(sol.jac.T @ sol.jac, sol.jac.T @ sol.fun, rcond=None)[0]
+    theta = lower + sol.x * span
+    return np.where(theta != 0.0, step * span / np.where(theta != 0.0, np.abs(theta), 1.0),
+                    0.0)
+
+
+def _settled(problem: _Problem, sol: Any, z_prior: np.ndarray, lower: np.ndarray,
+             span: np.ndarray, max_nfev: int, workers: Mapper | None) -> tuple[Any, int]:
+    """``sol``, or where a fit from it without the early stop ends when the Gauss-Newton step
+    shows it stopped short (``SETTLED_STEP``) and that fit's cost is lower; and the
+    evaluations it took."""
+    if float(np.max(np.abs(gauss_newton_share(sol, lower, span)), initial=0.0)) <= SETTLED_STEP:
+        return sol, 0
+    more = _local_fit(problem, sol.x, z_prior, max_nfev, workers)
+    return (more if more.cost < sol.cost else sol), int(more.nfev)
 
 
 def run_start(job: tuple[_Problem, np.ndarray]) -> tuple[np.ndarray, float]:
@@ -486,6 +517,8 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
         theirs = problem.data(refined.x)
         if theirs is not None and (mine is None or theirs @ theirs < mine @ mine):
             sol = refined
+    sol, more = _settled(problem, sol, z0, lower, span, max_nfev, workers)
+    evaluations += more
     theta = lower + sol.x * span
     summary = fit_summary(names, theta, sol, span, rel_flag=0.05)
     summary['flags'] = _unfixed(names, sol.jac[:-len(names)], summary['flags'])

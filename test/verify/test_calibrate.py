@@ -236,3 +236,19 @@ def test_a_value_at_its_bound_is_reported_so_without_an_error() -> None:
     rep = fit_report(summary)
     assert 'at its bound' in rep['a'] and '+-' not in rep['a']
     assert rep['b'].split() == ['2', '+-', '0.1']
+
+
+@pytest.mark.parametrize('z_end, z_best', [(0.40, 0.50), (0.70, 0.55), (0.30, 0.30)])
+def test_the_gauss_newton_share_is_the_step_to_a_linear_optimum(z_end: float,
+                                                                z_best: float) -> None:
+    """On residuals linear in z, r = 2 (z - z*), the Gauss-Newton step from z lands on z*: its
+    share of the value theta = lower + z span is (z* - z) span / theta."""
+    from types import SimpleNamespace
+
+    from pam_bench.verify.calibrate_bags import gauss_newton_share
+    lower, span = np.array([1.0, -4.0]), np.array([10.0, 2.0])
+    z = np.array([z_end, z_end])
+    sol = SimpleNamespace(x=z, jac=2.0 * np.eye(2), fun=2.0 * (z - z_best))
+    theta = lower + z * span
+    np.testing.assert_allclose(gauss_newton_share(sol, lower, span),
+                               (z_best - z_end) * span / np.abs(theta), rtol=1e-12, atol=1e-15)

@@ -168,3 +168,27 @@ def test_calibrate_with_a_law_of_the_zoo_recovers_it() -> None:
     assert res['muscle'].kind == 'law'
     assert res['laws'].chou_hannaford.D0_m == res['values']['chou_hannaford.D0_m']
     assert 'chou_hannaford' in res['law_zoo']
+
+
+def test_a_fit_that_stopped_short_goes_on_to_recover_a_weak_friction() -> None:
+    """The braid friction at the low end of its range (scale 0.2) moves the readings little:
+    the fit reaches the noise level early, short of the optimum; its Gauss-Newton step shows
+    it, and the fit goes on until the friction is recovered within 5 % (it stopped 10.6 % off
+    before, unflagged: BENCHMARKS.md, "Calibrating the bench to recordings, across the
+    bounds")."""
+    from pam_bench.benchmarks import calibrate_bounds as cb
+    from pam_bench.config.protocols import load_protocols
+    from pam_bench.models.sensors import LoadCellParams
+    from pam_bench.twin.protocol_run import run_protocol
+    from pam_bench.verify.calibrate_bags import calibrate_bags, observations_from_twin
+    k = next(i for i in range(2 * len(cb.FREE_BAGS))
+             if cb._end_label(i).startswith('friction_stiffness_scale at its lower end'))
+    values = cb.end_set(k)
+    valve, muscle = cb._apply(values)
+    run = run_protocol(cb.PROTOCOL, 3.0, table=load_protocols(), valve=valve, muscle=muscle,
+                       load_cell=LoadCellParams(noise=True), seed=100 + k)
+    res = calibrate_bags(observations_from_twin(run.points, run.records))
+    assert res['verdict']['converged']
+    true = values['friction_stiffness_scale']
+    assert 'friction_stiffness_scale' not in res['flags']
+    assert abs(res['values']['friction_stiffness_scale'] - true) <= 0.05 * true, res['values']
