@@ -32,9 +32,9 @@ alone cannot tell, since residuals near zero make every error small.
 A fit that ends near the noise level may have stopped short of its optimum on a shallow valley
 (a weak braid friction moves the readings little): when the Gauss-Newton step from its end
 would still move a parameter by more than ``SETTLED_STEP`` of its value, the fit goes on
-without the early stop (``_settled``). A different minimum that reproduces the data as well
-(the gain curve's minimum traded against its exponent) it cannot see: that needs a profile of
-each parameter.
+without the early stop for a few evaluations (``_settled``). A different minimum that
+reproduces the data as well (the gain curve's minimum traded against its exponent) it cannot
+see: that needs a profile of each parameter.
 
 Readings no replay can place are left out of the fit and listed: a reading at
 held load whose friction loop, at the starting parameters, is wider than ``PATH_WIDTH_M`` in
@@ -200,10 +200,12 @@ STOP_SHARE = 0.25
 """A local fit stops once every protocol's RMS is within this share of its noise level
 (``calibrate_verdict``): the parameters then sit well inside the noise's reach, and the
 evaluations after it would only chase the noise."""
-SETTLED_STEP = 0.01
+SETTLED_STEP = 0.05
 """A fit whose Gauss-Newton step from its end, -(J^T J)^+ J^T r, would still move a parameter
-by more than this share of its value stopped short (the early stop near the noise level, on a
-shallow valley): it goes on without the early stop (``_settled``)."""
+by more than this share of its value (the recovery the round-trip studies ask for) stopped
+short (the early stop near the noise level, on a shallow valley): it goes on without the early
+stop, for at most ``SETTLE_NFEV`` evaluations (``_settled``)."""
+SETTLE_NFEV = 20
 FTOL = 1e-6
 """Relative change of the cost at which a local fit has converged: past it, noise."""
 XTOL = 1e-8
@@ -302,7 +304,7 @@ def _settled(problem: _Problem, sol: Any, z_prior: np.ndarray, lower: np.ndarray
     evaluations it took."""
     if float(np.max(np.abs(gauss_newton_share(sol, lower, span)), initial=0.0)) <= SETTLED_STEP:
         return sol, 0
-    more = _local_fit(problem, sol.x, z_prior, max_nfev, workers)
+    more = _local_fit(problem, sol.x, z_prior, min(max_nfev, SETTLE_NFEV), workers)
     return (more if more.cost < sol.cost else sol), int(more.nfev)
 
 
