@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import pathlib
 import signal
 import subprocess
 import sys
@@ -21,7 +22,8 @@ import yaml
 from pam_bench.config.nodes import NODES
 from pam_bench.sim.lockstep import RunSummary
 
-__all__ = ['RunResult', 'ros_env', 'die_with_parent', 'batch_child', 'result_of', 'node_error',
+__all__ = ['RunResult', 'ros_env', 'clean_shared_memory', 'die_with_parent', 'batch_child',
+           'result_of', 'node_error',
            'write_params_file', 'ros_params', 'node_cmd', 'ns_args', 'write_end_state',
            'copy_lines', 'stop_processes']
 
@@ -54,6 +56,25 @@ def ros_env(domain_id: int | None = None, discovery: str = 'LOCALHOST') -> dict[
     for var in ('OPENBLAS_NUM_THREADS', 'OMP_NUM_THREADS', 'MKL_NUM_THREADS'):
         env[var] = '1'
     return env
+
+
+def clean_shared_memory() -> str:
+    """Remove the shared-memory segments and ports Fast DDS left behind processes that died
+    (SIGKILL, a crash): ``fastdds shm clean`` touches only those whose owner is gone. Stale
+    ones pile up in /dev/shm over many killed runs, and a writer may then stall on a dead
+    reader's port (docs/long_runs.md, "Leaked shared memory and the wall-clock tests").
+    Returns what it said ('' when the tool is not there or failed: best effort)."""
+    import shutil
+    tool = pathlib.Path(sys.executable).with_name('fastdds')
+    exe = str(tool) if tool.exists() else shutil.which('fastdds')
+    if exe is None:
+        return ''
+    try:
+        res = subprocess.run([exe, 'shm', 'clean'], capture_output=True, text=True,
+                             timeout=10.0)
+    except (OSError, subprocess.SubprocessError):
+        return ''
+    return res.stdout.strip().replace('\n', '; ') if res.returncode == 0 else ''
 
 
 def die_with_parent() -> None:

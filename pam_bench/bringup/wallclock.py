@@ -31,6 +31,7 @@ import yaml
 
 from pam_bench.bringup.common import (
     RunResult,
+    clean_shared_memory,
     copy_lines,
     die_with_parent,
     node_cmd,
@@ -93,6 +94,7 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
     import json
 
     env = ros_env(domain_id)
+    clean_shared_memory()              # what killed runs left in /dev/shm (best effort)
     device_names = devices(scene.nodes)
     controller_names = controllers(scene.nodes)
     if devices_only:
