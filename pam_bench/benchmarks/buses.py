@@ -5,8 +5,7 @@ against lock-step, and the host's stall floor beside it.
    the outputs and one read of the inputs per exchange as fast as they go for a few seconds:
    the achieved exchange rate and each request's round trip (p50, p99).
 2. **CAN**: 8-byte frames (a PDO's size) through the hub between two python-can clients, one at
-   a time (ping-pong): the frame's latency; and the age of the drive's TPDOs as the driver
-   receives them (hub stamp to receipt) during the run of 3.
+   a time (ping-pong): the frame's latency.
 3. **A protocol through the buses**: ``isometric_quick`` (quick: the 6-reading settled series)
    with ``--wallclock --buses --seed 3`` against the lock-step run of the same seed: the
    readings' largest force and contraction differences, the sequencer's control period (p99,

@@ -36,7 +36,24 @@ from pam_bench.buses.cia402 import (
 from pam_bench.buses.errors import BusUnreachable
 from pam_bench.models.loading_servo import LoadMode
 
-__all__ = ['CanopenDrive', 'RPDO_MAP', 'TPDO_MAP', 'eds_path']
+__all__ = ['CanopenDrive', 'RPDO_MAP', 'TPDO_MAP', 'eds_path', 'open_network']
+
+
+def open_network(can: dict[str, Any]) -> Any:
+    """A ``canopen.Network`` connected to the bus ``can`` (python-can's keywords,
+    ``can_hub.bus_config``).
+
+    Raises:
+        BusUnreachable: the bus cannot be opened (one line naming it).
+    """
+    import canopen
+    network = canopen.Network()
+    try:
+        network.connect(**can)
+    except Exception as exc:  # noqa: BLE001 - python-can raises several types
+        raise BusUnreachable(f'CAN bus {can.get("interface")} {can.get("channel")}: '
+                             f'{exc}') from None
+    return network
 
 
 def eds_path() -> str:
@@ -81,7 +98,6 @@ class CanopenDrive:
         self.fault = ''                      # the last EMCY, until reset
         self.mode = 0                        # the mode of operation set by SDO
         self.wanted: tuple[LoadMode, float] = (LoadMode.OFF, 0.0)
-        self.tpdo_latency_s: list[float] = []   # send stamp of the hub -> our receipt
         self._cw = 0
 
     # --- set-up ---------------------------------------------------------------------------
@@ -92,12 +108,7 @@ class CanopenDrive:
             BusUnreachable: the bus cannot be opened, or the drive does not answer.
         """
         import canopen
-        self.network = canopen.Network()
-        try:
-            self.network.connect(**self.can)
-        except Exception as exc:  # noqa: BLE001 - python-can raises several types
-            raise BusUnreachable(f'CAN bus {self.can.get("interface")} '
-                                 f'{self.can.get("channel")}: {exc}') from None
+        self.network = open_network(self.can)
         try:
             self.node = canopen.RemoteNode(self.node_id, self.eds)
         except Exception as exc:  # noqa: BLE001 - a bad EDS: its parser's words
@@ -159,8 +170,6 @@ class CanopenDrive:
         sw, self.torque_permille, self.position_counts = struct.unpack(_TPDO_FMT, bytes(data))
         self.state = state_of(sw)
         self.last_tpdo_s = time.monotonic()
-        if timestamp:
-            self.tpdo_latency_s.append(max(0.0, time.time() - timestamp))
 
     def _on_emcy(self, error: Any) -> None:
         self.fault = f'EMCY 0x{error.code:04X} ({error.get_desc() or "no text"})'

@@ -92,11 +92,8 @@ class BenchNode(WallClock, FaultInjection, Stats, Tuning, Lifecycle):
         every step (``same_step``, ``samples``, ``from_start``, ``stamped``:
         ``runtime.lockstep``, ``sim.lockstep``; ``raw``: kept as CDR bytes until a step uses
         it); on a wall clock the latest message."""
-        if isinstance(self.stepping, LockstepStepping):
-            self.stepping.input(msg_type, topic, raw,
-                                InputSpec(same_step, samples, from_start, stamped))
-        else:
-            self.stepping.input(msg_type, topic)
+        self.stepping.input(msg_type, topic, raw,
+                            InputSpec(same_step, samples, from_start, stamped))
 
     def create_step_publisher(self, msg_type: type, topic: str) -> Any:
         """A publisher of a step output (lock-step: sent again when the clock repeats a

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 from typing import Any, Protocol
 
+from pam_bench.sim.lockstep import InputSpec
+
 __all__ = ['Stepping']
 
 
@@ -21,6 +23,11 @@ class Stepping(Protocol):
 
     last_ns: int | None
     """The stamp of the node's latest step or tick, ns (None before its first)."""
+
+    def input(self, msg_type: type, topic: str, raw: bool = False,
+              spec: InputSpec | None = None) -> None:
+        """Subscribe to a synchronous input (``spec``: how a lock-step takes it)."""
+        ...
 
     def publisher(self, msg_type: type, topic: str) -> Any:
         """A publisher of a step output."""

@@ -19,6 +19,7 @@ from pam_bench.models import compiled
 from pam_bench.runtime.core import NodeCore, Output
 from pam_bench.runtime.intra import bus_publisher, bus_subscription
 from pam_bench.runtime.qos import DRIVER, SENSOR
+from pam_bench.sim.lockstep import InputSpec
 
 __all__ = ['WallClock', 'WallClockStepping', 'RESEND_NS', 'MAX_CATCH_UP']
 
@@ -165,8 +166,10 @@ class WallClockStepping:
         pub.publish = publish
         return pub
 
-    def input(self, msg_type: type, topic: str) -> None:
-        """A synchronous input: the latest message."""
+    def input(self, msg_type: type, topic: str, raw: bool = False,
+              spec: InputSpec | None = None) -> None:
+        """A synchronous input: the latest message (``raw`` and ``spec`` matter in lock-step
+        only)."""
         self._topics.append(topic)
         latest = self._latest
 

@@ -37,7 +37,7 @@ import threading
 import time
 from typing import Any
 
-from pam_bench.buses.canopen_drive import eds_path
+from pam_bench.buses.canopen_drive import eds_path, open_network
 from pam_bench.buses.cia402 import (
     MODE_CSP,
     MODE_CST,
@@ -227,12 +227,7 @@ class EmulatedBench:
     # --- CANopen --------------------------------------------------------------------------
     def _start_can(self) -> None:
         import canopen
-        self.network = canopen.Network()
-        try:
-            self.network.connect(**self.can)
-        except Exception as exc:  # noqa: BLE001 - python-can raises several types
-            raise BusUnreachable(f'CAN bus {self.can.get("interface")} '
-                                 f'{self.can.get("channel")}: {exc}') from None
+        self.network = open_network(self.can)
         self.node = canopen.LocalNode(self.node_id, eds_path())
         self.network.add_node(self.node)
         self.node.add_write_callback(self._on_write)
