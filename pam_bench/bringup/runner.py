@@ -8,6 +8,7 @@ process), ``processes`` (one process per node, or two hosts with ``netns``) or `
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import dataclasses
 import os
@@ -75,13 +76,19 @@ def run_scene(scene: Scene, out_dir: str, options: RunOptions | None = None) -> 
             raise LayoutError('the live view runs on this host: drop --netns or --live')
         if not live.topics:
             live = dataclasses.replace(live, topics=live_topics(settings))
-    with live_view(live, o.domain_id, o.quiet, o.namespace):
-        if layout is Layout.WALL_CLOCK:
-            from pam_bench.bringup.wallclock import run_wallclock
-            return run_wallclock(scene, settings, o.domain_id, o.quiet, o.device_processes,
-                                 o.devices_only, o.namespace, o.buses)
-        if layout is Layout.COMPOSED:
-            from pam_bench.bringup.composed import run_composed
-            return run_composed(scene, settings, o.domain_id, o.quiet)
-        from pam_bench.bringup.processes import run_processes
-        return run_processes(scene, settings, o.domain_id, o.quiet, o.netns)
+    try:
+        with live_view(live, o.domain_id, o.quiet, o.namespace):
+            if layout is Layout.WALL_CLOCK:
+                from pam_bench.bringup.wallclock import run_wallclock
+                return run_wallclock(scene, settings, o.domain_id, o.quiet,
+                                     o.device_processes, o.devices_only, o.namespace, o.buses)
+            if layout is Layout.COMPOSED:
+                from pam_bench.bringup.composed import run_composed
+                return run_composed(scene, settings, o.domain_id, o.quiet)
+            from pam_bench.bringup.processes import run_processes
+            return run_processes(scene, settings, o.domain_id, o.quiet, o.netns)
+    finally:                # the end state is the recorder's to read, then nobody's
+        end = settings['recorder'].end_file if 'recorder' in settings else ''
+        if end:
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(end)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import pathlib
 import re
 import subprocess
@@ -55,6 +56,18 @@ def test_a_bag_says_how_it_was_made_and_replays_to_the_same_readings(
     assert all(v == 0 for k, v in d['demo_short'].items() if k.startswith(('max_', 'only_')))
     res = _cli('diff', str(a), str(b), '--json')
     assert res.returncode == 0 and 'identical readings' in res.stdout
+
+
+def test_a_run_leaves_no_end_state_file_behind(tmp_path: pathlib.Path, ros_domain: int) -> None:
+    temp = tmp_path / 'tmp'
+    temp.mkdir()
+    env = {**os.environ, 'TMPDIR': str(temp)}
+    res = subprocess.run([sys.executable, '-m', 'pam_bench.cli', 'run', str(SHORT), '--out',
+                          str(tmp_path / 'a')], capture_output=True, text=True, timeout=120,
+                         env=env)
+    assert res.returncode == 0, res.stderr
+    assert bag_info(tmp_path / 'a')['end']['state'] == 'done'
+    assert not [p.name for p in temp.iterdir() if p.name.startswith('pam_bench_end_')]
 
 
 def test_diff_reports_a_different_seed(tmp_path: pathlib.Path, ros_domain: int) -> None:
