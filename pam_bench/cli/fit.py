@@ -76,6 +76,10 @@ def register(sub: Any) -> None:
     p.add_argument('--law', metavar='NAME', help='bags: the muscle is this force law of the zoo '
                    "(or a plug-in's; pam-bench plugins lists them) instead of the bench's "
                    'McKibben law: its parameters, the friction and the valve fitted')
+    p.add_argument('--scene', metavar='SCENE', help='bags: the bench they were recorded on (a '
+                   "scene's name or file, e.g. one that gives the muscle's size): every value "
+                   "the fit does not free comes from its muscle, valve and drive (default: "
+                   "the bench's defaults)")
     p.add_argument('--json', action='store_true')
     add_cluster_args(p)
     p.set_defaults(func=_cmd_calibrate)
@@ -122,7 +126,13 @@ def _calibrate_bags(args: argparse.Namespace) -> int:
 
     from pam_bench.analysis.bagread import read_bags
     from pam_bench.cluster.layer import connect, map_on
-    from pam_bench.verify.calibrate_bags import calibrate_bags, observations_from_bags, overlay_of
+    from pam_bench.verify.calibrate_bags import (
+        bench_of_scene,
+        calibrate_bags,
+        observations_from_bags,
+        overlay_of,
+    )
+    base = bench_of_scene(args.scene)         # a bad scene: one line before anything
     if args.each:
         return _calibrate_each(args)
     if args.out:
@@ -132,7 +142,7 @@ def _calibrate_bags(args: argparse.Namespace) -> int:
     print(f'fitting the muscle and valve to {len(obs.readings)} readings and '
           f'{len(obs.records)} step records (the Jacobian on the cluster) ...', flush=True)
     with connect(**cluster_of(args)) as client:
-        res = calibrate_bags(obs, max_nfev=args.max_evaluations, replay=args.replay,
+        res = calibrate_bags(obs, *base, max_nfev=args.max_evaluations, replay=args.replay,
                              workers=map_on(client), start=args.start, starts=args.starts,
                              map_starts=map_on(client), law=args.law)
     if args.json:
@@ -202,8 +212,8 @@ def _calibrate_jobs(args: argparse.Namespace, out: pathlib.Path | None) -> tuple
 
     from pam_bench.cluster.layer import run_jobs
     from pam_bench.verify.calibrate_bags import calibrate_bag, overlay_of
-    jobs = [(b, args.max_evaluations, args.replay, args.start, args.starts, args.law)
-            for b in args.bags]
+    jobs = [(b, args.max_evaluations, args.replay, args.start, args.starts, args.law,
+             args.scene) for b in args.bags]
     results = run_jobs(calibrate_bag, jobs, label='calibrate', **cluster_of(args))
     failed = loose = 0
     for r in results:

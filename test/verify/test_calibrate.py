@@ -4,6 +4,7 @@ overlay it writes loads into a scene."""
 from __future__ import annotations
 
 import dataclasses
+import math
 import pathlib
 
 import numpy as np
@@ -136,6 +137,41 @@ def test_replay_of_a_twin_run_at_its_true_parameters(replay: str, isotonic_mm: f
     assert rms_by_kind(obs, Bench(valve, muscle), replay=replay)['isotonic'] < isotonic_mm
 
 
+@pytest.mark.parametrize('omega_rad_s, one_sub_step_n', [(300.0, 1.0), (31.4, None)])
+def test_step_records_of_a_fast_valve_replay_at_the_true_parameters(
+        omega_rad_s: float, one_sub_step_n: float | None, monkeypatch: pytest.MonkeyPatch
+        ) -> None:
+    """Step records (noise off) replayed at the true parameters: in sub-steps short enough for
+    the valve's loop (``RECORD_OMEGA_H``) they land within 0.12 N RMS; one 10 ms sub-step per
+    compared sample leaves about 2 N at 300 rad/s (the top of the fit interval), a bias a fit
+    pays for with wrong parameters. At 004's 5 Hz loop the rule keeps one sub-step: the same
+    replay, no slower."""
+    from pam_bench.models.sensors import LoadCellParams
+    from pam_bench.models.valve import ValveParams
+    from pam_bench.twin.protocol_run import run_protocol
+    from pam_bench.verify import calibrate_replay
+    from pam_bench.verify.calibrate_bags import Bench, observations_from_twin, rms_by_kind
+    table = {'steps': {'kind': 'step_response', 'x_m': [0.0, 0.08, 0.04],
+                       'up': {'u0_v': 1.0, 'step_v': 4.0, 'n': 1},
+                       'down': {'u0_v': 5.0, 'step_v': -4.0, 'n': 1},
+                       'dwell_s': 3.0, 'record_s': 1.0, 'sample_period_s': 0.001}}
+    valve = dataclasses.replace(ValveParams(), natural_frequency_rad_s=omega_rad_s,
+                                damping_ratio=0.6)
+    bench = Bench(valve, MuscleParams())
+    run = run_protocol('steps', 3.0, table=table, valve=valve, muscle=bench.muscle,
+                       load_cell=LoadCellParams(noise=False))
+    obs = observations_from_twin(run.points, run.records)
+    assert len(obs.records) == 6
+    rule = rms_by_kind(obs, bench)['step_records']
+    assert rule < 0.12
+    monkeypatch.setattr(calibrate_replay, 'RECORD_OMEGA_H', math.inf)      # one sub-step
+    one = rms_by_kind(obs, bench)['step_records']
+    if one_sub_step_n is None:
+        assert one == rule
+    else:
+        assert one > one_sub_step_n
+
+
 def test_an_unknown_replay_is_an_error() -> None:
     from pam_bench.models.errors import ModelError
     from pam_bench.models.valve import ValveParams
@@ -175,6 +211,37 @@ def test_calibrate_cli_names_the_readings_it_leaves_out(tmp_path: pathlib.Path,
     out = capsys.readouterr().out
     left = [line for line in out.splitlines() if line.startswith('left out')]
     assert len(left) == 1 and left[0].endswith(': isobaric 6 V 50 N'), out
+
+
+def test_the_bench_a_bag_was_recorded_on_comes_from_its_scene(tmp_path: pathlib.Path) -> None:
+    """``calibrate --scene``: the muscle's size (and every value the fit does not free) from
+    the scene the bags were recorded on; no scene: the bench's defaults."""
+    from pam_bench.config.scene import scenes_dir
+    from pam_bench.verify.calibrate_bags import bench_of_scene
+    scene = tmp_path / 'small.yaml'
+    scene.write_text((scenes_dir() / 'campaign_quick.yaml').read_text()
+                     + 'parameters:\n  muscle_1: {muscle: {nominal_diameter_m: 0.01}}\n')
+    valve, muscle, servo = bench_of_scene(str(scene))
+    assert muscle is not None and muscle.nominal_diameter_m == 0.01
+    assert muscle.nominal_length_m == MuscleParams().nominal_length_m
+    assert valve is not None and servo is not None
+    assert bench_of_scene(None) == (None, None, None)
+
+
+@pytest.mark.parametrize('scene, says', [('campain_quick', "no scene 'campain_quick'")])
+def test_calibrate_with_a_bad_scene_is_one_line_and_writes_nothing(
+        tmp_path: pathlib.Path, capsys: pytest.CaptureFixture, scene: str, says: str) -> None:
+    from pam_bench.cli import main
+    from test.analysis.bags import write_bag
+    write_bag(tmp_path / 'bag', [
+        dict(protocol='isobaric_quick', series=0, step=0, direction=0, series_value=2.0,
+             set_value=50.0, voltage=2.0, force=50.0, contraction=0.07, pressure=2e5)])
+    for extra in ([], ['--each']):
+        code = main(['calibrate', str(tmp_path / 'bag'), '--scene', scene, '--out',
+                     str(tmp_path / 'out'), *extra])
+        err = capsys.readouterr().err
+        assert code != 0 and says in err and err.count('\n') == 1, err
+        assert not (tmp_path / 'out').exists()
 
 
 def test_every_fit_interval_lies_in_the_declared_range_and_says_why() -> None:

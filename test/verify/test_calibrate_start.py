@@ -192,3 +192,18 @@ def test_a_fit_that_stopped_short_goes_on_to_recover_a_weak_friction() -> None:
     true = values['friction_stiffness_scale']
     assert 'friction_stiffness_scale' not in res['flags']
     assert abs(res['values']['friction_stiffness_scale'] - true) <= 0.05 * true, res['values']
+
+
+def test_a_gain_rise_past_the_stability_rule_is_clamped_not_refused() -> None:
+    """A trial past g_r 1 MPa < k_bl (``models.muscle``) builds a muscle just inside the rule:
+    the fit reads a flat slope there, not a refused model."""
+    from pam_bench.models.muscle import MAX_PRESSURE_PA, MuscleModel
+    from pam_bench.verify.calibrate_bags import RISE_MARGIN, Bench, _bench
+    free = tuple(f for f in FREE_BAGS if f[1] in ('gain_rise_n_per_pa_m',
+                                                  'bladder_stiffness_n_per_m'))
+    for rise, kbl in ((9.0e-4, 400.0), (1.0e-4, 400.0)):
+        bench = _bench(np.array([rise, kbl]), Bench(ValveParams(), MuscleParams()), free)
+        most = RISE_MARGIN * kbl / MAX_PRESSURE_PA
+        np.testing.assert_allclose(bench.muscle.gain_rise_n_per_pa_m, min(rise, most),
+                                   rtol=1e-12)
+        MuscleModel(bench.muscle)                       # a valid muscle: no ModelError
