@@ -113,10 +113,12 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
             from pam_bench.bringup.buses import DRIVERS, bus_settings, start_buses
             settings, ports = bus_settings(settings, buses, tmp)
             driver_names = list(DRIVERS)
-        # the devices (or the drivers), then the servo: lifecycle nodes the run manages
+        # the devices (or the drivers), then the servo: lifecycle nodes the run manages, each
+        # configured once the recorder hears its diagnostics (the bag holds its transitions)
         managed = [n for n in (driver_names if buses else device_names) + controller_names
                    if hasattr(settings[n], 'managed')]
-        settings = {n: dataclasses.replace(s, managed=True) if n in managed else s
+        settings = {n: dataclasses.replace(s, managed=True, await_recorder='recorder' in
+                                           scene.nodes) if n in managed else s
                     for n, s in settings.items()}
         pfile = os.path.join(tmp, 'params.yaml')
         write_params_file(settings, pfile)

@@ -28,7 +28,8 @@ from pam_bench.vocabulary.params import field, section
 __all__ = ['NodeSettings', 'DeviceSettings', 'ControllerSettings', 'ClockSettings',
            'ValveSettings', 'MuscleSettings', 'LoadCellSettings', 'EncoderSettings',
            'LoadingServoSettings', 'SequencerSettings', 'TorqueServoSettings',
-           'RecorderSettings', 'LiveViewSettings', 'LIVE_FULL_RATE_TOPICS', 'ManagedSettings']
+           'RecorderSettings', 'LiveViewSettings', 'LIVE_FULL_RATE_TOPICS', 'ManagedSettings',
+           'RecordedSettings']
 
 
 @dataclasses.dataclass
@@ -46,7 +47,17 @@ class NodeSettings:
 
 
 @dataclasses.dataclass
-class ManagedSettings:
+class RecordedSettings:
+    """A node whose first words on a wall clock the run's recorder must not miss."""
+
+    await_recorder: bool = field(False, '-', "without lock-step: start only once the run's "
+                                 'recorder has subscribed, so that nothing goes unrecorded (a '
+                                 "controller's first command; a managed node's configure, so "
+                                 'the bag holds its lifecycle transitions)')
+
+
+@dataclasses.dataclass
+class ManagedSettings(RecordedSettings):
     """A lifecycle node on a wall clock (``runtime.lifecycle``): a device, a driver, the
     torque servo."""
 
@@ -66,14 +77,12 @@ class DeviceSettings(NodeSettings, ManagedSettings):
 
 
 @dataclasses.dataclass
-class ControllerSettings(NodeSettings):
+class ControllerSettings(NodeSettings, RecordedSettings):
     """A node that reads the measured topics and commands the valves (sequencer, servo)."""
 
     startup_timeout_s: float = field(30.0, 's', 'without lock-step: exit (code 3) when a '
                                      'measured topic has not come this long after start',
                                      0.1, 3600.0)
-    await_recorder: bool = field(False, '-', "without lock-step: start only once the run's "
-                                 'recorder has subscribed, so that nothing goes unrecorded')
     joint_name: str = field('pulley', '-', 'the joint of encoder/joint_state the node reads (by '
                             'name: a driver may publish several joints)')
 

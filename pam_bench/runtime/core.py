@@ -93,6 +93,10 @@ class NodeCore(Node):
         """The latest inputs adapted to a wall-clock step (``runtime.wallclock``)."""
         raise NotImplementedError
 
+    def recorder_listens(self, topic: str, recorder: str = 'recorder') -> bool:
+        """Whether the run's recorder subscribes to ``topic`` (``runtime.wallclock``)."""
+        raise NotImplementedError
+
     def may_step(self) -> bool:
         """Whether the node steps now: its lifecycle is active (``runtime.lifecycle``)."""
         raise NotImplementedError

@@ -8,7 +8,11 @@ as ros2_control's hardware and most driver packages). Its transitions mean:
 * **configure**: the settings were declared and checked at construction (structural ones are
   read-only from then on); a driver sets its device up here (``configure_device``: the CAN
   drive's SDO configuration and PDO mapping). A failure is one ERROR diagnostic and the
-  transition fails;
+  transition fails. With ``await_recorder`` (the bring-up sets it when the run records) the
+  node first waits, at most ``RECORDER_WAIT_S``, until the run's recorder subscribes to
+  ``/diagnostics`` and its own publisher has matched every subscription the graph shows
+  there: the transitions' diagnostics are then in the bag, however slow discovery was (a
+  manager may call before the recorder has matched a process that has just started);
 * **activate**: the node starts stepping (``on_wall_tick``); a controller's start gate counts
   from here (the torque servo's ``startup_timeout_s`` for its inputs starts at its first
   active tick, however long its manager took);
@@ -25,15 +29,21 @@ readings stay those of every earlier run.
 
 from __future__ import annotations
 
+import time
+
 from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.lifecycle import LifecycleNodeMixin, LifecycleState, TransitionCallbackReturn
 
+from pam_bench.config import topics
 from pam_bench.runtime.core import NodeCore
 
-__all__ = ['Lifecycle', 'SUCCESS', 'FAILURE']
+__all__ = ['Lifecycle', 'SUCCESS', 'FAILURE', 'RECORDER_WAIT_S']
 
 SUCCESS = TransitionCallbackReturn.SUCCESS
 FAILURE = TransitionCallbackReturn.FAILURE
+RECORDER_WAIT_S = 10.0
+"""The most a configure waits for the run's recorder on ``/diagnostics`` (s); past it the node
+configures anyway and says so (WARN)."""
 
 
 class Lifecycle(NodeCore, LifecycleNodeMixin):
@@ -82,6 +92,10 @@ class Lifecycle(NodeCore, LifecycleNodeMixin):
     # --- the transitions ----------------------------------------------------------------
     def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
         """Configure: the device set up (module docstring)."""
+        if getattr(self.settings, 'await_recorder', False) and not self._recorder_matched():
+            self.diagnose(DiagnosticStatus.WARN, 'no recorder on '
+                          f'{self.resolve_topic_name(topics.DIAGNOSTICS)} within '
+                          f'{RECORDER_WAIT_S:g} s: configuring anyway', 'recorder')
         why = self.configure_device()
         if why:
             self.diagnose(DiagnosticStatus.ERROR, f'configure failed: {why}', 'lifecycle')
@@ -114,6 +128,23 @@ class Lifecycle(NodeCore, LifecycleNodeMixin):
         """An error in a transition: outputs safe; back to unconfigured."""
         self._stop_stepping('error in a transition: outputs safe')
         return SUCCESS
+
+    def _recorder_matched(self) -> bool:
+        """Wait (at most ``RECORDER_WAIT_S``) until the recorder subscribes to the diagnostics
+        and this node's publisher has matched every subscription there (module docstring)."""
+        pub = getattr(self._diag_pub, 'dds', self._diag_pub)   # past an intra-process bus
+        topic = self.resolve_topic_name(topics.DIAGNOSTICS)
+        end = time.monotonic() + RECORDER_WAIT_S
+        while True:
+            try:
+                if self.recorder_listens(topics.DIAGNOSTICS) and pub.get_subscription_count() \
+                        >= len(self.get_subscriptions_info_by_topic(topic)):
+                    return True
+            except Exception:  # noqa: BLE001 - a graph query must not end a transition
+                pass
+            if time.monotonic() > end:
+                return False
+            time.sleep(0.01)
 
     def _stop_stepping(self, text: str) -> None:
         self.active = False

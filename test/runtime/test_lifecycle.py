@@ -202,3 +202,54 @@ def test_a_managed_servo_counts_its_startup_timeout_from_its_activation(
         assert node.exit_code == 3                    # no inputs for 0.2 s once active
     finally:
         m.close()
+
+
+def _recorded_valve(ctx: rclpy.Context) -> ValveSim:
+    node = ValveSim('valve_1', context=ctx, parameter_overrides=[
+        *WALL, Parameter('managed', value=True), Parameter('await_recorder', value=True)])
+    node.take_wall_ticks()
+    return node
+
+
+def test_a_managed_node_configures_once_a_recorder_that_just_came_hears_it(
+        context: rclpy.Context) -> None:
+    """The recorder's participant appears just before the manager calls: without the wait,
+    the 'configured' diagnostic goes out before the recorder is matched and is lost."""
+    from diagnostic_msgs.msg import DiagnosticArray
+    node = _recorded_valve(context)
+    m = Manager(context, node)
+    rec_ctx = rclpy.Context()
+    rclpy.init(context=rec_ctx)                   # another participant, as a process is
+    heard: list[str] = []
+    try:
+        assert m.state() == 'unconfigured'
+        recorder = rclpy.create_node('recorder', context=rec_ctx)
+        recorder.create_subscription(DiagnosticArray, '/diagnostics', lambda a: heard.extend(
+            s.message for s in a.status if s.name.endswith(': lifecycle')), 10)
+        assert m.set(Transition.TRANSITION_CONFIGURE)
+        rec_exec = SingleThreadedExecutor(context=rec_ctx)
+        rec_exec.add_node(recorder)
+        end = time.monotonic() + 5.0
+        while not heard and time.monotonic() < end:
+            rec_exec.spin_once(timeout_sec=0.01)
+        assert heard[:1] == ['configured']
+        assert 'recorder' not in node.diagnostics.concerns      # no warning: it was heard
+    finally:
+        m.close()
+        rclpy.try_shutdown(context=rec_ctx)
+
+
+def test_a_managed_node_with_no_recorder_configures_after_its_wait_and_says_so(
+        context: rclpy.Context, monkeypatch: pytest.MonkeyPatch) -> None:
+    from pam_bench.runtime import lifecycle
+    monkeypatch.setattr(lifecycle, 'RECORDER_WAIT_S', 0.2)
+    node = _recorded_valve(context)
+    m = Manager(context, node)
+    try:
+        t0 = time.monotonic()
+        assert m.set(Transition.TRANSITION_CONFIGURE) and m.state() == 'inactive'
+        assert time.monotonic() - t0 >= 0.2
+        warn = node.diagnostics.concerns['recorder']
+        assert warn.level == b'\x01' and warn.message.startswith('no recorder on /diagnostics')
+    finally:
+        m.close()
