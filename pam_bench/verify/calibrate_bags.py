@@ -40,10 +40,15 @@ degenerate).
 A fit that ends near the noise level may have stopped short of its optimum on a shallow valley
 (a weak braid friction moves the readings little): when the Gauss-Newton step from its end
 would still move a parameter by more than ``SETTLED_STEP`` of its value, the fit goes on
-without the early stop for a few evaluations (``_settled``). The Jacobian is read with steps
-of ``DIFF_STEP`` of each interval: the replay is rough below that, and a finer step read the
-roughness as the slope and stopped fits inside the curved valleys above. A refused model (a
-trial past the muscle's stability rule) stops a fit too: ``RISE_MARGIN``.
+without the early stop for a few evaluations (``_settled``), its Jacobian read by central
+differences (``SETTLE_JAC``): in a narrow curved valley (the gain at the lower end of its
+interval, a thousand times steeper than the threshold band) forward differences at
+``DIFF_STEP`` read a slope that pointed out of the valley, and the fit stayed at five times the
+true parameters' cost, although the cost falls all the way along the straight line to them.
+The Jacobian is read with steps of ``DIFF_STEP`` of each interval: the replay is rough below
+that, and a finer step read the roughness as the slope and stopped fits inside the curved
+valleys above. A refused model (a trial past the muscle's stability rule) stops a fit too:
+``RISE_MARGIN``.
 
 Readings no replay can place are left out of the fit and listed: a reading at
 held load whose friction loop, at the starting parameters, is wider than ``PATH_WIDTH_M`` in
@@ -228,6 +233,8 @@ by more than this share of its value (the recovery the round-trip studies ask fo
 short (the early stop near the noise level, on a shallow valley): it goes on without the early
 stop, for at most ``SETTLE_NFEV`` evaluations (``_settled``)."""
 SETTLE_NFEV = 20
+SETTLE_JAC = '3-point'
+"""The settling fit's finite differences: central (twice the evaluations per Jacobian)."""
 DIFF_STEP = 1e-2
 """The finite-difference step of the Jacobian in z (scipy takes it as an absolute step for
 |z| < 1): 1 % of each parameter's fit interval. The replay is not smooth below that (a held
@@ -236,9 +243,10 @@ step of 0.1 % read that roughness as the slope: a fit then stopped in the curved
 gain curve's minimum, its exponent and x_m, 41 % off in g_m, at a chi-square 45 % above the
 true parameters' (BENCHMARKS.md, 'Calibrating the bench to recordings, across the bounds').
 It is too long for a parameter the cost is very steep in (the gain at the lower end of its
-interval: a step of 1 % moves the cost a thousand-fold and reads its curvature): there a fit
-can stop short (BENCHMARKS.md, same section). A step per parameter, shortened where it moves
-the residuals by more than they are, fixed neither case (tried, and left)."""
+interval: a step of 1 % moves the cost a thousand-fold and reads its curvature) when the
+differences are forward: the settling fit takes central ones (``SETTLE_JAC``). A step per
+parameter, shortened where it moves the residuals by more than they are, fixed neither case
+(tried, and left)."""
 FTOL = 1e-6
 """Relative change of the cost at which a local fit has converged: past it, noise."""
 XTOL = 1e-8
@@ -297,9 +305,10 @@ def _kind_rms(problem: _Problem, residuals: np.ndarray) -> dict[str, float]:
 
 def _local_fit(problem: _Problem, z_start: np.ndarray, z_prior: np.ndarray, max_nfev: int,
                workers: Mapper | None, replay: str | None = None,
-               stop_at: dict[str, float] | None = None) -> Any:
+               stop_at: dict[str, float] | None = None, jac: str = '2-point') -> Any:
     """``least_squares`` from ``z_start`` with the weak prior at ``z_prior``; it stops early
-    once every protocol's RMS is within ``stop_at`` (N or mm)."""
+    once every protocol's RMS is within ``stop_at`` (N or mm). ``jac``: scipy's
+    finite-difference scheme ('2-point' forward, '3-point' central)."""
     n_data = len(problem.obs.readings) - len(problem.left_out) + sum(
         len(r[4][::RECORD_STRIDE]) for r in problem.obs.records)
     n_res = n_data + len(z_start)
@@ -317,7 +326,7 @@ def _local_fit(problem: _Problem, z_start: np.ndarray, z_prior: np.ndarray, max_
             raise StopIteration
 
     return least_squares(res, z_start, bounds=(0.0, 1.0), diff_step=DIFF_STEP, max_nfev=max_nfev,
-                         x_scale=1.0, callback=callback, ftol=FTOL, xtol=XTOL,
+                         x_scale=1.0, callback=callback, ftol=FTOL, xtol=XTOL, jac=jac,
                          **({'workers': workers} if workers is not None else {}))
 
 
@@ -337,7 +346,8 @@ def _settled(problem: _Problem, sol: Any, z_prior: np.ndarray, lower: np.ndarray
     evaluations it took."""
     if float(np.max(np.abs(gauss_newton_share(sol, lower, span)), initial=0.0)) <= SETTLED_STEP:
         return sol, 0
-    more = _local_fit(problem, sol.x, z_prior, min(max_nfev, SETTLE_NFEV), workers)
+    more = _local_fit(problem, sol.x, z_prior, min(max_nfev, SETTLE_NFEV), workers,
+                      jac=SETTLE_JAC)
     return (more if more.cost < sol.cost else sol), int(more.nfev)
 
 
