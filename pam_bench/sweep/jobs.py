@@ -72,10 +72,13 @@ def _protocol_result(scene: Any, job: Job, engine: str, figures: list[str]) -> d
     if data.records:
         out['step_response'] = step_summary(data.records)
     if any(f.startswith('calibrate.') for f in figures):
-        from pam_bench.verify.calibrate_bags import calibrate_bags, observations_from_bags
-        st = scene.settings()
-        fit = calibrate_bags(observations_from_bags(data), st['valve_1'].valve,
-                             st['muscle_1'].muscle, st['loading_servo'].servo)
+        from pam_bench.verify.calibrate_bags import (
+            bench_of_settings,
+            calibrate_bags,
+            observations_from_bags,
+        )
+        fit = calibrate_bags(observations_from_bags(data),
+                             *bench_of_settings(scene.settings(), f'scene {scene.name}'))
         out['calibrate'] = {k: fit[k] for k in ('values', 'stderr', 'rms_after', 'cost',
                                                 'evaluations')}
     return out

@@ -99,7 +99,7 @@ __all__ = ['FREE_BAGS', 'BOUND_REASONS', 'Observations', 'Bench', 'observations_
            'observations_from_twin', 'predict', 'calibrate_bags', 'overlay_of',
            'FORCE_SCALE_N', 'CONTRACTION_SCALE_M', 'PATH_WIDTH_M', 'path_sensitive',
            'calibrate_bag', 'run_start', 'Mapper', 'reached', 'coarse', 'free_of_law',
-           'rms_by_kind', 'bench_of_scene']
+           'rms_by_kind', 'bench_of_scene', 'bench_of_settings']
 
 PRIOR_WEIGHT = 0.01             # a range costs one reading a noise deviation off (docstring)
 UNFIXED_SHARE = 0.01            # data-only variance in z at the tolerances that flags
@@ -612,11 +612,21 @@ def bench_of_scene(scene: str | None
     """
     if scene is None:
         return None, None, None
-    from pam_bench.config.errors import ConfigError
     from pam_bench.config.scene import load_scene
-    st = load_scene(scene).settings()
+    return bench_of_settings(load_scene(scene).settings(), f'scene {scene}')
+
+
+def bench_of_settings(st: dict[str, Any], what: str
+                      ) -> tuple[ValveParams, MuscleParams, LoadingServoParams]:
+    """(valve, muscle, drive) of a scene's node settings (``Scene.settings``): its first
+    muscle's bench.
+
+    Raises:
+        ConfigError: ``what`` (the scene, named) has no single-muscle bench.
+    """
     if not {'valve_1', 'muscle_1', 'loading_servo'} <= set(st):
-        raise ConfigError(f'scene {scene}: calibrate needs a bench with valve_1, muscle_1 and '
+        from pam_bench.config.errors import ConfigError
+        raise ConfigError(f'{what}: calibrate needs a bench with valve_1, muscle_1 and '
                           'loading_servo')
     return st['valve_1'].valve, st['muscle_1'].muscle, st['loading_servo'].servo
 

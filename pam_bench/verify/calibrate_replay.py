@@ -16,11 +16,13 @@ one bench, so the friction follows the recorded path, in one of two ways (``repl
   and the position loop's transient shakes the friction at the first pressure of an isometric
   series. The step records follow on the same bench (004's campaign runs the step responses
   last): each settles at its start voltage and held x for the dwell, then the valve steps and
-  the bench runs at every ``RECORD_STRIDE``-th sample period, in sub-steps short enough for
-  the valve's loop (omega_n h at most ``RECORD_OMEGA_H``: one sub-step at 004's 5 Hz loop,
-  two at 120 rad/s, where a single 10 ms sub-step left a bias in the records, 0.26 N RMS
-  against the noise's 0.20 N at the true parameters, that pulled a fit's threshold band 16 %
-  off);
+  the bench is compared at every ``RECORD_STRIDE``-th sample period, run in sub-steps of the
+  record's own sample period (as the bench records one), shorter where the valve's loop asks
+  (omega_n h at most ``RECORD_OMEGA_H``; ``record_sub_step_s``). A single 10 ms sub-step at
+  120 rad/s left a bias in the records, 0.26 N RMS against the noise's 0.20 N at the true
+  parameters, that pulled a fit's threshold band 16 % off; sub-steps of omega_n h = 1 still
+  left 0.24 N at 68 rad/s, and the fit paid for it with a gain rise 9 % off (0.233 N and
+  0.5 % at the sample period);
 - 'static': the quasi-static bench (``twin.quasistatic``) with the valve's overshoot turning
   points, the muscle end following the belt stretch at each; an ideal drive; each step
   record from its own settled start, the valve's pressure loop integrated exactly (ZOH)
@@ -58,7 +60,8 @@ from pam_bench.twin.quasistatic import QuasiStaticBench
 
 __all__ = ['Observations', 'Bench', 'observations_from_bags', 'observations_from_twin',
            'predict', 'path_sensitive', 'residuals', 'rms_of', 'rms_by_kind', 'REPLAYS',
-           'FORCE_SCALE_N', 'CONTRACTION_SCALE_M', 'RECORD_STRIDE', 'PATH_WIDTH_M']
+           'FORCE_SCALE_N', 'CONTRACTION_SCALE_M', 'RECORD_STRIDE', 'PATH_WIDTH_M',
+           'record_sub_step_s']
 
 FORCE_SCALE_N = 20.0            # 1 % of the load cell's range
 CONTRACTION_SCALE_M = 0.5e-3
@@ -160,14 +163,21 @@ def _replay_stepped(obs: Observations, bench: Bench) -> tuple[np.ndarray, list[n
         settle(LoadMode.POSITION, u0, x)
         twin.command_valve(u1)
         h = period * RECORD_STRIDE
-        twin.sub_step_s = h / max(1, math.ceil(h * bench.valve.natural_frequency_rad_s
-                                                / RECORD_OMEGA_H))
+        twin.sub_step_s = record_sub_step_s(period, bench.valve.natural_frequency_rad_s)
         forces = [twin.f]
         for _ in range(len(samples[::RECORD_STRIDE]) - 1):
             twin.step(h)
             forces.append(twin.f)
         recs.append(np.array(forces))
     return out, recs
+
+
+def record_sub_step_s(period_s: float, omega_rad_s: float) -> float:
+    """The sub-step a step record is replayed at (s): its sample period, shorter where the
+    valve's loop asks (omega_n h at most ``RECORD_OMEGA_H``), a whole fraction of the
+    ``RECORD_STRIDE`` sample periods between compared samples (module docstring)."""
+    h = period_s * RECORD_STRIDE
+    return h / max(RECORD_STRIDE, math.ceil(h * omega_rad_s / RECORD_OMEGA_H))
 
 
 def _replay_static(obs: Observations, bench: Bench) -> tuple[np.ndarray, list[np.ndarray]]:

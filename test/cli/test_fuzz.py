@@ -178,6 +178,26 @@ def _chunk_spans(mcap: pathlib.Path) -> list[tuple[int, int]]:
             for c in summary.chunk_indexes]
 
 
+def _gaps(spans: list[tuple[int, int]], size: int) -> list[tuple[int, int]]:
+    """The byte ranges of a file of ``size`` bytes outside ``spans`` (sorted, disjoint)."""
+    out, at = [], 0
+    for a, b in sorted(spans):
+        if a > at:
+            out.append((at, a))
+        at = max(at, b)
+    return out + ([(at, size)] if at < size else [])
+
+
+def _nth_byte(spans: list[tuple[int, int]], where: float) -> int:
+    """The byte at share ``where`` (0 to 1) of the bytes inside ``spans``."""
+    k = int(where * (sum(b - a for a, b in spans) - 1))
+    for a, b in spans:
+        if k < b - a:
+            return a + k
+        k -= b - a
+    raise AssertionError('no byte in the spans')
+
+
 @BAG_FUZZ
 @given(how=st.sampled_from(['truncate', 'flip_in_chunk', 'flip_outside']),
        where=st.floats(0.0, 1.0), width=st.integers(1, 64))
@@ -193,9 +213,7 @@ def test_fuzzed_bags_end_cleanly(demo_bag: pathlib.Path, tmp_path: pathlib.Path,
     if how == 'truncate':
         data = data[:int(where * len(data))]
     else:
-        inside = [i for a, b in spans for i in range(a, b)] if how == 'flip_in_chunk' else \
-            [i for i in range(len(data)) if not any(a <= i < b for a, b in spans)]
-        at = inside[int(where * (len(inside) - 1))]
+        at = _nth_byte(spans if how == 'flip_in_chunk' else _gaps(spans, len(data)), where)
         for i in range(at, min(at + width, len(data))):
             data[i] ^= 0xA5
     mcap.write_bytes(bytes(data))

@@ -4,7 +4,6 @@ overlay it writes loads into a scene."""
 from __future__ import annotations
 
 import dataclasses
-import math
 import pathlib
 
 import numpy as np
@@ -141,11 +140,10 @@ def test_replay_of_a_twin_run_at_its_true_parameters(replay: str, isotonic_mm: f
 def test_step_records_of_a_fast_valve_replay_at_the_true_parameters(
         omega_rad_s: float, one_sub_step_n: float | None, monkeypatch: pytest.MonkeyPatch
         ) -> None:
-    """Step records (noise off) replayed at the true parameters: in sub-steps short enough for
-    the valve's loop (``RECORD_OMEGA_H``) they land within 0.12 N RMS; one 10 ms sub-step per
+    """Step records (noise off) replayed at the true parameters: in sub-steps of the sample
+    period (``record_sub_step_s``) they land within 0.12 N RMS; one 10 ms sub-step per
     compared sample leaves about 2 N at 300 rad/s (the top of the fit interval), a bias a fit
-    pays for with wrong parameters. At 004's 5 Hz loop the rule keeps one sub-step: the same
-    replay, no slower."""
+    pays for with wrong parameters. At 004's 5 Hz loop one sub-step would do nearly as well."""
     from pam_bench.models.sensors import LoadCellParams
     from pam_bench.models.valve import ValveParams
     from pam_bench.twin.protocol_run import run_protocol
@@ -164,10 +162,12 @@ def test_step_records_of_a_fast_valve_replay_at_the_true_parameters(
     assert len(obs.records) == 6
     rule = rms_by_kind(obs, bench)['step_records']
     assert rule < 0.12
-    monkeypatch.setattr(calibrate_replay, 'RECORD_OMEGA_H', math.inf)      # one sub-step
+    assert calibrate_replay.record_sub_step_s(0.001, omega_rad_s) == pytest.approx(0.001)
+    monkeypatch.setattr(calibrate_replay, 'record_sub_step_s',              # one sub-step
+                        lambda period_s, omega: period_s * calibrate_replay.RECORD_STRIDE)
     one = rms_by_kind(obs, bench)['step_records']
     if one_sub_step_n is None:
-        assert one == rule
+        assert one < 0.12
     else:
         assert one > one_sub_step_n
 
