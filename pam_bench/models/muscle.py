@@ -68,12 +68,20 @@ from pam_bench.models.friction import FrictionTrial, MaxwellSlip
 from pam_bench.vocabulary.params import field
 
 __all__ = ['FrictionMuscle', 'MuscleParams', 'MuscleModel', 'MuscleOutput', 'MuscleTrial',
-           'LOCK_COS']
+           'LOCK_COS', 'gain_rise_limit']
 
 MAX_PRESSURE_PA = 1.0e6
 """The valve's largest output pressure (004: 0..1 MPa over 0..10 V), Pa."""
 LOCK_COS = 1.0 / math.sqrt(3.0)
 """cos of the braid's lock angle, 54.74 deg, where 3 cos^2 theta = 1 (001 Eq. 3)."""
+
+
+def gain_rise_limit(bladder_stiffness_n_per_m: float) -> float:
+    """The gain's rise past x_m the muscle's stability allows, N/(Pa m), exclusive: g_r must
+    stay below k_bl / 1 MPa, else past the gain minimum the muscle would pull harder as it
+    shortens (``MuscleModel`` refuses it)."""
+    return bladder_stiffness_n_per_m / MAX_PRESSURE_PA
+
 
 MuscleTrial = tuple[float, float, float, FrictionTrial | None]
 """(force N, stiffness -dF/dx N/m, friction N, friction trial or None without hysteresis)."""
@@ -224,7 +232,7 @@ class MuscleModel(FrictionMuscle):
         if sum(self.p.friction_break_force_ratio) >= 1.0:
             raise ModelError('sum(friction_break_force_ratio) must be < 1: sliding friction '
                              'would exceed the force it resists')
-        if self.p.gain_rise_n_per_pa_m * MAX_PRESSURE_PA >= self.p.bladder_stiffness_n_per_m:
+        if self.p.gain_rise_n_per_pa_m >= gain_rise_limit(self.p.bladder_stiffness_n_per_m):
             raise ModelError('gain_rise_n_per_pa_m * 1 MPa must be < bladder_stiffness_n_per_m: '
                              'past the gain minimum the muscle would pull harder as it shortens')
         self.friction = MaxwellSlip(self.p.friction_stiffness_n_per_m,

@@ -72,7 +72,7 @@ from scipy.optimize import least_squares
 from pam_bench.models.errors import ModelError
 from pam_bench.models.laws.base import ForceLaw
 from pam_bench.models.loading_servo import LoadingServoParams
-from pam_bench.models.muscle import MAX_PRESSURE_PA, MuscleParams
+from pam_bench.models.muscle import MuscleParams, gain_rise_limit
 from pam_bench.models.valve import ValveParams
 from pam_bench.verify.calibrate import fit_report, fit_summary
 from pam_bench.verify.calibrate_init import initial_values, law_start
@@ -204,7 +204,7 @@ def _bench(theta: np.ndarray, base: Bench, free: Sequence[tuple[str, str, float,
                                            getattr(base.laws or LawSettings(), law), **vals)
                                            for law, vals in laws.items()})
     muscle = dataclasses.replace(base.muscle, **m)
-    most = RISE_MARGIN * muscle.bladder_stiffness_n_per_m / MAX_PRESSURE_PA
+    most = RISE_MARGIN * gain_rise_limit(muscle.bladder_stiffness_n_per_m)
     if 'gain_rise_n_per_pa_m' in m and muscle.gain_rise_n_per_pa_m > most:
         muscle = dataclasses.replace(muscle, gain_rise_n_per_pa_m=most)
     return Bench(dataclasses.replace(base.valve, **v), muscle, base.servo, new_laws)
