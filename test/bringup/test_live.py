@@ -58,21 +58,22 @@ def test_a_client_during_a_run_gets_the_bags_messages(tmp_path: pathlib.Path,
     for topic, t_ns, data in client.messages:
         got.setdefault(topic, []).append((t_ns, data))
     from pam_bench.runtime.messages import stamp_of_cdr
-    for topic, msgs in got.items():
+    for (topic, source), msgs in _by_source(got).items():
         in_bag: dict[int, set[bytes]] = {}      # several nodes may stamp a topic alike
-        for _, raw in recorded.get(topic, []):  # (/diagnostics of devices ticked together)
-            in_bag.setdefault(stamp_of_cdr(raw), set()).add(bytes(raw))
+        for _, raw in _by_source(recorded).get((topic, source), []):   # (devices ticked
+            in_bag.setdefault(stamp_of_cdr(raw), set()).add(bytes(raw))  # together)
         if not in_bag:          # an event sent only before the recorder started
             continue
         first, last = min(in_bag), max(in_bag)
-        # the view starts before the recorder does (3 s before in one CI run here): of what
-        # the view got once the bag had begun, nearly all lies within the bag's span
+        # the view starts before the recorder does (3 s before in one CI run here), and the
+        # recorder hears each publisher from when it has matched it: of what the view got
+        # from a publisher once the bag held it, nearly all lies within that span
         during = [(t, d) for t, d in msgs if first <= t <= last]
         if topic in ('/load_cell_1/force', '/valve_1/pressure'):
             since = [t for t, _ in msgs if t >= first]
             assert len(during) >= 0.9 * len(since) > 0, topic
         for t_ns, data in during:         # stamped as a bag's message, the same bytes
-            assert bytes(data) in in_bag.get(t_ns, set()), (topic, t_ns)
+            assert bytes(data) in in_bag.get(t_ns, set()), (topic, source, t_ns)
     force = got['/load_cell_1/force']
     span_s = (force[-1][0] - force[0][0]) * 1e-9
     assert len(force) <= 50 * span_s + 2          # capped at 50 Hz
@@ -86,3 +87,20 @@ def test_a_client_during_a_run_gets_the_bags_messages(tmp_path: pathlib.Path,
     assert seen and seen[0] in points                # before the client has subscribed:
     assert seen == points[points.index(seen[0]):]    # every point from then on, in order
     assert len(seen) >= len(points) // 2
+
+
+def _by_source(messages: dict[str, list[tuple[int, bytes]]]
+               ) -> dict[tuple[str, str], list[tuple[int, bytes]]]:
+    """(topic, publisher) -> its (time, CDR) messages: /diagnostics by the hardware_id of its
+    statuses (each node's; one topic, several publishers), every other topic as one."""
+    from diagnostic_msgs.msg import DiagnosticArray
+    from rclpy.serialization import deserialize_message
+    out: dict[tuple[str, str], list[tuple[int, bytes]]] = {}
+    for topic, msgs in messages.items():
+        for t, raw in msgs:
+            source = ''
+            if topic == '/diagnostics':
+                status = deserialize_message(bytes(raw), DiagnosticArray).status
+                source = status[0].hardware_id if status else ''
+            out.setdefault((topic, source), []).append((t, raw))
+    return out
