@@ -18,7 +18,9 @@ protocol's RMS at the noise level), the fit's time and evaluations. Then issue 4
 tries: a far muscle on a part of the stroke with 004's identification steps, the full
 ``identification`` protocol of another far muscle, and 000's straight-fibre muscle calibrated
 as the bench's McKibben law (the verdict, and the law zoo's static fit to its readings).
-The sets run as jobs of the execution layer, one per worker.
+The sets run as jobs of the execution layer, one per worker; the tries then run one at a time
+as ``pam-bench calibrate`` runs them, the finite-difference Jacobian's columns and the starts
+on the cluster (``connect``: a local one of two workers on this machine).
 """
 
 from __future__ import annotations
@@ -35,7 +37,7 @@ from pam_bench.benchmarks.tables import Row, commit_of, table
 from pam_bench.models.muscle import MuscleParams
 from pam_bench.models.sensors import LoadCellParams
 from pam_bench.models.valve import ValveParams
-from pam_bench.verify.calibrate_bags import FREE_BAGS
+from pam_bench.verify.calibrate_bags import FREE_BAGS, Mapper
 from pam_bench.vocabulary.errors import PamBenchError
 
 __all__ = ['STUDY', 'SETS', 'draw_uniform', 'end_set', 'small_muscle', 'one_set', 'TOLERANCE']
@@ -105,6 +107,13 @@ def _truth(values: dict[str, float], valve: ValveParams, muscle: MuscleParams
 def one_set(job: tuple[str, str, dict[str, Any], int]) -> dict[str, Any]:
     """One set (a cluster job): (label, protocol, what to apply: 'values' for the free
     parameters, or 'small' for the 10 mm muscle, seed) -> its row."""
+    return _fit_set(job, None)
+
+
+def _fit_set(job: tuple[str, str, dict[str, Any], int], mapper: Mapper | None
+             ) -> dict[str, Any]:
+    """``one_set``; ``mapper``: the Jacobian's columns and the starts evaluated through it, as
+    ``pam-bench calibrate`` does on its cluster (None: in this process)."""
     from pam_bench.config.protocols import load_protocols
     from pam_bench.twin.protocol_run import run_protocol
     from pam_bench.verify.calibrate_bags import calibrate_bags, observations_from_twin
@@ -126,7 +135,7 @@ def one_set(job: tuple[str, str, dict[str, Any], int]) -> dict[str, Any]:
     # the muscle's size is what a lab measures, not fits (``calibrate --scene``)
     size = (dataclasses.replace(MuscleParams(), nominal_diameter_m=muscle.nominal_diameter_m)
             if what.get('small') else None)
-    res = calibrate_bags(obs, muscle=size)
+    res = calibrate_bags(obs, muscle=size, workers=mapper, map_starts=mapper)
     fit_s = time.perf_counter() - t0
     true = _truth(what.get('values', {}), valve, muscle)
     errors = {n: (res['values'][n] - true[n]) / true[n] if true[n] else None
@@ -135,17 +144,19 @@ def one_set(job: tuple[str, str, dict[str, Any], int]) -> dict[str, Any]:
             'converged': res['verdict']['converged'], 'rms_after': res['rms_after'],
             'tolerance': res['verdict']['tolerance'], 'fit_s': fit_s,
             'evaluations': res['evaluations'], 'starts': res['starts'],
-            'readings': len(obs.readings), 'records': len(obs.records)}
+            'readings': len(obs.readings), 'records': len(obs.records),
+            'on_cluster': mapper is not None}
 
 
-def _straight_fibre_try() -> dict[str, Any]:
-    """000's straight-fibre muscle on its own protocol, calibrated as the McKibben bench."""
+def _straight_fibre_try(mapper: Mapper) -> dict[str, Any]:
+    """000's straight-fibre muscle on its own protocol, calibrated as the McKibben bench (the
+    Jacobian and the starts through ``mapper``)."""
     from pam_bench.config.scene import load_scene
     from pam_bench.twin.protocol_run import bag_data_of, run_scene
     from pam_bench.verify.calibrate_bags import calibrate_bags, observations_from_bags
     obs = observations_from_bags(bag_data_of(run_scene(load_scene('straight_fibre_quick'))))
     t0 = time.perf_counter()
-    res = calibrate_bags(obs)
+    res = calibrate_bags(obs, workers=mapper, map_starts=mapper)
     return {'set': "000's straight-fibre muscle as the McKibben law",
             'converged': res['verdict']['converged'], 'rms_after': res['rms_after'],
             'tolerance': res['verdict']['tolerance'], 'fit_s': time.perf_counter() - t0,
@@ -160,7 +171,7 @@ def _line(verdict: dict[str, Any]) -> str:
 
 def measure(quick: bool, cluster: dict[str, Any] | None = None) -> dict[str, Any]:
     """The sets and the tries (module docstring); quick: two drawn sets and the first try."""
-    from pam_bench.cluster.layer import run_jobs
+    from pam_bench.cluster.layer import connect, map_on, run_jobs
     rng = np.random.default_rng(SEED)
     jobs: list[tuple[str, str, dict[str, Any], int]] = []
     for k in range(2 if quick else SETS):
@@ -175,8 +186,7 @@ def measure(quick: bool, cluster: dict[str, Any] | None = None) -> dict[str, Any
         tries.append(('try 2: far muscle, the identification protocol', 'identification',
                       {'values': FAR_TWO}, 301))
     rows, refused = [], 0
-    for r in run_jobs(one_set, jobs + tries, label='calibrate across the bounds',
-                      **(cluster or {})):
+    for r in run_jobs(one_set, jobs, label='calibrate across the bounds', **(cluster or {})):
         value = r.value if r.ok else {'set': r.item[0], 'refused': r.error}
         if 'refused' in value and value['set'].startswith('drawn'):
             refused += 1
@@ -193,9 +203,17 @@ def measure(quick: bool, cluster: dict[str, Any] | None = None) -> dict[str, Any
         if 'refused' not in row:
             rows.append(row)
             refused -= 1
+    # the tries as a lab runs `pam-bench calibrate`: alone, the Jacobian on the cluster
+    with connect(**(cluster or {})) as client:
+        for job in tries:
+            try:
+                rows.append(_fit_set(job, map_on(client)))
+            except PamBenchError as exc:
+                rows.append({'set': job[0], 'refused': str(exc)})
+        straight = None if quick else _straight_fibre_try(map_on(client))
     out = {'sets': rows, 'tolerance': TOLERANCE, 'draws': k}
-    if not quick:
-        out['straight_fibre'] = _straight_fibre_try()
+    if straight is not None:
+        out['straight_fibre'] = straight
     return out
 
 
@@ -233,7 +251,8 @@ def section(r: dict[str, Any]) -> list[str]:
                      ', '.join(n for n in s['flags']) or 'none', rms,
                      f"{s['fit_s']:.0f} s, {s['evaluations']} evaluations"
                      + (f", {s['starts']['at_best']} of {s['starts']['tried']} starts at the "
-                        'best' if s['starts']['tried'] else '')))
+                        'best' if s['starts']['tried'] else '')
+                     + (', the Jacobian on the cluster' if s.get('on_cluster') else '')))
     lines = table(['set', 'converged', 'largest error, fixed parameters', 'not fixed (flagged '
                    'or held)', 'RMS after / noise level (N or mm)', 'fit'], rows)
     sf = c.get('straight_fibre')

@@ -252,10 +252,10 @@ FTOL = 1e-6
 XTOL = 1e-8
 """Relative step in z (the unit interval over each parameter's bounds) that ends a fit."""
 BEST_COST_REL = 0.02
+"""A start reached the best cost when its cost is within this share of it."""
 COARSE_READINGS = 400
 """Past this many readings, a first fit runs on every k-th series only (``coarse``), and the
 fit on all of them starts where it ended."""
-"""A start reached the best cost when its cost is within this share of it."""
 
 
 @dataclasses.dataclass(frozen=True)
