@@ -4,8 +4,11 @@ from __future__ import annotations
 
 import itertools
 import os
+from collections.abc import Iterator
 
 import pytest
+
+from pam_bench.models import compiled
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')
@@ -41,3 +44,14 @@ def ros_domain(monkeypatch: pytest.MonkeyPatch) -> int:
     monkeypatch.setenv('ROS_DOMAIN_ID', str(domain))
     monkeypatch.setenv('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
     return domain
+
+
+@pytest.fixture(autouse=True)
+def core_restored() -> Iterator[None]:
+    """The physics core this test found (``models.compiled.core``) is the one the next test
+    finds: a test that switches to the reference (``compiled.use``, a node whose wall ticks
+    pin it) does not leave the rest of its worker on it."""
+    before = compiled.core()
+    yield
+    if compiled.core() != before:
+        compiled.use(before)

@@ -58,12 +58,11 @@ if TYPE_CHECKING:
 else:
     Array = Values = Slots = Any
 
-__all__ = ['available', 'enabled', 'wanted', 'LOAD_AT', 'use', 'start_loading', 'cache_dir',
-           'zoh_run', 'solve_mckibben', 'replay_drive', 'McKibbenRecord', 'DriveRecord',
-           'Prep', 'PHI', 'W', 'INTEGRAL', 'FORCE', 'ENCODER', 'CONTRACTION', 'TORQUE',
-           'SATURATED', 'STATE_SIZE', 'softplus', 'backbone', 'MODE_OFF', 'MODE_FORCE',
-           'MODE_POSITION', 'OK',
-           'BAD_POSITION', 'warm_up']
+__all__ = ['available', 'enabled', 'core', 'wanted', 'LOAD_AT', 'use', 'start_loading',
+           'cache_dir', 'zoh_run', 'solve_mckibben', 'replay_drive', 'McKibbenRecord',
+           'DriveRecord', 'Prep', 'PHI', 'W', 'INTEGRAL', 'FORCE', 'ENCODER', 'CONTRACTION',
+           'TORQUE', 'SATURATED', 'STATE_SIZE', 'softplus', 'backbone', 'MODE_OFF', 'MODE_FORCE',
+           'MODE_POSITION', 'OK', 'BAD_POSITION', 'warm_up']
 
 
 def cache_dir() -> pathlib.Path:
@@ -95,6 +94,14 @@ def enabled() -> bool:
     (``start_loading``: numba's import and its cache take about half a second) the reference
     runs; the two are bit-equal, so a run does not depend on when the switch happens."""
     return _WANTED and _READY.is_set()
+
+
+def core() -> str:
+    """The core asked for, loaded or not: 'compiled' (the default) or 'python' (``use``, or
+    ``PAM_BENCH_CORE=python``). ``enabled`` says whether it runs yet: what a caller that
+    switches the core for a while must restore is this, not ``enabled``, or a switch made
+    before the kernels have loaded would leave the process on the reference for good."""
+    return 'compiled' if _WANTED else 'python'
 
 
 def use(core: str) -> None:

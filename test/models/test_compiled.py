@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-from collections.abc import Iterator
 
 import numpy as np
 import pytest
@@ -19,13 +18,6 @@ from pam_bench.models.coupling import SETTLE_OFF, SettleParams, solve_substeps, 
 from pam_bench.models.loading_servo import LoadingServoModel, LoadingServoParams, LoadMode
 from pam_bench.models.muscle import MuscleModel, MuscleParams
 from pam_bench.models.valve import ValveModel, ValveParams
-
-
-@pytest.fixture(autouse=True)
-def restore_core() -> Iterator[None]:
-    before = compiled.enabled()
-    yield
-    compiled.use('compiled' if before else 'python')
 
 
 def _both(fn):  # run fn() under each core on fresh copies; return (python, compiled)
@@ -152,6 +144,21 @@ def test_a_non_finite_pressure_is_one_error_in_both() -> None:
         with pytest.raises(ModelError, match='not finite'):
             solve_substeps(MuscleModel(), _drive(LoadMode.OFF, 0.0), [0.005, 0.005],
                            [1e5, float('nan')], 0.0)
+
+
+def test_the_core_asked_for_is_known_before_it_loads(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``core`` is what was asked, ``enabled`` whether it runs yet: before the kernels load,
+    the reference runs, yet the core to restore after a switch is still 'compiled'."""
+    import threading
+    compiled.use('compiled')
+    monkeypatch.setattr(compiled, '_READY', threading.Event())     # not loaded yet
+    assert not compiled.enabled()
+    assert compiled.core() == 'compiled'
+    monkeypatch.undo()
+    compiled.use('python')
+    assert compiled.core() == 'python' and not compiled.enabled()
+    compiled.use('compiled')
+    assert compiled.core() == 'compiled' and compiled.enabled()
 
 
 def test_the_cache_lives_where_the_install_can_write() -> None:

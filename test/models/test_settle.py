@@ -4,7 +4,6 @@ solved, on both cores, and the drive replay the loading-servo node does."""
 from __future__ import annotations
 
 import copy
-from collections.abc import Iterator
 
 import numpy as np
 import pytest
@@ -14,13 +13,6 @@ from pam_bench.models.coupling import SETTLE_OFF, SettleParams, solve_substeps
 from pam_bench.models.loading_servo import LoadingServoModel, LoadingServoParams, LoadMode
 from pam_bench.models.muscle import MuscleModel
 from pam_bench.models.valve import ValveModel
-
-
-@pytest.fixture(autouse=True)
-def restore_core() -> Iterator[None]:
-    before = compiled.enabled()
-    yield
-    compiled.use('compiled' if before else 'python')
 
 
 def _dwell(mode: LoadMode, sp: float, voltage_v: float, n: int = 600, dynamics: bool = True
