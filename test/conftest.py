@@ -1,4 +1,5 @@
-"""Every test that touches DDS runs on loopback in a domain of its own."""
+"""Every test that touches DDS runs on loopback in a domain of its own, and finds the physics
+core the one before it found."""
 
 from __future__ import annotations
 

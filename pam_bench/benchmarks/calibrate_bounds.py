@@ -205,12 +205,13 @@ def measure(quick: bool, cluster: dict[str, Any] | None = None) -> dict[str, Any
             refused -= 1
     # the tries as a lab runs `pam-bench calibrate`: alone, the Jacobian on the cluster
     with connect(**(cluster or {})) as client:
+        mapper = map_on(client)
         for job in tries:
             try:
-                rows.append(_fit_set(job, map_on(client)))
+                rows.append(_fit_set(job, mapper))
             except PamBenchError as exc:
                 rows.append({'set': job[0], 'refused': str(exc)})
-        straight = None if quick else _straight_fibre_try(map_on(client))
+        straight = None if quick else _straight_fibre_try(mapper)
     out = {'sets': rows, 'tolerance': TOLERANCE, 'draws': k}
     if straight is not None:
         out['straight_fibre'] = straight

@@ -58,10 +58,11 @@ def test_a_client_during_a_run_gets_the_bags_messages(tmp_path: pathlib.Path,
     for topic, t_ns, data in client.messages:
         got.setdefault(topic, []).append((t_ns, data))
     from pam_bench.runtime.messages import stamp_of_cdr
+    bag = _by_source(recorded)
     for (topic, source), msgs in _by_source(got).items():
         in_bag: dict[int, set[bytes]] = {}      # several nodes may stamp a topic alike
-        for _, raw in _by_source(recorded).get((topic, source), []):   # (devices ticked
-            in_bag.setdefault(stamp_of_cdr(raw), set()).add(bytes(raw))  # together)
+        for _, raw in bag.get((topic, source), []):   # (devices ticked together)
+            in_bag.setdefault(stamp_of_cdr(raw), set()).add(bytes(raw))
         if not in_bag:          # an event sent only before the recorder started
             continue
         first, last = min(in_bag), max(in_bag)
