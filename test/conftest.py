@@ -1,10 +1,12 @@
 """Every test that touches DDS runs on loopback in a domain of its own, and finds the physics
-core the one before it found."""
+core the one before it found; one demo bag per worker for the tests that read a bag."""
 
 from __future__ import annotations
 
 import itertools
 import os
+import pathlib
+import shutil
 from collections.abc import Iterator
 
 import pytest
@@ -56,3 +58,20 @@ def core_restored() -> Iterator[None]:
     yield
     if compiled.core() != before:
         compiled.use(before)
+
+
+@pytest.fixture(scope='session')
+def demo_bag(tmp_path_factory: pytest.TempPathFactory) -> pathlib.Path:
+    """A bag of the demo scene, recorded once; tests read it and never change it."""
+    os.environ['ROS_DOMAIN_ID'] = str(next_domain())
+    bag = tmp_path_factory.mktemp('demo') / 'demo_bag'
+    from test.cli.helpers import cli
+    code, out, err = cli('run', 'demo', '--out', bag)
+    assert code == 0, out + err
+    return bag
+
+
+@pytest.fixture
+def bag_copy(demo_bag: pathlib.Path, tmp_path: pathlib.Path) -> pathlib.Path:
+    """A copy of the demo bag this test may change, at ``tmp_path / 'bag'``."""
+    return pathlib.Path(shutil.copytree(demo_bag, tmp_path / 'bag'))

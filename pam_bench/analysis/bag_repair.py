@@ -10,12 +10,20 @@ the middle of a chunk or after the last closed one.
 checks its CRC. A bag whose metadata opens and whose every chunk is whole is valid: nothing to
 do. Otherwise every file that is torn (no footer), damaged (a chunk that does not decompress or
 fails its CRC) or not listed is rebuilt from the records it can read, in order (same topics,
-types, log times and payloads), its original moved to ``NAME.broken/`` (a new folder
-beside the bag, never one that was there); files that are whole stay as they are. The new
+types, log times and payloads); files that are whole are kept as they are. The new
 metadata.yaml lists every file, and keeps the run's description (``pam_bench.run``, ``.end``):
 from ``.closed_parts.json``, the old metadata.yaml, or the MCAP files' own rosbag2 metadata
 records. The old metadata.yaml stays beside it as ``metadata.yaml.before-repair``. The report
 says what was kept per topic and what was dropped (chunks, bytes).
+
+A repair is atomic: it builds the repaired bag in a stage folder beside the bag
+(``.NAME.repair-PID``) and swaps the two folders in one step at the end, so the original bag,
+whole, ends in ``NAME.broken/`` (a new folder, never one that was there). Interrupted or failed
+at any moment (a signal, a full disk, a file-size limit) the bag is the original or the
+repaired one, and the next repair finishes what the last left. It refuses a bag whose recorder
+still writes it (the writer's lock, ``splitwriter.bag_in_use``), and what is not a ROS 2 bag
+(an unknown rosbag2 version, a channel that is not CDR, a schema that is not a ROS 2 message
+definition).
 """
 
 from __future__ import annotations
@@ -35,7 +43,7 @@ from pam_bench.analysis.splitwriter import (
     write_metadata,
 )
 from pam_bench.analysis.types import bench_typestore
-from pam_bench.vocabulary.outputs import claim_output, note_output_file, seal_output
+from pam_bench.vocabulary.outputs import claim_output, seal_output
 
 __all__ = ['RepairReport', 'FileScan', 'scan_file', 'repair_bag', 'OLD_METADATA']
 
@@ -234,15 +242,118 @@ def _fresh(path: pathlib.Path) -> pathlib.Path:
     raise BagError(f'{path}: no free name for its .broken folder')
 
 
+STAGE_MARK = '.repair_stage'
+"""In a repair's stage folder until the swap is done (``_recover`` tells stages from
+originals by it)."""
+SUPPORTED_VERSIONS = range(1, 10)
+"""The rosbag2 metadata versions a repair knows (rosbags reads 1 to 9)."""
+ROS2_ENCODINGS = ({'cdr'}, {'ros2msg', 'ros2idl'})
+"""Message and schema encodings of a ROS 2 bag."""
+
+
+def _stages(path: pathlib.Path) -> list[pathlib.Path]:
+    """Stage folders of earlier repairs of ``path`` (``.NAME.repair-*`` beside it)."""
+    return sorted(path.parent.glob(f'.{path.name}.repair-*'))
+
+
+def _recover(path: pathlib.Path) -> None:
+    """Finish what an interrupted repair of ``path`` left: after its swap, the originals still
+    under the stage's name go to a ``.broken`` folder; before it, the stage is dropped (it
+    holds links to the originals and rebuilt copies, nothing else)."""
+    swapped = (path / STAGE_MARK).exists()
+    for stage in _stages(path):
+        if (stage / STAGE_MARK).exists() and not swapped:
+            shutil.rmtree(stage, ignore_errors=True)
+        elif not (stage / STAGE_MARK).exists():
+            _keep_originals(stage, _fresh(path))
+    (path / STAGE_MARK).unlink(missing_ok=True)
+
+
+def _keep_originals(folder: pathlib.Path, broken: pathlib.Path) -> None:
+    """Name the originals' folder ``broken`` and mark it as the repair's (so no verb's
+    ``--overwrite`` takes it for a bag of its own)."""
+    from pam_bench.vocabulary.outputs import MARKER
+    folder.rename(broken)
+    (broken / MARKER).unlink(missing_ok=True)
+    seal_output(broken, _VERB)
+
+
+def _exchange(a: pathlib.Path, b: pathlib.Path) -> None:
+    """Swap the folders ``a`` and ``b`` in one step (Linux ``renameat2`` with
+    ``RENAME_EXCHANGE``); where the system cannot, ``b`` moves to ``a``'s name after ``a``
+    moved aside (a moment in which ``b``'s name is free)."""
+    import ctypes
+    import os
+    libc = ctypes.CDLL(None, use_errno=True)
+    fn = getattr(libc, 'renameat2', None)
+    if fn is not None:
+        at_fdcwd, rename_exchange = -100, 2
+        if fn(at_fdcwd, os.fsencode(a), at_fdcwd, os.fsencode(b), rename_exchange) == 0:
+            return
+    aside = a.with_name(a.name + '.aside')
+    b.rename(aside)
+    a.rename(b)
+    aside.rename(a)
+
+
+def _check_ros2(path: pathlib.Path, info: dict[str, Any],
+                scans: dict[pathlib.Path, FileScan]) -> None:
+    """Refuse what is not a ROS 2 bag: an unknown metadata version, a channel that is not CDR
+    or a schema that is not a ROS 2 message definition.
+
+    Raises:
+        BagError: one line naming what is foreign.
+    """
+    from mcap.records import Channel, Schema
+    version = info.get('version')
+    if info and (not isinstance(version, int) or version not in SUPPORTED_VERSIONS):
+        raise BagError(f'{path}: metadata.yaml says rosbag2 version {version!r}; bag-repair '
+                       f'knows versions {SUPPORTED_VERSIONS.start} to '
+                       f'{SUPPORTED_VERSIONS.stop - 1}: not repaired')
+    for f, scan in scans.items():
+        for r in scan.records:
+            if isinstance(r, Channel) and r.message_encoding not in ROS2_ENCODINGS[0]:
+                raise BagError(f'{path}: not a ROS 2 bag: {f.name} holds {r.topic} encoded as '
+                               f'{r.message_encoding!r}, not CDR; bag-repair repairs rosbag2 '
+                               'MCAP bags')
+            if isinstance(r, Schema) and r.encoding not in ROS2_ENCODINGS[1]:
+                raise BagError(f'{path}: not a ROS 2 bag: {f.name} holds the schema {r.name!r} '
+                               f'as {r.encoding!r}, not a ROS 2 message definition; '
+                               'bag-repair repairs rosbag2 MCAP bags')
+
+
 def repair_bag(path: str | pathlib.Path) -> RepairReport:
     """Check the bag ``path`` through and rebuild what is torn or damaged (module docstring).
 
+    The repaired bag is built in a stage folder beside the bag (whole files linked, torn ones
+    rebuilt, the new metadata), then swapped with the bag in one step; the originals, whole,
+    end in a new ``.broken`` folder. Interrupted or failed at any moment, the bag is the
+    original or the repaired one, and the next repair finishes the job. A bag whose recorder
+    still writes it is refused.
+
     Raises:
-        BagError: not a bag folder, or nothing readable in it.
+        BagError: not a bag folder, being written, not a ROS 2 bag, or nothing readable in it.
     """
-    path = pathlib.Path(path)
+    from pam_bench.analysis.splitwriter import lock_bag
+    given = pathlib.Path(path)
+    path = given.resolve()
     if not path.is_dir():
-        raise BagError(f'{path}: no such bag folder')
+        raise BagError(f'{given}: no such bag folder')
+    lock = lock_bag(path)
+    if lock is None:
+        raise BagError(f'{given}: being written (its recorder is running) or repaired by '
+                       'another bag-repair: repair it once that has ended')
+    try:
+        _recover(path)
+        return _repair(path, given)
+    finally:
+        import os
+        os.close(lock)
+
+
+def _repair(path: pathlib.Path, given: pathlib.Path) -> RepairReport:
+    """``repair_bag`` on a bag this process holds."""
+    import os
     info = _old_info(path)
     listed = [str(n) for n in info.get('relative_file_paths') or []]
     closed, custom = read_closed(path)
@@ -252,27 +363,56 @@ def repair_bag(path: str | pathlib.Path) -> RepairReport:
                    f.parent.name[len(PART_PREFIX):].isdigit() else 0)
     files = sorted(path.glob('*.mcap'))
     if not files and not parts:
-        raise BagError(f'{path}: no .mcap file to repair')
+        raise BagError(f'{given}: no .mcap file to repair')
     scans = {f: scan_file(f) for f in [*files, *parts]}
+    _check_ros2(given, info, scans)
     meta_ok = bool(info) and set(listed) == {f.name for f in files} and not parts
     if meta_ok and all(s.whole for s in scans.values()):
         return RepairReport(False, _counts(scans), 0, None)
     for s in scans.values():
         custom = {**_custom_of(s.metadata_yaml), **custom}
     custom = {**(info.get('custom_data') or {}), **custom}
-    kept: dict[str, int] = {}
-    new_parts: list[dict[str, Any]] = []
-    broken: pathlib.Path | None = None
-    lost = bad = 0
-    rebuilt: list[str] = []
     order = [f for f in files if f.name in closed_names or f.name in listed]
     order += [f for f in files if f not in order] + parts
+    from mcap.records import Message
+    if not any(isinstance(r, Message) for f in order for r in scans[f].records):
+        raise BagError(f'{given}: no complete message in {", ".join(f.name for f in order)}: '
+                       'nothing to rebuild, nothing changed')
+    stage = path.with_name(f'.{path.name}.repair-{os.getpid()}')
+    shutil.rmtree(stage, ignore_errors=True)
+    stage.mkdir()
+    try:
+        claim_output(stage, _bag_verb(path), bag=True)
+        (stage / STAGE_MARK).write_text(str(path), encoding='utf-8')
+        report = _build(path, stage, order, scans, closed, closed_names, listed, info, custom)
+        _exchange(stage, path)            # the bag is the repaired one from here on
+    except BaseException:
+        shutil.rmtree(stage, ignore_errors=True)
+        raise
+    (path / STAGE_MARK).unlink(missing_ok=True)
+    broken = _fresh(path)
+    _keep_originals(stage, broken)
+    return dataclasses.replace(report, broken_copy=broken)
+
+
+def _build(path: pathlib.Path, stage: pathlib.Path, order: list[pathlib.Path],
+           scans: dict[pathlib.Path, FileScan], closed: list[dict[str, Any]],
+           closed_names: set[str], listed: list[str], info: dict[str, Any],
+           custom: dict[str, str]) -> RepairReport:
+    """The repaired bag of ``path`` in ``stage``: whole files linked, the others rebuilt, the
+    other files of the folder (statistics) linked, the new metadata and the old beside it."""
+    from pam_bench.vocabulary.outputs import MARKER
+    kept: dict[str, int] = {}
+    new_parts: list[dict[str, Any]] = []
+    lost = bad = 0
+    rebuilt: list[str] = []
     single = len(order) == 1
     for f in order:
         scan = scans[f]
         if f.parent == path and scan.whole and (f.name in closed_names or f.name in listed):
             part = next((p for p in closed if any(x['path'] == f.name for x in p['files'])),
                         None) or _intact_part(f.name, scan, info)
+            _link(f, stage / f.name)
             new_parts.append(part)
             for t in part['topics_with_message_count']:
                 name = t['topic_metadata']['name']
@@ -280,38 +420,47 @@ def repair_bag(path: str | pathlib.Path) -> RepairReport:
             continue
         lost += scan.size - scan.good_bytes
         bad += scan.bad_chunks
-        if broken is None:
-            broken = _fresh(path)
-            claim_output(broken, _VERB)
-        keep = broken / (f'{f.parent.name}.mcap' if f.parent != path else f.name)
-        shutil.move(str(f), keep)
-        if f.parent != path:
-            shutil.rmtree(f.parent)
         rebuilt.append(f.name)
         from mcap.records import Message
         if not any(isinstance(r, Message) for r in scan.records):
             continue
-        tmp = path / '.repairing'
-        shutil.rmtree(tmp, ignore_errors=True)
+        tmp = stage / '.rebuilding'
         meta = _rebuild(scan.records, tmp, kept)
         name = part_name(path, len(new_parts), single=single)
-        (tmp / f'{tmp.name}.mcap').replace(path / name)
+        (tmp / f'{tmp.name}.mcap').replace(stage / name)
         shutil.rmtree(tmp)
         for entry in meta['files']:
             entry['path'] = name
         meta['relative_file_paths'] = [name]
         new_parts.append(meta)
-    if broken is not None:
-        seal_output(broken)
-    if not any(p['message_count'] for p in new_parts):
-        raise BagError(f'{path}: no complete message in {", ".join(f.name for f in order)}')
+    skip = {MARKER, CLOSED, 'metadata.yaml', OLD_METADATA, *(f.name for f in order)}
+    for f in path.iterdir():             # what else the run kept there (wall_stats.json)
+        if f.is_file() and f.name not in skip and not f.name.startswith(PART_PREFIX):
+            _link(f, stage / f.name)
     if (path / 'metadata.yaml').exists():
-        (path / 'metadata.yaml').replace(path / OLD_METADATA)
-    write_metadata(path, new_parts, custom)
-    (path / CLOSED).unlink(missing_ok=True)
-    for name in ('metadata.yaml', OLD_METADATA, *(p['files'][0]['path'] for p in new_parts)):
-        note_output_file(path, name)
-    return RepairReport(True, kept, lost, broken, bad, tuple(rebuilt))
+        shutil.copyfile(path / 'metadata.yaml', stage / OLD_METADATA)
+    write_metadata(stage, new_parts, custom)
+    (stage / STAGE_MARK).unlink()         # the marker lists the bag's files, not this one
+    seal_output(stage)
+    (stage / STAGE_MARK).write_text(str(path), encoding='utf-8')
+    return RepairReport(True, kept, lost, None, bad, tuple(rebuilt))
+
+
+def _bag_verb(path: pathlib.Path) -> str:
+    """Who the repaired bag belongs to: the verb that recorded it (so that its ``run
+    --overwrite`` may replace it), else the repair."""
+    from pam_bench.vocabulary.outputs import BAG_VERBS, own_files
+    own = own_files(path)
+    return own[0] if own is not None and own[0] in BAG_VERBS else _VERB
+
+
+def _link(src: pathlib.Path, dst: pathlib.Path) -> None:
+    """``dst`` as a hard link to ``src`` (a copy where the file system has none)."""
+    import os
+    try:
+        os.link(src, dst)
+    except OSError:
+        shutil.copy2(src, dst)
 
 
 def _counts(scans: dict[pathlib.Path, FileScan]) -> dict[str, int]:

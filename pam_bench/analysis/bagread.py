@@ -79,6 +79,10 @@ def open_bag(path: pathlib.Path) -> Reader:
                        'metadata.yaml and the .mcap file)')
     if not (path / 'metadata.yaml').exists():
         if any(path.glob('*.mcap')) or any(path.glob('.part_*/*.mcap')):
+            from pam_bench.analysis.splitwriter import bag_in_use
+            if bag_in_use(path):
+                raise BagError(f'{path}: being written (its recorder is running): read it '
+                               'once the run has ended')
             raise BagError(f'{path}: never closed (its recorder was killed?): run '
                            f'pam-bench bag-repair {path}')
         raise BagError(f'{path}: no metadata.yaml, not a rosbag2 bag')

@@ -12,6 +12,10 @@ A disk that fills is met before it is full: every ``CHECK_EVERY`` writes the fre
 read, and below ``min_free_bytes`` ``write`` raises ``DiskFull`` without writing, so the bag
 can still be closed valid with what it holds (its summary and metadata need a little room).
 
+While it writes, the writer holds an exclusive ``flock`` on the bag folder (``bag_in_use``
+tells): ``bag-repair`` refuses a bag that is still being written, and ``info`` and ``extract``
+say so instead of calling it torn. The kernel drops the lock when the recorder dies.
+
 A recorder killed with SIGKILL leaves the closed files whole and the last one torn in its part
 folder, without metadata.yaml; ``analysis.bag_repair`` rebuilds the torn file from its complete
 chunks (at most ``flush``'s period is lost) and writes the metadata of all.
@@ -19,7 +23,9 @@ chunks (at most ``flush``'s period is lost) and writes the metadata of all.
 
 from __future__ import annotations
 
+import contextlib
 import errno
+import fcntl
 import json
 import os
 import pathlib
@@ -34,8 +40,8 @@ import yaml
 from pam_bench.analysis.errors import DiskFull
 from pam_bench.vocabulary.outputs import claim_output, seal_output
 
-__all__ = ['SplitWriter', 'DiskFull', 'check_room', 'part_name', 'write_metadata', 'read_closed',
-           'PART_PREFIX', 'CLOSED']
+__all__ = ['SplitWriter', 'DiskFull', 'check_room', 'bag_in_use', 'lock_bag', 'part_name',
+           'write_metadata', 'read_closed', 'PART_PREFIX', 'CLOSED']
 
 PART_PREFIX = '.part_'
 CLOSED = '.closed_parts.json'
@@ -82,6 +88,32 @@ def check_room(path: pathlib.Path, min_free_bytes: int) -> None:
     if min_free_bytes and free < min_free_bytes:
         raise DiskFull(errno.ENOSPC, f'{free / 1e6:.0f} MB left on the disk of {path} (the '
                        f'recorder keeps {min_free_bytes / 1e6:.0f} MB free)')
+
+
+def lock_bag(path: pathlib.Path) -> int | None:
+    """An exclusive ``flock`` on the bag folder ``path`` (its descriptor; close it to let go),
+    or None when another process holds it (a recorder writing the bag, a repair)."""
+    fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError as exc:
+        os.close(fd)
+        if exc.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
+            return None
+        raise
+    return fd
+
+
+def bag_in_use(path: pathlib.Path) -> bool:
+    """Whether a live process (a recorder, a repair) holds the bag folder ``path``."""
+    try:
+        fd = lock_bag(path)
+    except OSError:
+        return False
+    if fd is None:
+        return True
+    os.close(fd)
+    return False
 
 
 def _dump(path: pathlib.Path, data: Any) -> None:
@@ -330,6 +362,7 @@ class SplitWriter:
         self._start_ns: int | None = None
         self._since_check = 0
         self.bytes_closed = 0                        # bytes of the closed files
+        self._lock: int | None = None                # the folder's flock while writing
 
     # --- the rosbags Writer's surface the recorder uses ------------------------------------
     def open(self) -> None:
@@ -341,6 +374,7 @@ class SplitWriter:
         check_room(self.path, self.min_free_bytes)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.path.mkdir()
+        self._lock = lock_bag(self.path)
         claim_output(self.path, self.VERB, bag=True)
         self._open_part()
         _dump(self.path / CLOSED, {'parts': self.parts, 'custom': self.custom})
@@ -405,10 +439,16 @@ class SplitWriter:
         """Close the last part and write the bag's metadata.yaml."""
         if self._writer is None:
             return
-        self._close_part(single=self._index == 0)
-        write_metadata(self.path, self.parts, self.custom)
-        (self.path / CLOSED).unlink(missing_ok=True)
-        seal_output(self.path)
+        try:
+            self._close_part(single=self._index == 0)
+            write_metadata(self.path, self.parts, self.custom)
+            (self.path / CLOSED).unlink(missing_ok=True)
+            seal_output(self.path)
+        finally:
+            if self._lock is not None:
+                with contextlib.suppress(OSError):
+                    os.close(self._lock)
+                self._lock = None
 
     # --- parts ---------------------------------------------------------------------------
     @property

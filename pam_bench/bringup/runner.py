@@ -3,7 +3,8 @@
 ``run_scene`` resolves the scene's settings (``config.scene.Scene.settings``), describes the run
 for the bag (``provenance``), and hands it to a layout: ``composed`` (every node in one
 process), ``processes`` (one process per node, or two hosts with ``netns``) or ``wallclock``
-(a real bench's layout on the wall clock). ``common`` is what they share.
+(a real bench's layout on the wall clock). ``common`` is what they share; ``domains`` keeps two
+runs in one ROS domain apart.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import tempfile
 import yaml
 
 from pam_bench.bringup.common import RunResult, ros_env, write_params_file
+from pam_bench.bringup.domains import private_domain, shared_domain, wanted_domain
 from pam_bench.bringup.errors import LayoutError
 from pam_bench.bringup.live import live_topics, live_view
 from pam_bench.config.scene import Scene, params_file
@@ -41,6 +43,8 @@ def run_scene(scene: Scene, out_dir: str, options: RunOptions | None = None) -> 
     Raises:
         LiveViewError: the live view cannot start (its port is taken).
         LayoutError: the scene and the options ask for a layout that cannot run.
+        DomainInUseError: a wall-clock run would start a node another run has in its domain
+            and namespace, or a lock-step run holds the domain.
     """
     o = options or RunOptions()
     layout = Layout.PROCESSES if o.netns and o.layout is Layout.COMPOSED else o.layout
@@ -76,17 +80,24 @@ def run_scene(scene: Scene, out_dir: str, options: RunOptions | None = None) -> 
             raise LayoutError('the live view runs on this host: drop --netns or --live')
         if not live.topics:
             live = dataclasses.replace(live, topics=live_topics(settings))
+    wanted = wanted_domain(o.domain_id)
+    # lock-step: the domain alone; wall clock: shared, its node names leased (bringup.domains)
+    if layout.lockstep:
+        lease = private_domain(wanted, o.quiet)
+    else:
+        from pam_bench.bringup.wallclock import wall_nodes
+        lease = shared_domain(wanted, o.namespace, wall_nodes(scene, o.devices_only, o.buses))
     try:
-        with live_view(live, o.domain_id, o.quiet, o.namespace):
+        with lease as domain, live_view(live, domain, o.quiet, o.namespace):
             if layout is Layout.WALL_CLOCK:
                 from pam_bench.bringup.wallclock import run_wallclock
-                return run_wallclock(scene, settings, o.domain_id, o.quiet,
+                return run_wallclock(scene, settings, domain, o.quiet,
                                      o.device_processes, o.devices_only, o.namespace, o.buses)
             if layout is Layout.COMPOSED:
                 from pam_bench.bringup.composed import run_composed
-                return run_composed(scene, settings, o.domain_id, o.quiet)
+                return run_composed(scene, settings, domain, o.quiet)
             from pam_bench.bringup.processes import run_processes
-            return run_processes(scene, settings, o.domain_id, o.quiet, o.netns)
+            return run_processes(scene, settings, domain, o.quiet, o.netns)
     finally:                # the end state is the recorder's to read, then nobody's
         end = settings['recorder'].end_file if 'recorder' in settings else ''
         if end:

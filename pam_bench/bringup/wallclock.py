@@ -47,7 +47,7 @@ from pam_bench.config.nodes import controllers, devices
 from pam_bench.config.scene import Scene
 from pam_bench.vocabulary.outputs import note_output_file
 
-__all__ = ['run_wallclock', 'wall_settings', 'STATS_FILE']
+__all__ = ['run_wallclock', 'wall_settings', 'wall_nodes', 'STATS_FILE']
 
 STATS_FILE = 'wall_stats.json'
 """In the bag folder: every node's publish counts and tick periods, and the recorder's counts
@@ -83,6 +83,16 @@ def wall_settings(scene: Scene, settings: dict[str, Any], stats_dir: str = ''
         settings['recorder'] = rep(rec, step_topics=[
             t for t in rec.step_topics if not t.startswith('/sim/')])
     return settings
+
+
+def wall_nodes(scene: Scene, devices_only: bool = False, buses: str = '') -> list[str]:
+    """The ROS nodes a wall-clock run of ``scene`` starts: the recorder, the devices (the
+    drivers with ``buses``) and the controllers; only the devices with ``devices_only``."""
+    from pam_bench.bringup.buses import DRIVERS
+    names = list(DRIVERS) if buses else devices(scene.nodes)
+    if devices_only:
+        return names
+    return ['recorder'] * ('recorder' in scene.nodes) + names + controllers(scene.nodes)
 
 
 def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None, quiet: bool,

@@ -17,6 +17,7 @@ from pam_bench.vocabulary.outputs import (
     claim_output,
     clear_output,
     own_files,
+    resolved,
     seal_output,
     staged_output,
 )
@@ -124,10 +125,10 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         path = config_dir() / 'sweeps' / f'{args.sweep}.yaml'
     sweep = load_sweep(path)
     cluster = cluster_of(args)
-    out = pathlib.Path(args.out)
+    out = resolved(args.out)
     mine = own_files(out) if out.is_dir() else None
     again = mine is not None and mine[0] == SWEEP_VERB and not args.overwrite
-    check_output(out, SWEEP_VERB, args.overwrite or again, [path])
+    out = check_output(out, SWEEP_VERB, args.overwrite or again, [path])
     if not again:
         clear_output(out)
     claim_output(out, SWEEP_VERB)

@@ -9,7 +9,7 @@ import sys
 from typing import NoReturn
 
 from pam_bench.cli import bags, bench, design, fit, plugins, run
-from pam_bench.cli.errors import exit_code
+from pam_bench.cli.errors import Terminated, exit_code
 
 __all__ = ['main', 'parser', 'GROUPS']
 
@@ -17,8 +17,14 @@ GROUPS = (run, bags, fit, design, bench, plugins)
 """The verb groups, each registering its own parsers (``register``)."""
 
 
+_received: list[int] = []
+"""The stop signals this process got (a verb that caught the interrupt still exits 143 on
+SIGTERM)."""
+
+
 def _raise_interrupt(signum: int, frame: object) -> None:
-    raise KeyboardInterrupt
+    _received.append(signum)
+    raise Terminated
 
 
 class _Parser(argparse.ArgumentParser):
@@ -50,9 +56,10 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, _raise_interrupt)
     args = parser().parse_args(argv)
     try:
-        return int(args.func(args))
+        code = int(args.func(args))
     except (KeyboardInterrupt, BrokenPipeError, Exception) as exc:  # noqa: BLE001 - mapped
-        return exit_code(exc)
+        code = exit_code(exc)
+    return 143 if code == 130 and signal.SIGTERM in _received else code
 
 
 if __name__ == '__main__':

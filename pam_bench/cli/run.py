@@ -327,9 +327,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if args.buses:
         from pam_bench.buses.register_map import load_register_map
         load_register_map(args.buses)           # a bad map: one line, before anything
-    out = pathlib.Path(args.out or f'bags/{scene.name}')
+    out = pathlib.Path(args.out if args.out is not None else f'bags/{scene.name}')
     inputs = [p for p in (args.resume, args.replay, args.params) if p]
-    check_output(out, 'pam-bench run', args.overwrite, inputs, bag=True)
+    real = check_output(out, 'pam-bench run', args.overwrite, inputs, bag=True)
     if args.resume:
         start, total = _resume_start(scene, args.resume)
         if start >= total:
@@ -337,9 +337,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
             return 0
         scene.set('sequencer.resume_from_reading', start)
     rec = scene.settings().get('recorder')
-    check_room(out, int(rec.min_free_bytes) if rec is not None else 0)
+    check_room(real, int(rec.min_free_bytes) if rec is not None else 0)
     # every check has passed: nothing was written or removed before this line
-    clear_output(out)
+    clear_output(real)
     if args.resume:
         print(f'resuming {scene.protocol} at reading {start} of {total} (the first one '
               f'{args.resume} lacks)')
@@ -348,7 +348,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     try:
         layout = (Layout.WALL_CLOCK if args.wallclock else Layout.PROCESSES if args.processes
                   else Layout.COMPOSED)
-        res = run_scene(scene, str(out), RunOptions(
+        res = run_scene(scene, str(real), RunOptions(
             seed=args.seed, layout=layout, realtime=args.realtime,
             device_processes=args.device_processes, settings=settings,
             netns=tuple(args.netns.split(':', 1)) if args.netns else None,

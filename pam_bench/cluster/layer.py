@@ -167,15 +167,18 @@ class _Progress:
 def run_jobs(fn: Callable[[Any], Any], items: Sequence[Any], client: Any = None,
              label: str = 'jobs', ros: bool = False, quiet: bool = False,
              scheduler: str | None = None, workers: int | None = None,
-             tls: TlsFiles | None = None) -> list[JobResult]:
+             tls: TlsFiles | None = None,
+             on_result: Callable[[JobResult], None] | None = None) -> list[JobResult]:
     """``fn(item)`` for every item on the cluster (``client``, else ``connect``'s), results
-    in the items' order (module docstring). ``fn`` must be importable by the workers (a
-    module-level function) and its items and values picklable."""
+    in the items' order (module docstring); ``on_result`` is called with each result as its
+    job ends (a sweep keeps what it finished, however it is stopped). ``fn`` must be
+    importable by the workers (a module-level function) and its items and values
+    picklable."""
     if not items:
         return []
     if client is None:
         with connect(scheduler, workers, tls) as c:
-            return run_jobs(fn, items, c, label, ros, quiet)
+            return run_jobs(fn, items, c, label, ros, quiet, on_result=on_result)
     from distributed import as_completed
     progress = _Progress(label, len(items), quiet)
     futures = [client.submit(_job, fn, item, ros, pure=False) for item in items]
@@ -188,7 +191,9 @@ def run_jobs(fn: Callable[[Any], Any], items: Sequence[Any], client: Any = None,
         except Exception as exc:  # noqa: BLE001 - a job the cluster itself lost
             ok, value, error, seconds, where = False, None, f'{type(exc).__name__}: {exc}', \
                 0.0, ''
-        out[i] = JobResult(items[i], ok, value, error, seconds, where)
+        result = out[i] = JobResult(items[i], ok, value, error, seconds, where)
+        if on_result is not None:
+            on_result(result)
         progress.update(ok)
     return [r for r in out if r is not None]
 

@@ -12,6 +12,10 @@ once all have acknowledged it the clock writes its ``RunSummary`` as JSON to ``s
 (when set), prints it as one line and exits with the run's exit code. The rules (step
 negotiation, flush tick, stop request, states) are ``sim.lockstep``. With ``realtime`` the
 ticks are paced to the wall clock.
+
+A second publisher of ``/clock`` in its domain (another run, a node started by hand) ends the
+run at once, exit code 4, naming it: ``bringup.domains`` keeps pam_bench's own runs apart, and
+this catches the rest.
 """
 
 from __future__ import annotations
@@ -44,6 +48,8 @@ from pam_bench.sim.lockstep import (
 __all__ = ['SimClock', 'windowed_rate', 'eta_text', 'ETA_WINDOW_S', 'main']
 
 ETA_WINDOW_S = 30.0      # s of wall time the ETA's rate is taken over
+GRAPH_CHECK_S = 1.0      # s of wall time between two looks for a foreign /clock publisher
+FOREIGN_CODE = 4         # exit code of a run that met another run's clock in its domain
 
 
 def windowed_rate(history: collections.deque[tuple[float, float]], wall_s: float,
@@ -107,6 +113,7 @@ class SimClock(BenchNode):
         self.rate_history: collections.deque[tuple[float, float]] = collections.deque()
         self.last_tick_wall = time.monotonic()
         self.ready_at: float | None = None    # wall time when all were ready (lean mode)
+        self.last_graph_check = 0.0
         self.lean = (os.environ.get('PAM_BENCH_EXECUTOR') != 'single') if lean is None else lean
         if not self.lean:
             self.timer = self.create_timer(0.05, self._on_timer)
@@ -128,6 +135,7 @@ class SimClock(BenchNode):
     def lean_poll(self) -> None:
         """What the timers do, called by ``lean_spin`` at every wake-up (>= every 50 ms)."""
         now = time.monotonic()
+        self._check_foreign(now)
         if self.ready_at is not None:
             if self.state == ClockState.GRACE and now - self.ready_at >= self.settings.grace_s:
                 self.t_run0 = now
@@ -144,8 +152,22 @@ class SimClock(BenchNode):
         self.nudges = 0
         self.pub.publish(Clock(clock=time_of(self.tick_ns)))
 
+    def _check_foreign(self, now: float) -> None:
+        """Once a second: end the run when another node publishes ``/clock`` here."""
+        if now - self.last_graph_check < GRAPH_CHECK_S or self.done:
+            return
+        self.last_graph_check = now
+        if self.count_publishers(topics.CLOCK) <= 1:
+            return
+        others = sorted({f'{i.node_namespace.rstrip("/")}/{i.node_name}'
+                         for i in self.get_publishers_info_by_topic(topics.CLOCK)})
+        self._abort(f'another node publishes {topics.CLOCK} in ROS_DOMAIN_ID '
+                    f'{os.environ.get("ROS_DOMAIN_ID", "0")} (publishers: {", ".join(others)}):'
+                    ' another run shares this domain; this run stops', FOREIGN_CODE)
+
     def _on_timer(self) -> None:
         now = time.monotonic()
+        self._check_foreign(now)
         if self.state == ClockState.WAITING:
             if self.acks >= self.participants:
                 self.state = ClockState.GRACE
@@ -177,15 +199,18 @@ class SimClock(BenchNode):
 
     def _stall(self) -> None:
         """A participant did not acknowledge in time: publish why, end the run."""
-        reason = (f'lock-step stalled at t = {self.tick_ns * 1e-9:.3f} s: no '
-                  f'acknowledgement from {", ".join(sorted(self.participants - self.acks))}'
-                  f' within {self.settings.stall_timeout_s:g} s (node dead or hung)')
+        self._abort(f'lock-step stalled at t = {self.tick_ns * 1e-9:.3f} s: no '
+                    f'acknowledgement from {", ".join(sorted(self.participants - self.acks))}'
+                    f' within {self.settings.stall_timeout_s:g} s (node dead or hung)', 3)
+
+    def _abort(self, reason: str, code: int) -> None:
+        """Publish ``reason`` as an aborted status (the bag holds it), end the run."""
         status = ProtocolStatus(state=ProtocolStatus.STATE_ABORTED, phase='aborted',
                                 reason=reason)
         status.header.stamp = time_of(self.tick_ns)
         self.status_pub.publish(status)
         time.sleep(0.2)                 # let the recorder take the status in
-        self._finish(reason, 3)
+        self._finish(reason, code)
 
     def _start(self) -> None:
         self.timer.cancel()

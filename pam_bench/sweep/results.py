@@ -2,11 +2,11 @@
 
 ``results.csv`` has one row per job, in the sweep's job order: its id, scene, seed, the values
 it sets, its figures, its status (``ok``, ``no figure: ...`` naming the figures the run did not
-give, or the one-line error) and its wall time. A rerun reads the file, skips every job that
-ran and writes the whole file again, so an
-interrupted sweep goes on where it stopped; apart from the time column the file does not
-depend on how many workers ran it, or where. Plots: each figure against the one varied
-setting (the seeds' mean and spread), or as a heat map over two (the seeds' mean).
+give, or the one-line error) and its wall time. It is written whole again as each job ends,
+so an interrupted sweep keeps every job it finished; a rerun reads it and skips them. Apart
+from the time column the file does not depend on how many workers ran it, or where. Plots:
+each figure against the one varied setting (the seeds' mean and spread), or as a heat map over
+two (the seeds' mean).
 """
 
 from __future__ import annotations
@@ -67,9 +67,10 @@ def read_results(path: pathlib.Path) -> dict[str, dict[str, str]]:
 
 def run_sweep(sweep: Sweep, out: pathlib.Path, cluster: dict[str, Any] | None = None
               ) -> list[dict[str, Any]]:
-    """Run the jobs ``out/results.csv`` does not hold as done; write it whole; return the
-    rows (module docstring). A failed job is a row with its error; the others complete."""
-    from pam_bench.cluster.layer import run_jobs
+    """Run the jobs ``out/results.csv`` does not hold as done, writing the file whole again
+    as each job ends (an interrupted sweep keeps every job it finished); return the rows
+    (module docstring). A failed job is a row with its error; the others complete."""
+    from pam_bench.cluster.layer import JobResult, run_jobs
     out.mkdir(parents=True, exist_ok=True)
     path = out / RESULTS
     cols = _columns(sweep)
@@ -78,30 +79,50 @@ def run_sweep(sweep: Sweep, out: pathlib.Path, cluster: dict[str, Any] | None = 
     todo = [j for j in jobs if not _finished(old.get(j.id, {}).get('status', '')) or
             any(c not in old[j.id] for c in cols)]
     done: dict[str, dict[str, Any]] = {}
+
+    def rows() -> list[dict[str, Any]]:
+        """Every job that ran, now or before, in the sweep's order."""
+        out_rows = []
+        for j in jobs:
+            row: dict[str, Any] = {'job': j.id, 'scene': j.scene, 'seed': j.seed,
+                                   **dict(j.values)}
+            if j.id in done:
+                row.update(done[j.id])
+            elif j.id in old and all(c in old[j.id] for c in cols):
+                row.update({c: old[j.id][c] for c in (*sweep.figures, 'status', 'seconds')})
+            else:
+                continue                       # not run yet: no row
+            out_rows.append(row)
+        return out_rows
+
+    def keep(r: JobResult) -> None:
+        job: Job = r.item[0]
+        figs = r.value if r.ok else {f: math.nan for f in sweep.figures}
+        done[job.id] = {**figs, 'status': _status(r.ok, r.error, figs),
+                        'seconds': round(r.seconds, 3)}
+        _write(path, cols, rows())
+
     if todo:
         tasks = [(j, sweep.engine, sweep.figures, sweep.duration_s) for j in todo]
-        for r in run_jobs(run_job, tasks, label=f'sweep {sweep.name}',
-                          ros=sweep.engine == 'ros', **(cluster or {})):
-            job: Job = r.item[0]
-            figs = r.value if r.ok else {f: math.nan for f in sweep.figures}
-            done[job.id] = {**figs, 'status': _status(r.ok, r.error, figs),
-                            'seconds': round(r.seconds, 3)}
-    rows = []
-    for j in jobs:
-        row: dict[str, Any] = {'job': j.id, 'scene': j.scene, 'seed': j.seed, **dict(j.values)}
-        if j.id in done:
-            row.update(done[j.id])
-        else:
-            row.update({c: old[j.id][c] for c in (*sweep.figures, 'status', 'seconds')})
-        rows.append(row)
+        run_jobs(run_job, tasks, label=f'sweep {sweep.name}', ros=sweep.engine == 'ros',
+                 on_result=keep, **(cluster or {}))
+    final = rows()
+    _write(path, cols, final)
+    return final
+
+
+def _write(path: pathlib.Path, cols: list[str], rows: list[dict[str, Any]]) -> None:
+    """``results.csv`` written whole, atomically (a file beside it, then renamed)."""
     tmp = path.with_suffix('.csv.part')
-    with open(tmp, 'w', newline='', encoding='utf-8') as fh:
-        w = csv.writer(fh)
-        w.writerow(cols)
-        for row in rows:
-            w.writerow([_fmt(row.get(c, '')) for c in cols])
-    tmp.replace(path)
-    return rows
+    try:
+        with open(tmp, 'w', newline='', encoding='utf-8') as fh:
+            w = csv.writer(fh)
+            w.writerow(cols)
+            for row in rows:
+                w.writerow([_fmt(row.get(c, '')) for c in cols])
+        tmp.replace(path)
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
 def _num(v: Any) -> float:

@@ -21,6 +21,12 @@ Three ways to write, one check behind them (``check_output``):
 An existing empty folder counts as new (a user's ``mkdir``); a legacy bag of pam_bench (a
 ``metadata.yaml`` whose custom data holds ``pam_bench.run``, from before markers) counts as
 the recorder's own, with the files its metadata lists.
+
+The rule acts on the resolved path: an ``--out`` that is a symbolic link names the folder it
+points to, which is checked, cleared and written as if named directly (``check_output``
+returns it; the other functions resolve what they are given). ``--overwrite`` replaces only an
+output of the same verb (a bag of a recorder for ``run``), never another verb's. A path that
+is empty, or whose name or whole is longer than the file system takes, is refused in one line.
 """
 
 from __future__ import annotations
@@ -34,11 +40,11 @@ import shutil
 import tempfile
 from collections.abc import Iterable, Iterator
 
-from pam_bench.vocabulary.errors import OutputError
+from pam_bench.vocabulary.errors import OutputError, quoted
 
-__all__ = ['MARKER', 'FILE_MARK', 'is_bag_folder', 'own_files', 'check_output',
-           'clear_output', 'claim_output', 'seal_output', 'note_output_file', 'staged_output',
-           'check_output_file', 'write_output_file']
+__all__ = ['MARKER', 'FILE_MARK', 'BAG_VERBS', 'resolved', 'is_bag_folder', 'own_files',
+           'check_output', 'clear_output', 'claim_output', 'seal_output', 'note_output_file',
+           'staged_output', 'check_output_file', 'write_output_file']
 
 MARKER = '.pam_bench_output.json'
 """The file that marks a folder as written by pam_bench: ``{"verb", "created", "files",
@@ -121,6 +127,41 @@ def _inside(a: pathlib.Path, b: pathlib.Path) -> bool:
     return a == b or b in a.parents
 
 
+BAG_VERBS = ('pam-bench record', 'pam-bench run')
+"""Verbs whose output is a bag: ``run --overwrite`` may replace the bag of either."""
+
+
+def resolved(path: str | pathlib.Path, what: str = '--out') -> pathlib.Path:
+    """``path`` with ``~`` expanded and symbolic links resolved, checked to be one the file
+    system can hold.
+
+    Raises:
+        OutputError: empty, or a name or the whole longer than the file system takes.
+    """
+    text = str(path)
+    if not text.strip():
+        raise OutputError(f'{what} is empty: name a folder or file')
+    out = pathlib.Path(text).expanduser()
+    name_max, path_max = 255, 4096
+    with contextlib.suppress(OSError, ValueError):
+        anchor = next((p for p in (out, *out.parents) if p.exists()), pathlib.Path('.'))
+        name_max = os.pathconf(anchor, 'PC_NAME_MAX')
+        path_max = os.pathconf(anchor, 'PC_PATH_MAX')
+    long = [part for part in out.parts if len(part.encode()) > name_max]
+    if long:
+        raise OutputError(f'{what} {quoted(text)}: the name {quoted(long[0], 40)} has '
+                          f'{len(long[0].encode())} bytes, over the {name_max} the file '
+                          'system takes')
+    try:
+        out = out.resolve()
+    except (OSError, RuntimeError) as exc:        # a symlink loop
+        raise OutputError(f'{what} {quoted(text)}: cannot resolve it: {exc}') from None
+    if len(str(out).encode()) >= path_max:
+        raise OutputError(f'{what} {quoted(text)}: {len(str(out).encode())} bytes resolved, '
+                          f'over the {path_max} the file system takes')
+    return out
+
+
 def check_output(path: str | pathlib.Path, verb: str, overwrite: bool,
                  inputs: Iterable[str | pathlib.Path] = (), bag: bool = False) -> pathlib.Path:
     """Check, writing nothing, that ``verb`` may write the folder ``path``.
@@ -140,8 +181,8 @@ def check_output(path: str | pathlib.Path, verb: str, overwrite: bool,
     Raises:
         OutputError: the verb may not write there; the message says why and what to do.
     """
-    out = pathlib.Path(path).expanduser().resolve()
-    shown = str(path)
+    out = resolved(path)
+    shown = str(path) if pathlib.Path(path) == out else f'{path} (-> {out})'
     for given in inputs:
         src = pathlib.Path(given).expanduser().resolve()
         if _inside(src, out) or _inside(out, src):
@@ -171,6 +212,9 @@ def check_output(path: str | pathlib.Path, verb: str, overwrite: bool,
     if not overwrite:
         raise OutputError(f'{shown} exists (written by {own[0]}): add --overwrite to replace '
                           'it, or pick another --out')
+    if own[0] != verb and not (bag and own[0] in BAG_VERBS):
+        raise OutputError(f'{shown} holds the output of {own[0]}, not of {verb}: --overwrite '
+                          f'replaces only what {verb} wrote; pick another --out')
     files = own[1]
     foreign = [f for f in contents if files is not None and f not in files]
     if foreign:
@@ -183,6 +227,7 @@ def check_output(path: str | pathlib.Path, verb: str, overwrite: bool,
 def clear_output(path: pathlib.Path) -> None:
     """Delete what pam_bench wrote in the folder ``path`` (checked by ``check_output``), then
     the folder when nothing else is left in it."""
+    path = pathlib.Path(path).resolve()
     own = own_files(path)
     if own is None:
         if path.exists() and not any(path.iterdir()):
@@ -220,7 +265,7 @@ def claim_output(path: str | pathlib.Path, verb: str, bag: bool = False) -> path
     Raises:
         OutputError: the folder holds files already, or cannot be created.
     """
-    out = pathlib.Path(path)
+    out = resolved(path)
     try:
         out.mkdir(parents=True, exist_ok=True)
         if _contents(out) and own_files(out) is None:
@@ -291,7 +336,7 @@ def check_output_file(path: str | pathlib.Path, verb: str, overwrite: bool,
     Raises:
         OutputError: it may not (the message says why).
     """
-    out = pathlib.Path(path).expanduser().resolve()
+    out = resolved(path)
     for given in inputs:
         src = pathlib.Path(given).expanduser().resolve()
         if _inside(out, src) or out == src:
@@ -314,13 +359,17 @@ def check_output_file(path: str | pathlib.Path, verb: str, overwrite: bool,
                               'name')
         if not overwrite:
             raise OutputError(f'{path} exists: add --overwrite to replace it')
+        writer = first[len(FILE_MARK):].strip() if first.startswith(FILE_MARK) else verb
+        if writer != verb:
+            raise OutputError(f'{path} was written by {writer}, not by {verb}: --overwrite '
+                              f'replaces only what {verb} wrote; pick another name')
     return out
 
 
 def write_output_file(path: str | pathlib.Path, verb: str, text: str) -> None:
     """Write ``text`` to the file ``path`` (checked by ``check_output_file``) after its
     marking first line, atomically (a temporary file beside it, then renamed)."""
-    out = pathlib.Path(path)
+    out = resolved(path)
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         tmp = out.with_name(f'.{out.name}.tmp')

@@ -7,24 +7,12 @@ were there are still there, byte for byte.
 
 from __future__ import annotations
 
-import os
 import pathlib
 import time
 
 import pytest
 
 from test.cli.helpers import cli, one_line_error, tree_digest
-from test.conftest import next_domain
-
-
-@pytest.fixture(scope='module')
-def demo_bag(tmp_path_factory: pytest.TempPathFactory) -> pathlib.Path:
-    """A bag of the demo scene, recorded once for the module."""
-    os.environ['ROS_DOMAIN_ID'] = str(next_domain())
-    bag = tmp_path_factory.mktemp('demo') / 'demo_bag'
-    code, out, err = cli('run', 'demo', '--out', bag)
-    assert code == 0, out + err
-    return bag
 
 
 def _copy(bag: pathlib.Path, dst: pathlib.Path) -> pathlib.Path:

@@ -8,7 +8,6 @@ records them.
 
 from __future__ import annotations
 
-import os
 import pathlib
 import shutil
 import time
@@ -19,7 +18,6 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from test.cli.helpers import cli, one_line_error, tree_digest
-from test.conftest import next_domain
 
 CONFIG = pathlib.Path(__file__).parents[2] / 'config'
 FUZZ = settings(max_examples=300, deadline=None, derandomize=True,
@@ -159,15 +157,6 @@ def test_fuzzed_set_values_end_cleanly(demo_paths: list[str], pick: int, value: 
 
 
 # --- bags --------------------------------------------------------------------------------
-
-@pytest.fixture(scope='module')
-def demo_bag(tmp_path_factory: pytest.TempPathFactory) -> pathlib.Path:
-    os.environ['ROS_DOMAIN_ID'] = str(next_domain())
-    bag = tmp_path_factory.mktemp('fuzz') / 'bag'
-    code, out, err = cli('run', 'demo', '--out', bag)
-    assert code == 0, out + err
-    return bag
-
 
 def _chunk_spans(mcap: pathlib.Path) -> list[tuple[int, int]]:
     from mcap.reader import make_reader
