@@ -206,7 +206,7 @@ def measure_soak(out: pathlib.Path, quick: bool, duration_s: float | None = None
     bag_b = np.array([s['bag_bytes'] for s in samples], dtype=float)
     figures = _bag_figures(bag) if (bag / 'metadata.yaml').exists() else {}
     span_h = float(t[-1] - t[0]) / 3600.0 if t.size > 1 else float('nan')
-    rows = delivery_table([v for k, v in stats.items() if k != 'recorder'],
+    rows = delivery_table({k: v for k, v in stats.items() if k != 'recorder'},
                           stats['recorder']) if 'recorder' in stats else []
     periods = {k: v['periods'] for k, v in stats.items() if v.get('periods')}
     dropped = {k: v.get('dropped_ticks', 0) for k, v in stats.items() if v.get('periods')}

@@ -46,7 +46,7 @@ def _lost(res: RunResult) -> tuple[int, int]:
     """(messages lost, messages written) over the topics with one publisher."""
     if 'recorder' not in res.stats:
         return 0, 0
-    rows = delivery_table([v for k, v in res.stats.items() if k != 'recorder'],
+    rows = delivery_table({k: v for k, v in res.stats.items() if k != 'recorder'},
                           res.stats['recorder'])
     return (sum(r.lost or 0 for r in rows), sum(r.written for r in rows))
 

@@ -19,15 +19,15 @@ def register(sub: Any) -> None:
 
 def _cmd_plugins(args: argparse.Namespace) -> int:
     from pam_bench.control.plugins import GROUP as CONTROLLERS
-    from pam_bench.control.plugins import problem as controller_problem
+    from pam_bench.control.plugins import unusable as controller_problem
     from pam_bench.models.laws.zoo import GROUP as LAWS
-    from pam_bench.models.laws.zoo import problem as law_problem
+    from pam_bench.models.laws.zoo import unusable as law_problem
     from pam_bench.vocabulary.plugins import discover
     rows = []
     for group, kind, check in ((LAWS, 'muscle law', law_problem),
                                (CONTROLLERS, 'controller', controller_problem)):
         for p in discover(group):
-            why = p.error or check(p.obj)
+            why = check(p)
             rows.append({'kind': kind, 'name': p.name, 'package': p.package,
                          'status': f'not usable: {why}' if why else 'ok'})
     if args.json:

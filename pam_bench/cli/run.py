@@ -190,14 +190,29 @@ def _number_unit(text: str, units: dict[str, Any], what: str, example: str) -> f
     return value * units[unit]
 
 
+def _recorder_range(name: str, value: float) -> None:
+    """Check ``value`` against the recorder's setting ``name`` (its one owner)."""
+    from pam_bench.config.settings import RecorderSettings
+    from pam_bench.vocabulary.errors import ParameterError
+    from pam_bench.vocabulary.params import with_path
+    try:
+        with_path(RecorderSettings(), name, value)
+    except ParameterError as exc:
+        raise argparse.ArgumentTypeError(str(exc).replace('parameter ', '', 1)) from None
+
+
 def parse_size(text: str) -> int:
     """``--max-bag-size``: ``1000000``, ``500M``, ``1.5G``, ``512MiB`` -> bytes (0: never)."""
-    return round(_number_unit(text, _SIZES, 'size', '500M, 2G or 1000000'))
+    value = round(_number_unit(text, _SIZES, 'size', '500M, 2G or 1000000'))
+    _recorder_range('max_bag_size_bytes', value)
+    return value
 
 
 def parse_duration(text: str) -> float:
     """``--max-bag-duration``: ``600``, ``90s``, ``30m``, ``1h`` -> seconds (0: never)."""
-    return _number_unit(text, _DURATIONS, 'duration', '90s, 30m or 1h')
+    value = _number_unit(text, _DURATIONS, 'duration', '90s, 30m or 1h')
+    _recorder_range('max_bag_duration_s', value)
+    return value
 
 
 def apply_bag_options(scene: Any, args: argparse.Namespace) -> None:
@@ -398,7 +413,7 @@ def print_wall_stats(stats: dict[str, Any]) -> None:
                      else ''))
     if 'recorder' in stats:
         print(format_delivery(delivery_table(
-            [v for k, v in stats.items() if k != 'recorder'], stats['recorder'])))
+            {k: v for k, v in stats.items() if k != 'recorder'}, stats['recorder'])))
 
 
 def _cmd_record(args: argparse.Namespace) -> int:

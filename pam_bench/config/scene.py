@@ -178,6 +178,8 @@ class Scene:
             ConfigError: an unknown node or setting (the nearest named) or a bad value.
         """
         name, _, rest = path.partition('.')
+        if rest.endswith('_yaml') and not isinstance(value, str):   # YAML text, given parsed
+            value = yaml.safe_dump(value, default_flow_style=True, width=10**6).strip()
         if name not in self.nodes and name != 'sim_clock':        # the clock is in every run
             known = [*self.nodes, 'sim_clock']
             raise ConfigError(f"scene {self.name}: unknown setting '{path}' (node {name!r} is "
@@ -194,7 +196,7 @@ class Scene:
             here = here.setdefault(part, {})
         here[parts[-1]] = value
         deep_merge(self.parameters.setdefault(name, {}), nested)
-        self.settings()                                          # the whole, checked
+        check_plugins(self.settings(), f'scene {self.name}')     # the whole, checked
 
 
 SCENE_KEYS: dict[str, tuple[type | tuple[type, ...], str]] = {
@@ -257,11 +259,17 @@ def _parse_scene(path: pathlib.Path, data: dict[str, Any], text: str) -> Scene:
             raise ConfigError(f'{where}: key {old!r} is gone ({why})')
     check_known(data, SCENE_KEYS, where)
     nodes = _typed(where, data, 'nodes')
+    if not nodes:
+        raise ConfigError(f'{where}: nodes is empty: name the nodes the run brings up (e.g. '
+                          '[valve_1, muscle_1, load_cell_1, encoder, loading_servo, sequencer, '
+                          'recorder])')
     for n in nodes:
         if n not in SCENE_NODES:
             near = nearest(str(n), SCENE_NODES)
-            raise ConfigError(f'{where}: unknown node {n!r}'
+            raise ConfigError(f'{where}: unknown node {shorten(n)}'
                               + (f' (did you mean {near!r}?)' if near else ''))
+        if nodes.count(n) > 1:
+            raise ConfigError(f'{where}: node {n!r} is named {nodes.count(n)} times in nodes')
     step = _typed(where, data, 'exchange_step_s')
     if not 0 < step <= 10:
         raise ConfigError(f'{where}: exchange_step_s {step} out of (0, 10] s')
@@ -271,6 +279,9 @@ def _parse_scene(path: pathlib.Path, data: dict[str, Any], text: str) -> Scene:
     duration = _typed(where, data, 'duration_s', 0.0)
     if duration < 0:
         raise ConfigError(f'{where}: duration_s {duration} is negative')
+    if not duration and not {'sequencer', 'torque_servo'} & set(nodes):
+        raise ConfigError(f'{where}: nothing ends the run: add a sequencer (its protocol ends '
+                          'it) or a torque_servo, or set duration_s')
     parameters = dict(_typed(where, data, 'parameters', {}))
     try:
         check_known(parameters, [*nodes, 'sim_clock'], f'{where}, parameters')
@@ -328,11 +339,29 @@ def _check_inputs(scene: str, settings: dict[str, Any]) -> None:
 
 
 def _check_settings(scene: Scene, where: str) -> None:
-    """Build every node's settings once, so that a bad key fails at load."""
+    """Build every node's settings once, so that a bad key fails at load, and the plug-ins
+    the scene names, so that one that cannot run fails before any node starts."""
     try:
-        scene.settings()
+        settings = scene.settings()
     except ConfigError as exc:
         raise ConfigError(str(exc).replace(f'scene {scene.name}:', f'{where}:', 1)) from None
+    check_plugins(settings, where)
+
+
+def check_plugins(settings: dict[str, Any], where: str) -> None:
+    """Build the controller plug-in the torque servo names, with its settings.
+
+    Raises:
+        ConfigError: it does not load or cannot be built (its one line).
+    """
+    from pam_bench.control.plugins import PluginFault, check_controller
+    ts = settings.get('torque_servo')
+    if ts is None:
+        return
+    try:
+        check_controller(ts.controller, ts.servo, getattr(ts.plugins, ts.controller, None))
+    except PluginFault as exc:
+        raise ConfigError(f'{where}: {exc}') from None
 
 
 def apply_overlay(scene: Scene, path: str | pathlib.Path) -> None:

@@ -200,9 +200,19 @@ def _controller_plugin_settings() -> type:
 
 
 ControllerPluginSettings = _controller_plugin_settings()
-CONTROLLERS = (*(m.value for m in ServoMode), *(f.name for f in dataclasses.fields(
-    ControllerPluginSettings)))
-"""Every controller the torque servo can run: the built-ins, then the plug-ins."""
+def _controller_names() -> tuple[str, ...]:
+    """The built-in controllers, then every controller plug-in installed here (a broken one
+    too: a scene naming it is refused with the reason, ``control.plugins.check_controller``,
+    not as an unknown name)."""
+    from pam_bench.control.plugins import GROUP
+    from pam_bench.vocabulary.plugins import discover
+    return (*(m.value for m in ServoMode),
+            *dict.fromkeys(p.name for p in discover(GROUP) if p.name not in
+                           {m.value for m in ServoMode}))
+
+
+CONTROLLERS = _controller_names()
+"""Every controller the torque servo may be given: the built-ins, then the plug-ins."""
 
 
 @dataclasses.dataclass
@@ -267,9 +277,9 @@ class RecorderSettings(NodeSettings):
     compress: bool = field(True, '-', 'zstd-compress the MCAP chunks (rosbag2 storage mode)')
     max_bag_size_bytes: int = field(900_000_000, 'B', 'start a new file of the bag past this '
                                     'size (0: never); the default keeps each under 1 GB',
-                                    0, 1e15)
+                                    100_000, 1e15, off=0)
     max_bag_duration_s: float = field(0.0, 's', 'start a new file of the bag once one spans '
-                                      'this much log time (0: never)', 0.0, 1e9)
+                                      'this much log time (0: never)', 1.0, 1e9, off=0.0)
     min_free_bytes: int = field(64_000_000, 'B', 'stop recording and close the bag valid when '
                                 'its disk has less than this free (0: write until it fails)',
                                 0, 1e15)

@@ -16,8 +16,11 @@ path (``torque_servo.plugins.NAME.FIELD``), and is built as ``cls(settings, serv
 with the servo's own parameters (``TorqueServoParams``) and the identified inverse model
 (``control.inverse.InverseModel``, or None when the scene names none).
 
-A plug-in that raises or returns a value that is not finite is a ``PluginFault`` naming it:
-the node vents the valves and says so in one line, the bag stays valid.
+A plug-in is usable when it loads, is such a class, and builds with its default settings
+(``unusable`` says why not; ``pam-bench plugins`` lists it so). A scene that names one builds
+it with the scene's settings before any node starts (``check_controller``). A plug-in that
+raises or returns a value that is not finite while it runs is a ``PluginFault`` naming it: the
+node vents the valves, says so in one line and ends the run as aborted; the bag stays valid.
 """
 
 from __future__ import annotations
@@ -27,10 +30,10 @@ import math
 from typing import Any, Protocol
 
 from pam_bench.vocabulary.errors import PamBenchError
-from pam_bench.vocabulary.plugins import discover
+from pam_bench.vocabulary.plugins import Plugin, discover, plugin
 
 __all__ = ['GROUP', 'Controller', 'PluginFault', 'controller_plugins', 'controller_class',
-           'problem', 'call']
+           'problem', 'unusable', 'check_controller', 'call']
 
 GROUP = 'pam_bench.controllers'
 
@@ -66,9 +69,56 @@ def problem(obj: object) -> str:
     return ''
 
 
+def _built(cls: Any, settings: Any, what: str, servo: Any = None, inverse: Any = None) -> str:
+    """Why ``cls`` cannot be built with ``settings`` (``what`` they are, for the message;
+    '' when it can); ``servo`` None: the servo's default parameters."""
+    if servo is None:
+        from pam_bench.control.torque_servo import TorqueServoParams
+        servo = TorqueServoParams()
+    try:
+        cls(settings, servo, inverse)
+    except Exception as exc:  # noqa: BLE001 - a lab's code: whatever it raises, named
+        text = str(exc).splitlines()[0][:160] if str(exc) else ''
+        return f'cannot be built with {what}: {type(exc).__name__}: {text}'
+    return ''
+
+
+def unusable(p: Plugin) -> str:
+    """Why the controller plug-in ``p`` cannot run ('' when it can): it does not load, is not
+    a controller class, or cannot be built with its default settings."""
+    why = p.error or problem(p.obj)
+    if why:
+        return why
+    try:
+        defaults = p.obj.settings()
+    except Exception as exc:  # noqa: BLE001 - a lab's settings class
+        return f'its settings have no defaults: {type(exc).__name__}: {exc}'
+    return _built(p.obj, defaults, 'its default settings')
+
+
 def controller_plugins() -> dict[str, Any]:
-    """Name -> class of every controller plug-in installed here that is one."""
-    return {p.name: p.obj for p in discover(GROUP) if not problem(p.obj)}
+    """Name -> class of every controller plug-in installed here that is usable."""
+    return {p.name: p.obj for p in discover(GROUP) if not unusable(p)}
+
+
+def check_controller(name: str, servo: Any, settings: Any = None, inverse: Any = None
+                     ) -> None:
+    """Build the plug-in controller ``name`` as the servo will (``servo``: its parameters,
+    ``settings``: the plug-in's, None: its defaults), before any node starts; built-in names
+    pass.
+
+    Raises:
+        PluginFault: it does not load, is not a controller, or cannot be built (named, with
+            its package and the reason).
+    """
+    p = plugin(GROUP, name)
+    if p is None:
+        return
+    why = p.error or problem(p.obj) or _built(
+        p.obj, settings if settings is not None else p.obj.settings(), "the scene's settings",
+        servo, inverse)
+    if why:
+        raise PluginFault(f'controller plug-in {name!r} (package {p.package}): {why}')
 
 
 def controller_class(name: str) -> Any:

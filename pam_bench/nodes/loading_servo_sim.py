@@ -29,7 +29,6 @@ latest command and the latest muscle force held over its own sub-steps.
 from __future__ import annotations
 
 import math
-import time
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticStatus
@@ -73,7 +72,8 @@ class LoadingServoSim(BenchNode):
                               if self.muscles == 2 else [topics.muscle_samples(ch)])
         self._was_saturated = False
         self._touches = 0                       # torque-limit touches since the last report
-        self._last_report = -math.inf       # monotonic s of that report
+        self._last_report = -math.inf       # node clock, s, of that report
+        self._reported = 'within'           # what it said last: within, moving, holding
         self.pulley_pub = self.create_step_publisher(JointState, topics.PULLEY_STATE)
         self.state_pub = self.create_step_publisher(JointState, topics.LOAD_STATE)
         self.law_pub = self.create_step_publisher(DriveLaw, topics.PULLEY_LAW)
@@ -115,24 +115,41 @@ class LoadingServoSim(BenchNode):
         self._publish_law(t_ns)
 
     SATURATION_REPORT_S = 1.0
-    """Wall seconds between two reports of the torque limit (the drive touches it many times
-    a second while it holds a force against a pulling muscle)."""
+    """Seconds of the node's clock (sim time in lock-step, so a bag is the same at any speed)
+    between two reports of the torque limit (the drive touches it many times a second while
+    it holds a force against a pulling muscle)."""
+    MOVE_TOLERANCE_M = 0.5e-3
+    """A position-mode drive farther than this from its set value is moving to it: at its
+    torque limit it accelerates as hard as it can, which is no fault."""
 
-    def _saturation_edge(self, saturated: bool) -> None:
-        """A touch of the torque limit (or the end of one): one diagnostic and log line per
-        ``SATURATION_REPORT_S`` at most, with the number of touches since the last."""
-        self._touches += saturated
-        now = time.monotonic()
+    def _saturation(self, t_ns: int, saturated: bool, contraction_m: float) -> None:
+        """Report the torque limit as it is now: WARN while the drive holds a set value at its
+        limit (a muscle pulling harder than the drive can hold), OK while it only moves to a
+        new set value at full torque, OK once it is within its limit; one diagnostic per
+        ``SATURATION_REPORT_S`` at most, with the touches since the last, and a change that
+        came too soon reported as soon as the period allows (never left stale)."""
+        if saturated and not self._was_saturated:
+            self._touches += 1
+        self._was_saturated = saturated
+        moving = (self.model.mode == LoadMode.POSITION
+                  and abs(self.model.setpoint - contraction_m) > self.MOVE_TOLERANCE_M)
+        kind = 'holding' if saturated and not moving else 'moving' if saturated else 'within'
+        if kind == self._reported:
+            return
+        now = t_ns * 1e-9
         if now - self._last_report < self.SATURATION_REPORT_S:
             return
-        self._last_report = now
-        if saturated:
-            self.diagnose(DiagnosticStatus.WARN, 'loading servo at its torque limit ('
-                          f'{self._touches} touch(es) since the last report)',
-                          touches=self._touches)
-            self._touches = 0
+        self._last_report, self._reported = now, kind
+        if kind == 'holding':
+            self.diagnose(DiagnosticStatus.WARN, 'loading servo at its torque limit while it '
+                          f'holds its set value ({self._touches} touch(es) since the last '
+                          'report)', touches=self._touches)
+        elif kind == 'moving':
+            self.diagnose(DiagnosticStatus.OK, 'loading servo moving to its set value at its '
+                          'torque limit', touches=self._touches)
         else:
             self.diagnose(DiagnosticStatus.OK, 'loading servo within its torque limit')
+        self._touches = 0
 
     def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
         """Replay the muscle's sub-steps, take the command, publish the next law."""
@@ -149,9 +166,8 @@ class LoadingServoSim(BenchNode):
         else:
             m: MuscleSamples = inputs[self.muscle_topics[0]]
             out = self.model.replay(list(m.step), list(m.force))
-            if out.saturated != self._was_saturated:
-                self._was_saturated = out.saturated
-                self._saturation_edge(out.saturated)
+            if out.saturated or self._reported != 'within':
+                self._saturation(t_ns, out.saturated, out.contraction_m)
             positions = [out.pulley_angle_rad, out.contraction_m]
             names = ['pulley', f'muscle_{self.channel}']
             velocity = [out.pulley_rate_rad_s, out.pulley_rate_rad_s * r]

@@ -115,7 +115,9 @@ class Recorder(BenchNode):
             self._connect(topic, msgtype, [lockstep_offer(topic, entry in step_topics)])
         self.step_order = []
         self.written: dict[str, int] = {}
-        self.sequence: dict[str, list[int]] = {}   # topic -> [first, last, count] seen
+        # topic -> publisher -> [first, last, count] of the sequence numbers seen (the
+        # publisher is '' on a topic of one; on /diagnostics, the node its statuses name)
+        self.sequence: dict[str, dict[str, list[int]]] = {}
         self._wall_subs: dict[str, tuple[Any, str, bool]] = {}   # topic -> (sub, type, BE)
         self.subscriptions_version = 0
         if not self.lockstep:
@@ -192,9 +194,11 @@ class Recorder(BenchNode):
         self.written[topic] += 1
         seq = (info or {}).get('publication_sequence_number')
         if seq:
-            s = self.sequence.get(topic)
+            per = self.sequence.setdefault(topic, {})
+            who = publisher_of(data) if self._wall_subs[topic][1] == DIAGNOSTICS_TYPE else ''
+            s = per.get(who)
             if s is None:
-                self.sequence[topic] = [seq, seq, 1]
+                per[who] = [seq, seq, 1]
             else:
                 s[0], s[1], s[2] = min(s[0], seq), max(s[1], seq), s[2] + 1
 
@@ -241,7 +245,8 @@ class Recorder(BenchNode):
         """Written counts and the publication sequence numbers seen, per topic."""
         out = super().wall_stats()
         out.update(written=dict(self.written),
-                   sequence={k: list(v) for k, v in self.sequence.items()})
+                   sequence={k: {who: list(v) for who, v in per.items()}
+                             for k, per in self.sequence.items()})
         return out
 
     def _split(self, entry: str) -> tuple[str, str]:
@@ -381,14 +386,32 @@ class Recorder(BenchNode):
             print(f'recorder: bag closed with {self.count} messages', flush=True)
             if not self.lockstep:
                 for topic, n in sorted(self.written.items()):
-                    seq = self.sequence.get(topic)
-                    gaps = seq[1] - seq[0] + 1 - seq[2] if seq else 0
+                    gaps = sum(last - first + 1 - got for first, last, got
+                               in self.sequence.get(topic, {}).values())
                     print(f'  {topic:34s} {n:8d} written, {gaps} lost in between', flush=True)
 
     def destroy_node(self) -> None:
         """Close the bag before the node goes."""
         self.close()
         super().destroy_node()
+
+
+DIAGNOSTICS_TYPE = 'diagnostic_msgs/msg/DiagnosticArray'
+"""The one recorded type many nodes publish on one topic: its losses are counted per node."""
+
+
+def publisher_of(data: bytes) -> str:
+    """The node a serialised ``DiagnosticArray`` comes from: its statuses are named
+    ``NODE: concern`` (``runtime.diagnostics``; a driver of a lab's names its own); '?' when
+    it names none."""
+    from diagnostic_msgs.msg import DiagnosticArray
+    from rclpy.serialization import deserialize_message
+    try:
+        msg = deserialize_message(bytes(data), DiagnosticArray)
+    except Exception:  # noqa: BLE001 - a malformed message: counted apart, never fatal
+        return '?'
+    names = [st.name.partition(':')[0].strip() for st in msg.status if ':' in st.name]
+    return names[0] if names else (msg.status[0].hardware_id if msg.status else '?')
 
 
 def record(out_dir: str, topic_names: list[str], record_all: bool, compress: bool = True,

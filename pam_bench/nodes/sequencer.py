@@ -209,9 +209,11 @@ class SequencerNode(BenchNode):
         t = t_ns * 1e-9
         if core is not None and core.running and t >= self._next_progress_s:
             self._next_progress_s = t + PROGRESS_PERIOD_S
+            how = (f'{core.pause_reason}' if core.phase == Phase.PAUSED
+                   else f'ETA {core.remaining_s(t):.0f} s')
             self.get_logger().info(f'[wall] {core.name}: {core.points_done}/'
                                    f'{core.total_points} readings, {t - core.t_start:.0f} s, '
-                                   f'ETA {core.remaining_s(t):.0f} s')
+                                   + how)
         self._tick(t_ns, gate)
 
     def _tick(self, t_ns: int, gate: str = '') -> None:

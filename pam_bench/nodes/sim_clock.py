@@ -103,6 +103,7 @@ class SimClock(BenchNode):
         self.next_step_ns = 0             # shortest step requested for the next tick
         self.nudges = 0                   # times the current tick was published again
         self.expected_total_s = self.duration_s
+        self.paused = ''                 # the protocol's pause or suspension, while it lasts
         self.pub = bus_publisher(self, Clock, topics.CLOCK, RELIABLE)
         bus_subscription(self, StepAck, topics.ACK, self._on_ack, RELIABLE)
         bus_subscription(self, ProtocolStatus, topics.STATUS, self._on_status, RELIABLE)
@@ -275,6 +276,7 @@ class SimClock(BenchNode):
     def _on_status(self, msg: ProtocolStatus) -> None:
         if msg.remaining > 0.0:
             self.expected_total_s = msg.elapsed + msg.remaining
+        self.paused = msg.reason if msg.phase == 'paused' else ''
         # ending the run is asked for in the sequencer's StepAck, not here (no topic race)
 
     def _progress(self) -> None:
@@ -288,7 +290,10 @@ class SimClock(BenchNode):
         rtf = t / wall if wall > 0 else 0.0
         total = self.expected_total_s
         recent = windowed_rate(self.rate_history, wall, t)
-        if total > 0:
+        if self.paused:                  # no ETA: nobody knows when it resumes
+            print(f'[sim {t:9.2f} s]  wall {wall:7.1f} s  x{rtf:6.1f} real time  '
+                  f'{self.paused}', flush=True)
+        elif total > 0:
             print(f'[sim {t:9.2f} / {total:9.2f} s  {100 * t / total:5.1f} %]  wall {wall:7.1f} '
                   f's  x{rtf:6.1f} real time' + eta_text(total - t, recent or rtf), flush=True)
         else:

@@ -45,6 +45,11 @@ from pam_bench.runtime.base import RELIABLE, SENSOR, BenchNode, Spin
 from pam_bench.runtime.messages import ns_of, time_of
 from pam_bench.runtime.process import run_node
 from pam_bench.runtime.stamped import joint_position, stamped
+from pam_bench.sim.lockstep import StopRequest
+
+ABORTED = 4
+"""Exit code of a run its servo ended (a controller plug-in that failed), as an aborted
+protocol's (``protocol.runner.END_CODES``)."""
 
 __all__ = ['TorqueServoNode', 'main']
 
@@ -228,9 +233,10 @@ class TorqueServoNode(BenchNode):
         if not fault:
             try:
                 ch = self.ctl.step(dt_s, sp, self.angle_rad, tuple(self.forces))
-            except PluginFault as exc:           # a lab's controller: vent, say which, go on
-                fault = f'{exc}: valves vented'
+            except PluginFault as exc:      # a lab's controller: vent, say which, end the run
+                fault = f'{exc}: valves vented, run aborted'
                 self.latched = self.latched or fault
+                self._abort(fault)
         if fault or ch is None:
             if fault != self.status:
                 self.diagnose(DiagnosticStatus.ERROR, fault)
@@ -255,6 +261,15 @@ class TorqueServoNode(BenchNode):
                      force_measured=[float(v) for v in f],
                      voltage=[float(v) for v in volts] + pad, status=fault, **fields)
         self.state_pub.publish(st)
+
+    def _abort(self, reason: str) -> None:
+        """End the run as aborted (exit code ``ABORTED``): in lock-step through the clock,
+        which stops after this exchange, on a wall clock by leaving the node's loop."""
+        if self.stop_request is None and getattr(self, 'exit_code', None) is None:
+            if self.lockstep:
+                self.stop_request = StopRequest(ABORTED, f'torque servo: {reason}')
+            else:
+                self.exit_code = ABORTED
 
     def on_fault(self, reason: str) -> None:
         """Vent both valves."""

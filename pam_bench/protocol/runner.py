@@ -275,8 +275,10 @@ class Runner:
         x_samples, self.x_samples = self.x_samples, []
         self._suspend_check(t_s, notes)
         cmd = core.tick(t_s, self.meas, samples, x_samples)
-        if cmd.point is not None and cmd.point.outliers:
-            self._outliers(cmd.point, notes)
+        if cmd.point is not None:
+            self.suspenders.reading_taken()
+            if cmd.point.outliers:
+                self._outliers(cmd.point, notes)
         due = core.phase != self._last_phase or t_s - self._last_status_t >= \
             self.settings.status_period_s
         if due:
@@ -344,3 +346,6 @@ class Runner:
         elif action == 'resume':
             core.resume()
             notes.append(Note(OK, 'suspender satisfied: protocol resumed'))
+        elif action == 'abort':
+            core.stop(Phase.ABORTED, why)
+            notes.append(Note(ERROR, f'protocol aborted: {why}'))

@@ -139,6 +139,8 @@ class Lifecycle(NodeCore, LifecycleNodeMixin):
             try:
                 if self.recorder_listens(topics.DIAGNOSTICS) and pub.get_subscription_count() \
                         >= len(self.get_subscriptions_info_by_topic(topic)):
+                    if pub is not self._diag_pub:      # an intra-process bus publisher looks
+                        self._diag_pub.external = True  # for outside readers every 50 ms
                     return True
             except Exception:  # noqa: BLE001 - a graph query must not end a transition
                 pass

@@ -31,6 +31,8 @@ def descriptor(info: ParamInfo) -> ParameterDescriptor:
     low, high = info.low, info.high
     if low is None and high is None:
         return desc
+    if info.off is not None and low is not None:        # ROS ranges have no gap
+        low = min(low, info.off)
     if isinstance(info.default, float):
         desc.floating_point_range = [FloatingPointRange(
             from_value=float(low if low is not None else -1e300),

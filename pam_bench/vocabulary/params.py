@@ -41,17 +41,19 @@ class ParamInfo:
     choices: tuple[str, ...] = ()
     item: type = float
     tunable: bool = False
+    off: float | None = None
 
 
 def field(default: Any, unit: str, text: str, low: float | None = None,
           high: float | None = None, choices: Iterable[str] = (), item: type = float,
-          tunable: bool = False) -> Any:
+          tunable: bool = False, off: float | None = None) -> Any:
     """A dataclass field with unit, range (or the strings it may take) and description in its
     metadata; ``item`` is the element type of a list setting (``float`` or ``str``);
     ``tunable``: a running node takes a new value (``set_parameters``, ``runtime.tuning``),
-    else its ROS parameter is read-only."""
+    else its ROS parameter is read-only; ``off``: a value outside the range that turns what
+    the setting sets off (a file split by size: 0, never)."""
     meta = {'unit': unit, 'low': low, 'high': high, 'text': text,
-            'choices': tuple(choices), 'item': item, 'tunable': tunable}
+            'choices': tuple(choices), 'item': item, 'tunable': tunable, 'off': off}
     if isinstance(default, list):
         return dataclasses.field(default_factory=lambda: list(default), metadata=meta)
     return dataclasses.field(default=default, metadata=meta)
@@ -77,7 +79,7 @@ def _info(f: dataclasses.Field, name: str) -> ParamInfo:
     m = f.metadata
     return ParamInfo(name, default, m.get('unit', ''), m.get('low'), m.get('high'),
                      m.get('text', ''), tuple(m.get('choices', ())), m.get('item', float),
-                     bool(m.get('tunable', False)))
+                     bool(m.get('tunable', False)), m.get('off'))
 
 
 def param_infos(cls: type) -> list[ParamInfo]:
@@ -108,6 +110,8 @@ def describe(info: ParamInfo) -> str:
     if info.low is not None or info.high is not None:
         rng = f' range [{info.low if info.low is not None else "-inf"}, ' \
               f'{info.high if info.high is not None else "inf"}]'
+        if info.off is not None:
+            rng += f' or {info.off:g} (off)'
     if info.choices:
         rng = f' one of {", ".join(info.choices)}'
     return f'{info.text} (unit: {info.unit or "-"}){rng}'
@@ -157,9 +161,12 @@ def _check_value(prefix: str, info: ParamInfo, value: Any) -> Any:
 def _check_range(key: str, info: ParamInfo, value: float) -> None:
     if not math.isfinite(value):
         raise ParameterError(f'parameter {key!r}: {shorten(value)} is not a finite number')
+    if info.off is not None and value == info.off:
+        return
     if info.low is not None and value < info.low:
         raise ParameterError(f'parameter {key!r}: {value} is below its minimum {info.low} '
-                             f'{info.unit}')
+                             f'{info.unit}' + (f' (or {info.off:g}: off)'
+                                               if info.off is not None else ''))
     if info.high is not None and value > info.high:
         raise ParameterError(f'parameter {key!r}: {value} is above its maximum {info.high} '
                              f'{info.unit}')

@@ -9,12 +9,15 @@ values, suspender and fault lists) is read here:
 - anchors and aliases allowed, but the document as aliases expand it holds at most
   ``MAX_NODES`` nodes (a "billion laughs" is refused before anything expands it);
 - a key twice in one mapping is an error naming the key and its line (merge keys ``<<`` may
-  be overridden, as YAML means them).
+  be overridden, as YAML means them);
+- numbers as YAML 1.2 reads them: ``1e4``, ``2e-3`` and ``1.0e5`` are floats (YAML 1.1, which
+  PyYAML follows, needs a dot and a signed exponent and reads them as strings).
 """
 
 from __future__ import annotations
 
 import pathlib
+import re
 from typing import Any
 
 import yaml
@@ -81,6 +84,19 @@ class _StrictLoader(_Base):
                     raise _Refused(f'duplicate key {shorten(key)} (line '
                                    f'{key_node.start_mark.line + 1})')
         return super().construct_mapping(node, deep)
+
+
+_FLOAT_1_2 = re.compile(r"""^(?:[-+]?[0-9][0-9_]*\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+    |[-+]?[0-9][0-9_]*[eE][-+]?[0-9]+
+    |[-+]?\.[0-9][0-9_]*(?:[eE][-+]?[0-9]+)?
+    |[-+]?\.(?:inf|Inf|INF)
+    |\.(?:nan|NaN|NAN))$""", re.X)
+"""YAML 1.2's core-schema floats (with PyYAML's underscores, as YAML 1.1 allowed them)."""
+_StrictLoader.yaml_implicit_resolvers = {
+    k: [(tag, rx) for tag, rx in v if tag != 'tag:yaml.org,2002:float']
+    for k, v in _StrictLoader.yaml_implicit_resolvers.items()}
+_StrictLoader.add_implicit_resolver('tag:yaml.org,2002:float', _FLOAT_1_2,
+                                    list('-+0123456789.'))
 
 
 def load_yaml(text: str, where: str) -> Any:

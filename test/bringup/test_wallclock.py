@@ -50,7 +50,7 @@ def test_wallclock_readings_land_on_the_lockstep_ones(tmp_path: pathlib.Path, ro
     assert diff.max_contraction_m <= CONTRACTION_BOUND_M, diff
     # every node ticked and the recorder lost nothing it could have had
     assert {'valve_1', 'muscle_1', 'sequencer', 'recorder'} <= set(wall.stats)
-    rows = delivery_table([v for k, v in wall.stats.items() if k != 'recorder'],
+    rows = delivery_table({k: v for k, v in wall.stats.items() if k != 'recorder'},
                           wall.stats['recorder'])
     counted = {r.topic: r for r in rows if r.lost is not None}
     assert '/load_cell_1/force' in counted and '/protocol/point' in counted

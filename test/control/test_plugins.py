@@ -1,6 +1,7 @@
 """Plug-ins, the Python way: the example package installed beside pam_bench adds a force law
 and a controller that the twin, the nodes, servo-compare and run all use; a plug-in that
-raises vents the servo with one line naming it, and the bag stays valid."""
+raises vents the servo with one line naming it and ends the run aborted, the bag valid; one
+that cannot run is named before anything starts."""
 
 from __future__ import annotations
 
@@ -103,20 +104,85 @@ class Broken:
 """
 
 
-def test_a_plugin_that_raises_vents_the_servo_and_names_itself(tmp_path: pathlib.Path) -> None:
+def _site_with(tmp_path: pathlib.Path, name: str, modules: dict[str, str],
+               entry_points: str) -> pathlib.Path:
+    """A folder holding a distribution ``name`` made of ``modules`` that declares
+    ``entry_points`` (the text of its entry_points.txt): a plug-in package on the path."""
     site = tmp_path / 'site'
-    (site / 'broken_ctl-0.1.dist-info').mkdir(parents=True)
-    (site / 'broken_ctl.py').write_text(textwrap.dedent(BROKEN))
-    (site / 'broken_ctl-0.1.dist-info' / 'METADATA').write_text(
-        'Metadata-Version: 2.1\nName: broken-ctl\nVersion: 0.1\n')
-    (site / 'broken_ctl-0.1.dist-info' / 'entry_points.txt').write_text(
-        '[pam_bench.controllers]\nbroken = broken_ctl:Broken\n')
+    info = site / f'{name}-0.1.dist-info'
+    info.mkdir(parents=True)
+    for module, text in modules.items():
+        (site / f'{module}.py').write_text(textwrap.dedent(text))
+    (info / 'METADATA').write_text(f'Metadata-Version: 2.1\nName: {name}\nVersion: 0.1\n')
+    (info / 'entry_points.txt').write_text(entry_points)
+    return site
+
+
+def test_a_plugin_that_raises_vents_the_servo_and_ends_the_run_aborted(
+        tmp_path: pathlib.Path) -> None:
+    site = _site_with(tmp_path, 'broken-ctl', {'broken_ctl': BROKEN},
+                      '[pam_bench.controllers]\nbroken = broken_ctl:Broken\n')
     bag = tmp_path / 'bag'
     out = _pam_bench(site, 'run', 'servo_sin_t', '--out', str(bag), '--set',
                      'torque_servo.controller=broken')
-    assert out.returncode == 0, out.stdout + out.stderr
+    assert out.returncode == 4, out.stdout + out.stderr
+    assert "controller plug-in 'broken' raised ZeroDivisionError" in out.stdout + out.stderr
     states = bag_messages(bag, '/torque_servo/state')
     bad = [s for s in states if s.status]
     assert bad and "controller plug-in 'broken' raised ZeroDivisionError" in bad[0].status
-    assert all(list(s.voltage) == [0.0, 0.0] for s in bad)        # vented from then on
-    assert len(states) > 7000                                     # and the run went on
+    assert all(list(s.voltage) == [0.0, 0.0] for s in bad)        # vented
+    assert len(bad) <= 2                                          # and the run ended there
+    info = _pam_bench(site, 'info', str(bag))
+    assert 'ended     aborted' in info.stdout, info.stdout
+
+
+UNBUILDABLE = """
+import dataclasses
+
+
+@dataclasses.dataclass
+class Settings:
+    pass
+
+
+class Unbuildable:
+    settings = Settings
+
+    def __init__(self, settings, servo, inverse):
+        raise RuntimeError('needs a calibration file nobody gave')
+
+    def reset(self):
+        pass
+
+    def step(self, dt_s, target, contraction_m, force_n):
+        return 0.0, 0.0
+"""
+
+
+def test_plugins_that_cannot_run_are_named_before_anything_starts(
+        tmp_path: pathlib.Path) -> None:
+    """Issue 51: ``plugins`` builds each plug-in and calls one that cannot be built, or that
+    does not import, not usable with the reason; a run naming it fails before any node."""
+    site = _site_with(tmp_path, 'lab-broken', {'unbuildable': UNBUILDABLE,
+                                               'bad_law': 'import not_installed_anywhere\n'},
+                      '[pam_bench.controllers]\nunbuildable = unbuildable:Unbuildable\n'
+                      '[pam_bench.muscle_laws]\nbad_law = bad_law:LAW\n')
+    out = _pam_bench(site, 'plugins')
+    assert out.returncode == 0, out.stderr
+    rows = {ln.split()[2] if ln.startswith('muscle') else ln.split()[1]: ln
+            for ln in out.stdout.splitlines()}
+    assert 'not usable: cannot be built with its default settings: RuntimeError: needs a ' \
+        'calibration file' in rows['unbuildable'], out.stdout
+    assert "not usable: ModuleNotFoundError: No module named 'not_installed_anywhere'" in \
+        rows['bad_law'], out.stdout
+    bag = tmp_path / 'bag'
+    run = _pam_bench(site, 'run', 'servo_sin_t', '--out', str(bag), '--set',
+                     'torque_servo.controller=unbuildable')
+    assert run.returncode == 2 and not bag.exists(), run.stdout + run.stderr
+    assert "controller plug-in 'unbuildable' (package lab-broken): cannot be built with the " \
+        "scene's settings: RuntimeError" in run.stderr, run.stderr
+    law = _pam_bench(site, 'run', 'demo', '--out', str(bag), '--set', 'muscle_1.muscle.kind=law',
+                     '--set', 'muscle_1.muscle.law=bad_law')
+    assert law.returncode == 2 and not bag.exists(), law.stdout + law.stderr
+    assert "force law 'bad_law': its plug-in (package lab-broken) cannot be used: " \
+        'ModuleNotFoundError' in law.stderr, law.stderr
