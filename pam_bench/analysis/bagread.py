@@ -94,6 +94,43 @@ def open_bag(path: pathlib.Path) -> Reader:
     return reader
 
 
+BENCH_TYPES = {POINT_TOPIC: 'pam_bench_interfaces/msg/CharacteristicPoint',
+               RECORD_TOPIC: 'pam_bench_interfaces/msg/StepResponseRecord'}
+"""The topics the analysis reads and the type each must hold."""
+
+
+def _bench_connections(path: pathlib.Path, reader: Reader) -> list[Any]:
+    """The connections of ``reader`` the analysis reads, checked to be pam_bench's.
+
+    Raises:
+        BagError: "not a pam_bench bag" and why: neither topic, or a topic holding another
+            type (a bag of another recorder or another bench, read for what it holds).
+    """
+    store = bench_typestore()
+    conns = []
+    for c in reader.connections:
+        want = next((t for topic, t in BENCH_TYPES.items() if topics.same_topic(c.topic, topic)),
+                    None)
+        if want is None:
+            continue
+        if c.msgtype != want:
+            raise BagError(f'{path}: not a pam_bench bag: {c.topic} holds {c.msgtype}, not '
+                           f'{want}')
+        if c.msgdef.data and c.msgdef.data.strip() and c.digest and not c.digest.startswith(
+                'RIHS01_000') and c.digest != store.hash_rihs01(want):
+            raise BagError(f'{path}: not a pam_bench bag of these interfaces: {c.topic} holds '
+                           f'a {want} of another definition (a bag of another pam_bench '
+                           'version?)')
+        conns.append(c)
+    if not conns and reader.connections:
+        held = ', '.join(sorted({c.topic for c in reader.connections})[:6])
+        raise BagError(f'{path}: not a pam_bench bag: it has no {POINT_TOPIC} or '
+                       f'{RECORD_TOPIC} (it holds {held}'
+                       + (', ...' if len({c.topic for c in reader.connections}) > 6 else '')
+                       + ')')
+    return conns
+
+
 def read_bags(paths: Iterable[str | pathlib.Path]) -> BagData:
     """Read the protocol points and step records of every bag.
 
@@ -109,8 +146,7 @@ def read_bags(paths: Iterable[str | pathlib.Path]) -> BagData:
     for path in bags:
         reader = open_bag(path)
         try:
-            conns = [c for c in reader.connections if topics.same_topic(c.topic, POINT_TOPIC)
-                     or topics.same_topic(c.topic, RECORD_TOPIC)]
+            conns = _bench_connections(path, reader)
             for conn, _, raw in reader.messages(connections=conns):
                 msg: Any = store.deserialize_cdr(raw, conn.msgtype)
                 if topics.same_topic(conn.topic, POINT_TOPIC):
@@ -131,7 +167,7 @@ def read_bags(paths: Iterable[str | pathlib.Path]) -> BagData:
             reader.close()
     if not rows and not records:
         raise BagError('no protocol points (topics /protocol/point, /protocol/step_response) in '
-                       + ', '.join(str(p) for p in bags))
+                       + ', '.join(str(p) for p in bags) + ': the run took no reading')
     points = {}
     for name, r in rows.items():
         a = np.array(sorted(r), dtype=float)

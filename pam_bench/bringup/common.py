@@ -51,6 +51,10 @@ def ros_env(domain_id: int | None = None, discovery: str = 'LOCALHOST') -> dict[
         domain_id = int(env.get('ROS_DOMAIN_ID', '') or 1 + os.getpid() % 100)
     env['ROS_DOMAIN_ID'] = str(domain_id)
     env.setdefault('RCUTILS_COLORIZED_OUTPUT', '0')
+    import resource
+    size, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
+    if size != resource.RLIM_INFINITY:      # ulimit -f: Fast DDS's shared-memory segments
+        env.setdefault('FASTDDS_BUILTIN_TRANSPORTS', 'UDPv4')   # are files; it fails loudly
     # One BLAS thread per node: many node processes share two cores, and BLAS thread pools
     # spinning against each other made a 4x4 matrix exponential 100x slower.
     for var in ('OPENBLAS_NUM_THREADS', 'OMP_NUM_THREADS', 'MKL_NUM_THREADS'):

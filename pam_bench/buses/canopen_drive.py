@@ -53,7 +53,33 @@ def open_network(can: dict[str, Any]) -> Any:
     except Exception as exc:  # noqa: BLE001 - python-can raises several types
         raise BusUnreachable(f'CAN bus {can.get("interface")} {can.get("channel")}: '
                              f'{exc}') from None
+    if network.notifier is not None:
+        network.notifier.add_listener(_BusLost(network))
     return network
+
+
+class _BusLost:
+    """A listener of python-can's notifier that ends its receive thread quietly when the bus
+    fails (a socketcand server that went away): the error is kept on the network
+    (``bus_error``) and the thread stops, instead of raising the error in a thread that prints
+    its traceback over the run's output. The drive's heartbeat watch then says the drive fell
+    silent, as it does for any lost drive."""
+
+    def __init__(self, network: Any) -> None:
+        self.network = network
+        network.bus_error = ''
+
+    def __call__(self, msg: Any) -> None:
+        """A frame: nothing to do here."""
+
+    def on_message_received(self, msg: Any) -> None:
+        """A frame: nothing to do here."""
+
+    def on_error(self, exc: Exception) -> None:
+        """The bus failed: keep why, end the receive thread (SystemExit ends a thread
+        silently)."""
+        self.network.bus_error = f'{type(exc).__name__}: {exc}'
+        raise SystemExit
 
 
 def eds_path() -> str:

@@ -9,7 +9,7 @@ from typing import Any
 
 from pam_bench.cli.cluster_args import add_cluster_args, cluster_of
 from pam_bench.cli.errors import UsageError
-from pam_bench.cli.numbers import integer, number
+from pam_bench.cli.numbers import integer, number, out_path
 
 __all__ = ['register']
 
@@ -24,7 +24,8 @@ def register(sub: Any) -> None:
     p.add_argument('--engine', choices=['numpy', 'ros'], default='ros',
                    help='ros: the nodes, composed (--processes: one process each); numpy: the '
                    'same models without ROS (seconds)')
-    p.add_argument('--out', default='reports/servo', help='output folder (new; it takes its '
+    p.add_argument('--out', type=out_path,
+                   default='reports/servo', help='output folder (new; it takes its '
                    'place once complete)')
     p.add_argument('--overwrite', action='store_true', help='replace --out, an earlier '
                    'servo-compare (only the files it wrote)')

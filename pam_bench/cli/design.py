@@ -11,7 +11,7 @@ from typing import Any
 
 from pam_bench.cli.cluster_args import add_cluster_args, cluster_of
 from pam_bench.cli.errors import UsageError
-from pam_bench.cli.numbers import integer, number
+from pam_bench.cli.numbers import integer, number, out_path
 from pam_bench.vocabulary.outputs import (
     check_output,
     claim_output,
@@ -39,7 +39,8 @@ def register(sub: Any) -> None:
                    'contract --contraction-mm under --force-n at --pressure-mpa')
     p.add_argument('--contraction-mm', type=number(0, 1e5, 'mm', True),
                    help='target contraction, mm (inverse)')
-    p.add_argument('--plot', metavar='DIR', help='inverse: write the graph with the design '
+    p.add_argument('--plot', type=out_path,
+                   metavar='DIR', help='inverse: write the graph with the design '
                    'points as DIR/correlation_graph.png (a new folder)')
     p.add_argument('--overwrite', action='store_true', help='replace --plot, a folder pam-bench '
                    'size wrote')
@@ -55,7 +56,8 @@ def register(sub: Any) -> None:
     p = sub.add_parser('sweep', help='run a scene over a grid, a list or random draws of its '
                        'settings and seeds on the cluster -> results.csv and plots')
     p.add_argument('sweep', help='sweep file (config/sweeps/NAME.yaml or a path)')
-    p.add_argument('--out', required=True, help='output folder: new, or a sweep of its own, '
+    p.add_argument('--out', type=out_path,
+                   required=True, help='output folder: new, or a sweep of its own, '
                    'which a rerun continues (skipping the jobs that ran)')
     p.add_argument('--overwrite', action='store_true', help='start --out, a sweep of its own, '
                    'afresh (only the files it wrote are removed)')

@@ -17,7 +17,8 @@ import sys
 
 from pam_bench.vocabulary.errors import PamBenchError
 
-__all__ = ['UsageError', 'USER_ERRORS', 'LIMITS', 'Terminated', 'exit_code']
+__all__ = ['UsageError', 'USER_ERRORS', 'LIMITS', 'MIN_OPEN_FILES', 'Terminated',
+           'check_limits', 'exit_code']
 
 
 class UsageError(PamBenchError, ValueError):
@@ -41,6 +42,24 @@ LIMITS = {errno.EFBIG: 'the file-size limit (ulimit -f)',
 """An ``OSError`` that the machine or the shell's limits raise, and how to say it."""
 
 
+MIN_OPEN_FILES = 64
+"""The fewest file descriptors a verb starts with: DDS takes a dozen per process before a node
+has a topic (``check_limits``)."""
+
+
+def check_limits() -> None:
+    """Check, before any verb starts, the limits it cannot do without.
+
+    Raises:
+        UsageError: the open-file limit is below ``MIN_OPEN_FILES`` (one line, what to do).
+    """
+    import resource
+    soft, _ = resource.getrlimit(resource.RLIMIT_NOFILE)
+    if soft != resource.RLIM_INFINITY and soft < MIN_OPEN_FILES:
+        raise UsageError(f'the open-file limit is {soft} (ulimit -n); pam-bench needs at '
+                         f'least {MIN_OPEN_FILES}: raise it (ulimit -n 1024)')
+
+
 class Terminated(KeyboardInterrupt):
     """SIGTERM, raised where Ctrl-C would be (every verb stops the same way; exit 143)."""
 
@@ -60,6 +79,10 @@ def exit_code(exc: BaseException) -> int:
         return 130
     if isinstance(exc, MemoryError):
         print("error: out of memory (the memory limit, ulimit -v, or the machine's)",
+              file=sys.stderr)
+        return 1
+    if isinstance(exc, RuntimeError) and 'Too many open files' in str(exc):   # rcl's words
+        print(f'error: {LIMITS[errno.EMFILE]} was reached ({str(exc).splitlines()[0][:120]})',
               file=sys.stderr)
         return 1
     if isinstance(exc, OSError) and exc.errno in LIMITS and not isinstance(exc, PamBenchError):

@@ -11,7 +11,7 @@ from typing import Any
 
 from pam_bench.cli.cluster_args import add_cluster_args, cluster_of
 from pam_bench.cli.errors import UsageError
-from pam_bench.cli.numbers import integer, number
+from pam_bench.cli.numbers import integer, number, out_path
 from pam_bench.verify.calibrate_verdict import NOT_CONVERGED, Verdict
 from pam_bench.vocabulary.outputs import (
     check_output_file,
@@ -29,7 +29,8 @@ def register(sub: Any) -> None:
     """Add this group's verbs to the ``pam-bench`` sub-parsers."""
     p = sub.add_parser('extract', help='bags -> characteristics, gains, identified model')
     p.add_argument('bags', nargs='+', help='rosbag2 directories')
-    p.add_argument('--out', required=True, help='output folder: new, or an extraction of its '
+    p.add_argument('--out', type=out_path,
+                   required=True, help='output folder: new, or an extraction of its '
                    'own with --overwrite (it takes its place once complete)')
     p.add_argument('--overwrite', action='store_true', help='replace --out, an earlier '
                    'extraction (only the files it wrote)')
@@ -55,7 +56,8 @@ def register(sub: Any) -> None:
                    'and step records)')
     p.add_argument('--target', default='004', help="without bags: what to fit to (004: the "
                    "paper's figures)")
-    p.add_argument('--out', help='write the fitted parameters as an overlay (run --params)')
+    p.add_argument('--out', type=out_path,
+                   help='write the fitted parameters as an overlay (run --params)')
     p.add_argument('--overwrite', action='store_true', help='replace --out, an overlay (or '
                    'with --each a folder) that pam-bench calibrate wrote')
     p.add_argument('--max-evaluations', type=integer(1, 100_000), default=60,

@@ -9,7 +9,7 @@ import sys
 from typing import NoReturn
 
 from pam_bench.cli import bags, bench, design, fit, plugins, run
-from pam_bench.cli.errors import Terminated, exit_code
+from pam_bench.cli.errors import Terminated, check_limits, exit_code
 
 __all__ = ['main', 'parser', 'GROUPS']
 
@@ -22,9 +22,55 @@ _received: list[int] = []
 SIGTERM)."""
 
 
+STOP_GRACE_S = 60.0
+"""How long a verb may take to stop after Ctrl-C or SIGTERM (nodes stopped, bag closed)
+before the process exits anyway; a second signal exits at once."""
+
+
 def _raise_interrupt(signum: int, frame: object) -> None:
     _received.append(signum)
     raise Terminated
+
+
+def _watch_stops() -> None:
+    """A thread that sees every stop signal as the kernel delivers it (Python's wake-up
+    fd), even while the main thread is stuck in a C call that never returns to Python (a
+    library spinning on an allocation the memory limit refuses): one second signal, or
+    ``STOP_GRACE_S`` after the first, ends the process with one line and the signal's exit
+    code. What was recorded stays on disk (``bag-repair`` closes a bag cut off so)."""
+    import select
+    import threading
+    import time
+    if any(t.name == 'stop-watch' for t in threading.enumerate()):
+        return                               # main() called again in one process
+    read, write = os.pipe()
+    os.set_blocking(write, False)
+    try:
+        signal.set_wakeup_fd(write, warn_on_full_buffer=False)
+    except ValueError:                       # not the main thread (a test harness)
+        os.close(read)
+        os.close(write)
+        return
+
+    def watch() -> None:
+        first: float | None = None
+        seen: list[int] = []
+        while True:
+            wait = None if first is None else max(0.0, first + STOP_GRACE_S - time.monotonic())
+            ready, _, _ = select.select([read], [], [], wait)
+            if ready:
+                seen += [s for s in os.read(read, 64) if s in (signal.SIGINT, signal.SIGTERM)]
+            if not seen:
+                continue
+            if first is None and len(seen) == 1:
+                first = time.monotonic()
+                continue
+            why = 'a second stop signal' if len(seen) > 1 else \
+                f'no stop within {STOP_GRACE_S:g} s of the signal'
+            os.write(2, f'error: {why}: exited at once (a bag cut off here: pam-bench '
+                     'bag-repair)\n'.encode())
+            os._exit(143 if signal.SIGTERM in seen else 130)
+    threading.Thread(target=watch, name='stop-watch', daemon=True).start()
 
 
 class _Parser(argparse.ArgumentParser):
@@ -54,11 +100,17 @@ def main(argv: list[str] | None = None) -> int:
     # was inherited: a background job of a non-interactive shell starts with SIGINT ignored.
     signal.signal(signal.SIGINT, signal.default_int_handler)
     signal.signal(signal.SIGTERM, _raise_interrupt)
+    _watch_stops()
     args = parser().parse_args(argv)
     try:
+        check_limits()
         code = int(args.func(args))
     except (KeyboardInterrupt, BrokenPipeError, Exception) as exc:  # noqa: BLE001 - mapped
         code = exit_code(exc)
+    if code == 130:
+        # a cluster stopped while it started: Dask's exit hook then fails on its half-made
+        # workers and prints a traceback after the one line (the processes still go)
+        sys.unraisablehook = lambda unraisable: None
     return 143 if code == 130 and signal.SIGTERM in _received else code
 
 

@@ -1,5 +1,5 @@
-"""Bounded numeric arguments: every count and duration a verb takes is finite, in a stated
-range, or one line saying what it must be."""
+"""Bounded arguments: every count and duration a verb takes is finite, in a stated range, and
+every path it writes names something, or one line says what it must be."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import argparse
 import math
 from collections.abc import Callable
 
-__all__ = ['number', 'integer']
+__all__ = ['number', 'integer', 'out_path']
 
 
 def _check(value: float, text: str, low: float, high: float, low_open: bool, unit: str) -> None:
@@ -43,3 +43,11 @@ def integer(low: int, high: int) -> Callable[[str], int]:
         return value
     parse.__name__ = 'integer'
     return parse
+
+
+def out_path(text: str) -> str:
+    """An argparse type for a path a verb writes: not empty (``--out ''`` would name the
+    current folder)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError('an empty path: name a folder or file')
+    return text

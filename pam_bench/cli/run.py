@@ -9,7 +9,7 @@ import sys
 from typing import Any
 
 from pam_bench.cli.errors import UsageError
-from pam_bench.cli.numbers import integer, number
+from pam_bench.cli.numbers import integer, number, out_path
 from pam_bench.vocabulary.errors import shorten
 
 __all__ = ['register']
@@ -22,7 +22,7 @@ def register(sub: Any) -> None:
                    'file')
     p.add_argument('--replay', metavar='BAG', help="run a bag's own scene again with its "
                    'recorded parameters, seed and layout (into --out)')
-    p.add_argument('--out', help='bag directory (default bags/SCENE, replaced)')
+    p.add_argument('--out', type=out_path, help='bag directory (default bags/SCENE, replaced)')
     p.add_argument('--overwrite', action='store_true', help='replace --out if it exists')
     p.add_argument('--params', metavar='FILE', help='parameter overlay (pam-bench calibrate '
                    "--out): over config/bench.yaml, under the scene's own parameters")
@@ -59,7 +59,7 @@ def register(sub: Any) -> None:
                        '(like ros2 bag record), until Ctrl-C')
     p.add_argument('topics', nargs='*', help='topic names (types are discovered)')
     p.add_argument('--all', action='store_true', help='every topic that appears')
-    p.add_argument('--out', required=True, help='bag directory to create')
+    p.add_argument('--out', type=out_path, required=True, help='bag directory to create')
     add_bag_options(p)
     p.set_defaults(func=_cmd_record)
     p = sub.add_parser('live', help='serve the topics of a running bench to Foxglove (join a '

@@ -73,7 +73,12 @@ def connect(scheduler: str | None = None, workers: int | None = None,
     Raises:
         ClusterError: the scheduler cannot be reached (one line).
     """
+    import logging
+
     from distributed import Client, LocalCluster
+    # a Ctrl-C while futures are gathered leaves the client's tasks unretrieved: asyncio
+    # would print one traceback for each after the verb's one line
+    logging.getLogger('asyncio').setLevel(logging.CRITICAL)
     address = scheduler or os.environ.get('PAM_BENCH_SCHEDULER') or None
     if address:
         try:
@@ -88,10 +93,9 @@ def connect(scheduler: str | None = None, workers: int | None = None,
         finally:
             client.close()
         return
-    import logging
     n = workers or os.cpu_count() or 1
     with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host='127.0.0.1',
-                      dashboard_address='127.0.0.1:0', silence_logs=logging.ERROR,
+                      dashboard_address='127.0.0.1:0', silence_logs=logging.CRITICAL,
                       worker_dashboard_address='127.0.0.1:0') as cluster, \
             Client(cluster) as client:
         yield client

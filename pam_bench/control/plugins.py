@@ -29,6 +29,7 @@ import dataclasses
 import math
 from typing import Any, Protocol
 
+from pam_bench.control.params import TorqueServoParams
 from pam_bench.vocabulary.errors import PamBenchError
 from pam_bench.vocabulary.plugins import Plugin, discover, plugin
 
@@ -73,7 +74,6 @@ def _built(cls: Any, settings: Any, what: str, servo: Any = None, inverse: Any =
     """Why ``cls`` cannot be built with ``settings`` (``what`` they are, for the message;
     '' when it can); ``servo`` None: the servo's default parameters."""
     if servo is None:
-        from pam_bench.control.torque_servo import TorqueServoParams
         servo = TorqueServoParams()
     try:
         cls(settings, servo, inverse)

@@ -16,8 +16,9 @@ N = A - (tau/2) I and, by Cayley-Hamilton, N^2 = delta2 I where delta2 = tau^2/4
 with C and S evaluated as entire functions of z = delta2 h^2 (cos / sin for z < 0, their
 Taylor series for |z| < 1e-3), so nothing is divided by sqrt(delta2) = sqrt(b^2 - 4c) / 2 and
 the critically damped case is not special. The input part is Bd = A^-1 (Ad - I) B; a nearly
-singular A (det A h^2 < 1e-6, e.g. a first-order loop written with two states) falls back to
-``expm``.
+singular A (det A h^2 < 1e-6, e.g. a first-order loop written with two states, or the 1 ns
+flush tick of a lock-step run) takes the exponential's series where ||A|| h <= 0.1 and falls
+back to ``expm`` beyond.
 """
 
 from __future__ import annotations
@@ -87,7 +88,7 @@ def zoh_2x2_floats(a00: float, a01: float, a10: float, a11: float, b0: float, b1
     nearly singular over the step or the step overflows (``zoh`` then uses ``expm``)."""
     det = a00 * a11 - a01 * a10
     if not (abs(det) * h * h >= 1e-6 and math.isfinite(det)):
-        return None
+        return _series_2x2(a00, a01, a10, a11, b0, b1, h)
     half = 0.5 * (a00 + a11)
     try:
         cm1, sh, c = _scaled_cosh_sinhc((half * half - det) * h * h, h, half * h)
@@ -101,6 +102,34 @@ def zoh_2x2_floats(a00: float, a01: float, a10: float, a11: float, b0: float, b1
     v0, v1 = d00 * b0 + d01 * b1, d10 * b0 + d11 * b1     # Bd = A^-1 (Ad - I) B
     return (1.0 + d00, d01, d10, 1.0 + d11, (a11 * v0 - a01 * v1) / det,
             (a00 * v1 - a10 * v0) / det)
+
+
+SERIES_MAX_NORM_H = 0.1
+"""Largest ||A||_inf h for which ``_series_2x2`` sums the exponential's series: 13 terms
+leave a remainder below 0.1^13 / 13! = 2e-23, under a double's last bit."""
+
+
+def _series_2x2(a00: float, a01: float, a10: float, a11: float, b0: float, b1: float,
+                h: float) -> tuple[float, float, float, float, float, float] | None:
+    """The ZOH of a 2x2 system over a step short against its dynamics (``||A|| h <= 0.1``:
+    the lock-step's 1 ns flush tick, a nearly singular A over a short step) as the series
+    Ad = sum (A h)^k / k!, Bd = h sum (A h)^k / (k + 1)! B, to 13 terms, in floats (no LAPACK
+    call: its buffer allocation spins for ever when memory runs out). None when the step is
+    not short enough (``zoh`` then uses ``expm``)."""
+    norm = max(abs(a00) + abs(a01), abs(a10) + abs(a11)) * h
+    if not (math.isfinite(norm) and norm <= SERIES_MAX_NORM_H):
+        return None
+    m00, m01, m10, m11 = a00 * h, a01 * h, a10 * h, a11 * h
+    t00, t01, t10, t11 = 1.0, 0.0, 0.0, 1.0            # (A h)^k / k!
+    e00, e01, e10, e11 = 1.0, 0.0, 0.0, 1.0            # sum of those
+    f00, f01, f10, f11 = 1.0, 0.0, 0.0, 1.0            # sum of (A h)^k / (k + 1)!
+    for k in range(1, 13):
+        t00, t01, t10, t11 = ((t00 * m00 + t01 * m10) / k, (t00 * m01 + t01 * m11) / k,
+                              (t10 * m00 + t11 * m10) / k, (t10 * m01 + t11 * m11) / k)
+        e00, e01, e10, e11 = e00 + t00, e01 + t01, e10 + t10, e11 + t11
+        f00, f01 = f00 + t00 / (k + 1), f01 + t01 / (k + 1)
+        f10, f11 = f10 + t10 / (k + 1), f11 + t11 / (k + 1)
+    return (e00, e01, e10, e11, h * (f00 * b0 + f01 * b1), h * (f10 * b0 + f11 * b1))
 
 
 def _zoh_2x2(a: np.ndarray, b: np.ndarray, h: float

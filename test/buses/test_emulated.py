@@ -137,3 +137,4 @@ def test_nothing_listens_one_error() -> None:
     for expected in (0.1, 0.2, 0.4, 0.5, 0.5):
         assert backoff.delay_s == pytest.approx(expected)
         backoff.failed(0.0)
+

@@ -80,10 +80,33 @@ def test_nearly_singular_two_state_system_falls_back_to_expm() -> None:
     from pam_bench.models.lti import _zoh_2x2
     a = np.array([[-1.0 / 0.02, 0.0], [0.0, 0.0]])
     bm = np.array([[1.0 / 0.02], [0.0]])
-    assert _zoh_2x2(a, bm, 1e-3) is None
-    ad, bd = zoh(a, bm, 1e-3)
-    np.testing.assert_allclose(ad[0, 0], math.exp(-0.05), rtol=1e-14)
-    np.testing.assert_allclose(bd[0, 0], -math.expm1(-0.05), rtol=1e-14)
+    assert _zoh_2x2(a, bm, 1e-2) is None                  # ||A|| h = 0.5: past the series
+    ad, bd = zoh(a, bm, 1e-2)
+    np.testing.assert_allclose(ad[0, 0], math.exp(-0.5), rtol=1e-14)
+    np.testing.assert_allclose(bd[0, 0], -math.expm1(-0.5), rtol=1e-14)
+
+
+@pytest.mark.parametrize('a, bm, h', [
+    (np.array([[-1.0 / 0.02, 0.0], [0.0, 0.0]]), np.array([[1.0 / 0.02], [0.0]]), 1e-3),
+    (*second_order_matrices(11.26, 352.05, 352.05), 1e-9),      # the 1 ns flush tick
+    (*second_order_matrices(2.0 * 0.3 * 300.0, 300.0**2, 300.0**2), 1e-6),
+    (*second_order_matrices(0.0, 0.0, 1.0), 0.05),              # a double integrator
+])
+def test_a_short_step_of_a_nearly_singular_system_sums_the_series(a: np.ndarray,
+                                                                  bm: np.ndarray,
+                                                                  h: float) -> None:
+    """Where the closed form declines and ||A|| h <= 0.1, the series path gives the exact
+    update to the last bits, without a LAPACK call (``lti._series_2x2``), against expm."""
+    from scipy.linalg import expm
+
+    from pam_bench.models.lti import _zoh_2x2
+    fast = _zoh_2x2(a, bm, h)
+    assert fast is not None
+    blk = np.zeros((3, 3))
+    blk[:2, :2], blk[:2, 2:] = a, bm
+    e = expm(blk * h)
+    np.testing.assert_allclose(fast[0], e[:2, :2], rtol=1e-14, atol=1e-300)
+    np.testing.assert_allclose(fast[1], e[:2, 2:], rtol=1e-13, atol=1e-30)
 
 
 @pytest.mark.parametrize('a, bm', [
