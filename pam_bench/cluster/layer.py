@@ -93,10 +93,17 @@ def connect(scheduler: str | None = None, workers: int | None = None,
         finally:
             client.close()
         return
+    import tempfile
     n = workers or os.cpu_count() or 1
-    with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host='127.0.0.1',
-                      dashboard_address='127.0.0.1:0', silence_logs=logging.CRITICAL,
-                      worker_dashboard_address='127.0.0.1:0') as cluster, \
+    # the workers' scratch space in a folder of this run, removed with it (Dask's default,
+    # $TMPDIR/dask-scratch-space, stays behind)
+    import dask
+    with tempfile.TemporaryDirectory(prefix='pam_bench_dask_') as scratch, \
+            dask.config.set({'temporary-directory': scratch}), \
+            LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host='127.0.0.1',
+                         dashboard_address='127.0.0.1:0', silence_logs=logging.CRITICAL,
+                         worker_dashboard_address='127.0.0.1:0',
+                         local_directory=scratch) as cluster, \
             Client(cluster) as client:
         yield client
 

@@ -218,3 +218,75 @@ def test_fuzzed_bags_end_cleanly(demo_bag: pathlib.Path, tmp_path: pathlib.Path,
     if code == 0 and how != 'flip_outside':
         assert 'valid' not in out or how == 'truncate' and where > 0.999, out
     assert time.monotonic() - t0 < 4 * TIME_BOUND_S
+
+
+# --- numbers as YAML 1.2 writes them, and bags of other recorders (issue 51) ---------------
+
+_numbers = st.floats(allow_nan=False, allow_infinity=False, min_value=-1e12, max_value=1e12)
+
+
+def _yaml12(value: float, form: int) -> str:
+    """``value`` as a YAML 1.2 float text: an exponent without a sign or a dot, with one, or
+    a plain decimal."""
+    text = [f'{value:e}'.replace('e+', 'e'), f'{value:.6e}', repr(value)][form % 3]
+    return text.replace('e0', 'e') if 'e0' in text and 'e0.' not in text else text
+
+
+@FUZZ
+@given(value=_numbers, form=st.integers(0, 2))
+def test_fuzzed_yaml_1_2_numbers_read_as_floats(value: float, form: int) -> None:
+    from pam_bench.vocabulary.yaml_io import load_yaml
+    text = _yaml12(value, form)
+    got = load_yaml(f'x: {text}', 'fuzz')['x']
+    assert isinstance(got, (int, float)) and not isinstance(got, bool), (text, got)
+    assert got == pytest.approx(float(text), rel=1e-15, abs=0.0), (text, got)
+
+
+@FUZZ
+@given(value=st.floats(min_value=0.5, max_value=20.0), form=st.integers(0, 2))
+def test_fuzzed_set_numbers_in_yaml_1_2_are_taken(value: float, form: int) -> None:
+    """A setting given as 2e0, 1.5e1, ...: taken as the number, or refused for its range
+    with one line naming it, never as 'not a number'."""
+    from pam_bench.cli.run import load_with_sets
+    from pam_bench.vocabulary.errors import PamBenchError
+    text = _yaml12(value, form)
+    try:
+        scene = load_with_sets('demo', [f'sequencer.stale_timeout_s={text}'])
+    except PamBenchError as exc:
+        assert 'expected a number' not in str(exc) and 'stale_timeout_s' in str(exc)
+    else:
+        assert scene.settings()['sequencer'].stale_timeout_s == pytest.approx(float(text))
+
+
+_types = st.sampled_from([('std_msgs/msg/String', 'x'), ('std_msgs/msg/Float64', 1.5),
+                          ('std_msgs/msg/Int32', 7), ('std_msgs/msg/Bool', True)])
+_topics = st.sampled_from(['/chatter', '/protocol/point', '/protocol/step_response',
+                           '/load_cell_1/force', '/diagnostics']) | st.from_regex(
+                               r'/[a-z][a-z0-9_]{0,8}', fullmatch=True)
+
+
+@BAG_FUZZ
+@given(entries=st.lists(st.tuples(_topics, _types), min_size=1, max_size=3,
+                        unique_by=lambda e: e[0]))
+def test_fuzzed_foreign_bags_are_named_not_damaged(
+        tmp_path: pathlib.Path, entries: list[tuple[str, tuple[str, object]]]) -> None:
+    """A valid bag of another recorder (any topics, standard types): info reads it, extract
+    refuses it as 'not a pam_bench bag' (or 'the run took no reading'), never as damaged,
+    and bag-repair finds it valid."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+    store = get_typestore(Stores.ROS2_JAZZY)
+    bag = tmp_path / 'foreign'
+    shutil.rmtree(bag, ignore_errors=True)
+    with Writer(bag, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        for topic, (msgtype, data) in entries:
+            conn = w.add_connection(topic, msgtype, typestore=store)
+            w.write(conn, 1, store.serialize_cdr(store.types[msgtype](data=data), msgtype))
+    before = tree_digest(bag)
+    assert cli('info', bag)[0] == 0
+    line = one_line_error(*cli('extract', bag, '--out', tmp_path / 'report')[::2])
+    assert 'not a pam_bench bag' in line or 'took no reading' in line, line
+    assert 'damaged' not in line
+    code, out, err = cli('bag-repair', bag)
+    assert code == 0 and 'valid' in out, out + err
+    assert tree_digest(bag) == before

@@ -111,3 +111,48 @@ def test_the_shipped_sweeps_load(name: str) -> None:
     from pam_bench.config.paths import config_dir
     sweep = load_sweep(config_dir() / 'sweeps' / f'{name}.yaml')
     assert sweep.jobs() and sweep.figures
+
+
+def test_an_interrupted_sweep_keeps_what_it_finished(tmp_path: pathlib.Path) -> None:
+    """Issue 51: SIGINT in the middle of a sweep: every job that had finished is in
+    results.csv, no scratch folder is left, and the rerun skips those jobs (their rows, wall
+    times included, come back unchanged)."""
+    import csv
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    out = tmp_path / 'sweep'
+    env = {**os.environ, 'TMPDIR': str(tmp_path / 'tmp')}
+    (tmp_path / 'tmp').mkdir()
+    proc = subprocess.Popen([sys.executable, '-m', 'pam_bench.cli', 'sweep', 'servo_tuning',
+                             '--out', str(out), '--no-plots'], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        end = time.monotonic() + 120.0
+        while time.monotonic() < end and proc.poll() is None:
+            if (out / 'results.csv').exists() and \
+                    len((out / 'results.csv').read_text().splitlines()) > 3:
+                break
+            time.sleep(0.05)
+        proc.send_signal(signal.SIGINT)
+        text = proc.communicate(timeout=60)[0]
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130 and 'Traceback' not in text, text
+
+    def rows() -> dict[str, dict[str, str]]:
+        with open(out / 'results.csv', newline='', encoding='utf-8') as fh:
+            return {r['job']: r for r in csv.DictReader(fh)}
+    kept = rows()
+    assert 3 <= len(kept) < 32 and all(r['status'] == 'ok' for r in kept.values())
+    assert not [p.name for p in (tmp_path / 'tmp').iterdir()]       # no scratch left
+    again = subprocess.run([sys.executable, '-m', 'pam_bench.cli', 'sweep', 'servo_tuning',
+                            '--out', str(out), '--no-plots'], env=env, capture_output=True,
+                           text=True, timeout=300)
+    assert again.returncode == 0, again.stdout + again.stderr
+    final = rows()
+    assert len(final) == 32
+    assert all(final[job] == row for job, row in kept.items())    # skipped, not run again
