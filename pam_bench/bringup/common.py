@@ -22,8 +22,8 @@ import yaml
 from pam_bench.config.nodes import NODES
 from pam_bench.sim.lockstep import RunSummary
 
-__all__ = ['RunResult', 'ros_env', 'clean_shared_memory', 'die_with_parent', 'batch_child',
-           'result_of', 'node_error',
+__all__ = ['RunResult', 'RUN_ENV', 'ros_env', 'clean_shared_memory', 'die_with_parent',
+           'batch_child', 'result_of', 'node_error',
            'write_params_file', 'ros_params', 'node_cmd', 'ns_args', 'write_end_state',
            'copy_lines', 'stop_processes']
 
@@ -42,6 +42,11 @@ class RunResult:
     stats: dict[str, Any] = dataclasses.field(default_factory=dict)
 
 
+RUN_ENV = 'PAM_BENCH_RUN'
+"""Set in every process a run starts: the process id of the run (its identity, whatever
+domain it leased; tools and tests find a run's processes by it)."""
+
+
 def ros_env(domain_id: int | None = None, discovery: str = 'LOCALHOST') -> dict[str, str]:
     """Environment for ROS processes of one run: loopback discovery (``SUBNET`` across
     network namespaces: ``netns``), a private domain."""
@@ -50,6 +55,7 @@ def ros_env(domain_id: int | None = None, discovery: str = 'LOCALHOST') -> dict[
     if domain_id is None:
         domain_id = int(env.get('ROS_DOMAIN_ID', '') or 1 + os.getpid() % 100)
     env['ROS_DOMAIN_ID'] = str(domain_id)
+    env[RUN_ENV] = str(os.getpid())       # the run's identity: every process it starts
     env.setdefault('RCUTILS_COLORIZED_OUTPUT', '0')
     import resource
     size, _ = resource.getrlimit(resource.RLIMIT_FSIZE)

@@ -74,6 +74,11 @@ def run_scene(scene: Scene, out_dir: str, options: RunOptions | None = None) -> 
         raise LayoutError('--namespace runs the nodes on the wall clock: add --wallclock')
     if o.netns and layout is Layout.WALL_CLOCK:
         raise LayoutError('--netns runs lock-step: drop --wallclock or --netns')
+    if o.external and layout is not Layout.WALL_CLOCK:
+        raise LayoutError('--external runs beside real devices on the wall clock: add '
+                          '--wallclock')
+    from pam_bench.bringup.external import check_external
+    check_external(scene.name, scene.nodes, o.external, o.buses)
     live = o.live
     if live is not None:
         if o.netns:
@@ -86,13 +91,15 @@ def run_scene(scene: Scene, out_dir: str, options: RunOptions | None = None) -> 
         lease = private_domain(wanted, o.quiet)
     else:
         from pam_bench.bringup.wallclock import wall_nodes
-        lease = shared_domain(wanted, o.namespace, wall_nodes(scene, o.devices_only, o.buses))
+        lease = shared_domain(wanted, o.namespace, wall_nodes(scene, o.devices_only, o.buses,
+                                                              o.external))
     try:
         with lease as domain, live_view(live, domain, o.quiet, o.namespace):
             if layout is Layout.WALL_CLOCK:
                 from pam_bench.bringup.wallclock import run_wallclock
                 return run_wallclock(scene, settings, domain, o.quiet,
-                                     o.device_processes, o.devices_only, o.namespace, o.buses)
+                                     o.device_processes, o.devices_only, o.namespace, o.buses,
+                                     o.external)
             if layout is Layout.COMPOSED:
                 from pam_bench.bringup.composed import run_composed
                 return run_composed(scene, settings, domain, o.quiet)

@@ -85,11 +85,13 @@ def wall_settings(scene: Scene, settings: dict[str, Any], stats_dir: str = ''
     return settings
 
 
-def wall_nodes(scene: Scene, devices_only: bool = False, buses: str = '') -> list[str]:
+def wall_nodes(scene: Scene, devices_only: bool = False, buses: str = '',
+               external: tuple[str, ...] = ()) -> list[str]:
     """The ROS nodes a wall-clock run of ``scene`` starts: the recorder, the devices (the
-    drivers with ``buses``) and the controllers; only the devices with ``devices_only``."""
+    drivers with ``buses``; not the ``external`` ones) and the controllers; only the devices
+    with ``devices_only``."""
     from pam_bench.bringup.buses import DRIVERS
-    names = list(DRIVERS) if buses else devices(scene.nodes)
+    names = list(DRIVERS) if buses else [d for d in devices(scene.nodes) if d not in external]
     if devices_only:
         return names
     return ['recorder'] * ('recorder' in scene.nodes) + names + controllers(scene.nodes)
@@ -97,16 +99,18 @@ def wall_nodes(scene: Scene, devices_only: bool = False, buses: str = '') -> lis
 
 def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None, quiet: bool,
                    device_processes: bool, devices_only: bool = False, namespace: str = '',
-                   buses: str = '') -> RunResult:
+                   buses: str = '', external: tuple[str, ...] = ()) -> RunResult:
     """Run the scene on the wall clock (module docstring), every node in ``namespace``; with
     ``buses`` (a register map), the devices behind Modbus TCP and CANopen and the drivers in
-    their place (``bringup.buses``)."""
+    their place (``bringup.buses``); the ``external`` devices left to a lab's drivers, waited
+    for before the controllers start (``bringup.external``)."""
     import json
 
     env = ros_env(domain_id)
     clean_shared_memory()              # what killed runs left in /dev/shm (best effort)
-    device_names = devices(scene.nodes)
+    device_names = [d for d in devices(scene.nodes) if d not in external]
     controller_names = controllers(scene.nodes)
+    all_nodes = list(scene.nodes)
     if devices_only:
         scene = dataclasses.replace(scene, nodes=device_names)
         controller_names = []
@@ -170,16 +174,26 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
             elif device_processes:
                 for name in device_names:
                     start(name, node_cmd(name, pfile, namespace))
-            elif device_names:
+            elif device_names:                   # external devices: a lab's drivers
                 start('emulator', [sys.executable, '-m', 'pam_bench.bringup.emulator',
                                    *(['--namespace', namespace] if namespace else []), pfile,
                                    *device_names])
+            def dead(n: str) -> bool:
+                return procs[n if n in procs else 'emulator'].poll() is not None
+            took = 0.0
+            if external and controller_names:   # the simulated devices up and stepping,
+                first = [n for n in managed if n not in controller_names]   # then the lab's
+                took += activate_nodes(first, namespace, int(env['ROS_DOMAIN_ID']), dead)
+                managed_later = [n for n in managed if n in controller_names]
+                from pam_bench.bringup.external import await_external
+                await_external(all_nodes, external, namespace, int(env['ROS_DOMAIN_ID']),
+                               quiet)
+            else:
+                managed_later = managed
             for name in controller_names:
                 start(name, node_cmd(name, pfile, namespace),
                       pipe=name == controller_names[0])
-            took = activate_nodes(managed, namespace, int(env['ROS_DOMAIN_ID']),
-                                  lambda n: procs[n if n in procs else 'emulator']
-                                  .poll() is not None)
+            took += activate_nodes(managed_later, namespace, int(env['ROS_DOMAIN_ID']), dead)
             line = (f'lifecycle: {", ".join(managed)} configured and active in {took:.2f} s'
                     if managed else '')
             log.write(line + '\n')
@@ -224,8 +238,8 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
         except _NotStarted:
             code = procs['recorder'].wait()
             dead = ['recorder'] if code == 2 else []
-        except LayoutError as exc:      # the buses did not come up, or a node's lifecycle
-            code, dead = 2, ['bring-up']
+        except LayoutError as exc:      # the buses did not come up, a node's lifecycle, or
+            code, dead = 2, ['bring-up']  # an external device that did not meet the contract
             log.write(f'bring-up: error: {exc}\n')
         finally:
             write_end_state(settings, code)
@@ -235,7 +249,8 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
             node_log = log.read()
             log.close()
         stats = {}
-        ran = [n for n in scene.nodes if not (buses and n in device_names)] + driver_names
+        ran = [n for n in scene.nodes if not (buses and n in device_names) and
+               n not in external] + driver_names
         for name in ran if started else []:
             path = os.path.join(tmp, f'{name}.json')
             try:

@@ -100,7 +100,8 @@ def main(argv: list[str] | None = None) -> int:
     # was inherited: a background job of a non-interactive shell starts with SIGINT ignored.
     signal.signal(signal.SIGINT, signal.default_int_handler)
     signal.signal(signal.SIGTERM, _raise_interrupt)
-    _watch_stops()
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})  # and the
+    _watch_stops()                                          # mask a parent may have left
     args = parser().parse_args(argv)
     try:
         check_limits()

@@ -54,6 +54,9 @@ def register(sub: Any) -> None:
     add_buses_option(p, 'with --wallclock: serve the simulated devices behind a Modbus TCP '
                      'DAQ and a CANopen CiA 402 drive and run the drivers daq_modbus and '
                      'servo_canopen in their place (README, "Behind real buses")')
+    add_external_option(p, 'with --wallclock: leave these devices to your own drivers: the '
+                        'others are simulated, and the protocol starts once these meet the '
+                        'driver contract (docs/drivers.md)')
     p.set_defaults(func=_cmd_run)
     p = sub.add_parser('record', help='record topics of a running graph on the wall clock '
                        '(like ros2 bag record), until Ctrl-C')
@@ -77,6 +80,7 @@ def register(sub: Any) -> None:
     add_namespace_option(p, 'run the devices in this ROS namespace')
     add_buses_option(p, 'serve the devices behind a Modbus TCP DAQ on 127.0.0.1 and a CiA 402 '
                      'drive on a CAN hub, with the drivers daq_modbus and servo_canopen')
+    add_external_option(p, 'leave these devices to your own drivers: only the others run')
     p.set_defaults(func=_cmd_emulate)
     p = sub.add_parser('check-drivers', help='join a running bench and check that its drivers '
                        'meet the contract (docs/drivers.md)')
@@ -115,6 +119,12 @@ def add_buses_option(p: argparse.ArgumentParser, text: str) -> None:
     """``--buses [MAP]``: the devices behind field buses, the DAQ's register map MAP."""
     p.add_argument('--buses', nargs='?', const='daq_generic', default='', metavar='MAP',
                    help=f'{text}; MAP: the register map (default daq_generic)')
+
+
+def add_external_option(p: argparse.ArgumentParser, text: str) -> None:
+    """``--external NAME ...``: devices a lab's own drivers stand in for."""
+    p.add_argument('--external', nargs='+', action='extend', default=[], metavar='DEVICE',
+                   help=text)
 
 
 def add_namespace_option(p: argparse.ArgumentParser, text: str) -> None:
@@ -336,6 +346,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if args.wallclock and (args.processes or args.realtime):
         raise UsageError('--wallclock runs the devices in the emulator on the wall clock: drop '
                          '--processes and --realtime')
+    if args.external and not args.wallclock:
+        raise UsageError('--external runs beside your devices on the wall clock: add '
+                         '--wallclock')
+    if args.external:
+        from pam_bench.bringup.external import check_external
+        check_external(scene.name, scene.nodes, args.external, args.buses)
     if (args.buses or args.namespace) and not args.wallclock:
         raise UsageError(f'{"--buses" if args.buses else "--namespace"} runs the bench on the '
                          'wall clock: add --wallclock')
@@ -367,7 +383,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
             seed=args.seed, layout=layout, realtime=args.realtime,
             device_processes=args.device_processes, settings=settings,
             netns=tuple(args.netns.split(':', 1)) if args.netns else None,
-            namespace=args.namespace, buses=args.buses,
+            namespace=args.namespace, buses=args.buses, external=tuple(args.external),
             live=live_settings(args, args.live) if args.live is not None else None))
         code = res.code
     except KeyboardInterrupt:
@@ -449,7 +465,8 @@ def _cmd_emulate(args: argparse.Namespace) -> int:
     from pam_bench.config.scene import load_scene
     res = run_scene(load_scene(args.scene), '',
                     RunOptions(layout=Layout.WALL_CLOCK, seed=args.seed, devices_only=True,
-                               namespace=args.namespace, buses=args.buses))
+                               namespace=args.namespace, buses=args.buses,
+                               external=tuple(args.external)))
     return 0 if res.code in (0, 130) else res.code
 
 

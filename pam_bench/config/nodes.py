@@ -29,7 +29,7 @@ from pam_bench.vocabulary.errors import ParameterError
 from pam_bench.vocabulary.params import hint
 
 __all__ = ['Role', 'NodeType', 'NODES', 'node', 'devices', 'controllers', 'SCENE_NODES',
-           'EXECUTABLES']
+           'EXECUTABLES', 'ground_truth_of', 'MEASURED']
 
 
 class Role(enum.Enum):
@@ -119,3 +119,22 @@ def devices(names: list[str]) -> list[str]:
 def controllers(names: list[str]) -> list[str]:
     """The controllers among ``names`` (sequencer, torque servo), in table order."""
     return [n for n, t in NODES.items() if t.role == Role.CONTROLLER and n in names]
+
+
+def ground_truth_of(name: str, names: list[str]) -> list[str]:
+    """The simulated devices among ``names`` whose ground truth (``sim/`` topics) the
+    simulated device ``name`` reads: a real device that replaces one of them publishes none,
+    so ``name`` cannot run beside it (``run --external``)."""
+    ch = NODES[name].channel
+    muscles = [n for n in names if n.startswith('muscle_')]
+    needs = {'valve_sim': [f'muscle_{ch}'], 'muscle_sim': [f'valve_{ch}', 'loading_servo'],
+             'load_cell_sim': [f'muscle_{ch}'], 'encoder_sim': ['loading_servo'],
+             'loading_servo_sim': muscles}.get(NODES[name].executable, [])
+    return [n for n in needs if n in names]
+
+
+MEASURED = {'valve_1': 'valve_1/pressure', 'valve_2': 'valve_2/pressure',
+            'load_cell_1': 'load_cell_1/force', 'load_cell_2': 'load_cell_2/force',
+            'encoder': 'encoder/joint_state', 'loading_servo': 'loading_servo/state',
+            'muscle_1': '', 'muscle_2': ''}
+"""What each device publishes of the driver contract (``config.drivers``; a muscle none)."""

@@ -12,9 +12,9 @@ import dataclasses
 
 __all__ = ['Topic', 'TOPICS', 'valve_command', 'valve_pressure', 'valve_samples',
            'muscle_state', 'muscle_samples', 'load_cell_force', 'ENCODER', 'LOAD_COMMAND',
-           'LOAD_STATE', 'MOTOR_JOINT', 'PULLEY_STATE', 'PULLEY_LAW', 'POINT', 'RECORD',
-           'STATUS', 'RUN',
-           'PAUSE', 'RESUME', 'SERVO_SETPOINT', 'SERVO_STATE', 'SERVO_RESET', 'DIAGNOSTICS',
+           'LOAD_STATE', 'MOTOR_JOINT', 'PULLEY_JOINT', 'PULLEY_STATE', 'PULLEY_LAW', 'POINT',
+           'RECORD', 'STATUS', 'RUN', 'PAUSE', 'RESUME', 'SERVO_SETPOINT', 'SERVO_STATE',
+           'SERVO_RESET', 'DIAGNOSTICS',
            'CLOCK', 'ACK', 'STEP_TOPIC_SOURCES', 'EVENT_TOPICS', 'STEP_TOPICS', 'step_topics',
            'absolute', 'in_namespace', 'same_topic']
 
@@ -53,6 +53,7 @@ ENCODER = 'encoder/joint_state'
 LOAD_COMMAND = 'loading_servo/command'
 LOAD_STATE = 'loading_servo/state'
 MOTOR_JOINT = 'motor'
+PULLEY_JOINT = 'pulley'
 """The joint of ``loading_servo/state`` (the motor side: angle rad, rate rad/s, torque N m)."""
 PULLEY_STATE = 'sim/pulley/state'
 PULLEY_LAW = 'sim/pulley/law'

@@ -21,7 +21,7 @@ from rclpy.node import Node
 from rclpy.qos import ReliabilityPolicy
 from sensor_msgs.msg import FluidPressure, JointState
 
-from pam_bench.config.drivers import COMMANDS, Seen, Verdict, contract, judge
+from pam_bench.config.drivers import COMMANDS, ENCODER, Seen, Verdict, contract, judge
 from pam_bench.config.topics import in_namespace
 from pam_bench.runtime.base import SENSOR
 from pam_bench.runtime.messages import ns_of
@@ -40,20 +40,24 @@ def _value(msg: Any, joint: str) -> float:
     if isinstance(msg, WrenchStamped):
         return float(msg.wrench.force.x)
     names = list(msg.name)
-    return float(msg.position[names.index(joint)]) if joint in names else float('nan')
+    if joint not in names or names.index(joint) >= len(msg.position):
+        return float('nan')
+    return float(msg.position[names.index(joint)])
 
 
 def probe_drivers(controllers: list[str], duration_s: float, settle_s: float = 5.0,
-                  namespace: str = '', joint_name: str = 'pulley') -> list[Verdict]:
+                  namespace: str = '', joint_name: str = 'pulley',
+                  only: list[str] | None = None) -> list[Verdict]:
     """Listen ``duration_s`` (after up to ``settle_s`` of discovery) and judge every topic
-    of the bench in ``namespace`` ('': the root), the encoder's joint ``joint_name``.
+    of the bench in ``namespace`` ('': the root), the encoder's joint ``joint_name``; with
+    ``only`` (absolute topic names of the contract), those topics alone.
 
-    Returns one ``Verdict`` per measured topic, then one per command topic (a subscriber
-    present or not)."""
+    Returns one ``Verdict`` per measured topic, then (without ``only``) one per command topic
+    (a subscriber present or not)."""
     rclpy.init()
     node = Node('pam_bench_check_drivers')
     expects = [dataclasses.replace(e, topic=in_namespace(e.topic, namespace))
-               for e in contract(controllers)]
+               for e in contract(controllers) if only is None or e.topic in only]
 
     seen: dict[str, Seen] = {}
     try:
@@ -66,17 +70,18 @@ def probe_drivers(controllers: list[str], duration_s: float, settle_s: float = 5
         names = dict(node.get_topic_names_and_types())
         for e in expects:
             infos = node.get_publishers_info_by_topic(e.topic)
-            s = Seen([t for t in names.get(e.topic, [])],
+            s = Seen(sorted({i.topic_type for i in infos}),     # publishers', not readers
                      [i.qos_profile.reliability == ReliabilityPolicy.RELIABLE for i in infos],
                      [], [], [], duration_s)
             seen[e.topic] = s
             if e.msgtype in s.types:
+                joint = joint_name if e.joint == ENCODER.joint else e.joint
                 node.create_subscription(_CLASSES[e.msgtype], e.topic,
-                                         functools.partial(_take, s, joint_name), SENSOR)
+                                         functools.partial(_take, s, joint), SENSOR)
         end = time.monotonic() + duration_s      # one wait set: keeps up with 1 kHz topics
         deadline_spin([node], lambda: None, 0.05, should_stop=lambda: time.monotonic() > end)
         verdicts = [judge(e, seen[e.topic]) for e in expects]
-        for name in controllers:
+        for name in controllers if only is None else []:
             for topic in (in_namespace(t, namespace) for t in COMMANDS.get(name, [])):
                 n = node.count_subscribers(topic)
                 verdicts.append(Verdict(topic, 'a driver subscribed', f'{n} subscriber(s)',
@@ -91,3 +96,4 @@ def _take(s: Seen, joint: str, msg: Any) -> None:
     s.recv_ns.append(time.time_ns())
     s.stamp_ns.append(ns_of(msg.header.stamp))
     s.values.append(_value(msg, joint))
+    s.frame_ids.add(msg.header.frame_id)

@@ -108,6 +108,11 @@ class ValveSim(BenchNode):
         self.voltage_v = 0.0
         self.model.reset(0.0)
 
+    def publish_safe_state(self) -> None:
+        """The vented chamber's pressure, one atmosphere, stamped now."""
+        self.pub.publish(stamped(FluidPressure, self.now_ns(), self.frame_id,
+                                 fluid_pressure=ATMOSPHERE_PA, variance=0.0))
+
     def on_fault(self, reason: str) -> None:
         """Vent."""
         self.safe_state()

@@ -51,17 +51,19 @@ class NodeCore(Node):
 
     # --- diagnostics (runtime.diagnostics) ---------------------------------------------
     def diagnose(self, level: bytes, message: str, concern: str = 'state',
-                 **values: Any) -> None:
+                 passing: bool = False, **values: Any) -> None:
         """A status of one of this node's concerns (``runtime.diagnostics``: sent at once
-        when its level changes, with the 1 Hz summary otherwise; logs throttled)."""
+        when its level changes, with the 1 Hz summary otherwise; logs throttled;
+        ``passing``: an event, back to OK at a summary with none since)."""
         self.diagnostics.stamp_ns = self.stepping.last_ns or self.diagnostics.stamp_ns
-        self.diagnostics.report(concern, level, message, **values)
+        self.diagnostics.report(concern, level, message, passing, **values)
 
     def reject(self, what: str, value: Any) -> None:
-        """Count and diagnose a rejected input (concern ``inputs``)."""
+        """Count and diagnose a rejected input (concern ``inputs``, ERROR while rejected
+        inputs come, OK again at the first summary without one)."""
         self.rejected_count += 1
         self.diagnose(DiagnosticStatus.ERROR, f'rejected {what}: {value!r}', 'inputs',
-                      rejected_count=self.rejected_count)
+                      passing=True, rejected_count=self.rejected_count)
 
     @staticmethod
     def finite(*values: float) -> bool:

@@ -9,6 +9,10 @@ diagnostics panel) never marks a running node stale. Each status is named
 ``<node>: <concern>`` and carries the node's ``hardware_id``. Log lines follow the same
 rule: a change of level is logged at once, a repeat at most once per wall second with the
 number of repeats since, so 500 rejected commands make a few lines, not 500.
+
+A status says the present condition: a concern reported as passing (``passing=True``, a
+rejected input) goes back to OK at the first summary that finds no new report of it since the
+last one, so a run of valid commands after one bad one does not stay ERROR.
 """
 
 from __future__ import annotations
@@ -35,6 +39,8 @@ class _Concern:
     count: int = 0
     logged_at: float = -1e9
     unlogged: int = 0
+    passing: bool = False
+    count_at_summary: int = 0
 
 
 class Diagnostics:
@@ -58,14 +64,17 @@ class Diagnostics:
         self.next_ns: int | None = None
         self.stamp_ns = 0
 
-    def report(self, concern: str, level: bytes, message: str, **values: Any) -> None:
+    def report(self, concern: str, level: bytes, message: str, passing: bool = False,
+               **values: Any) -> None:
         """A status of ``concern``: sent at once when its level changed, else with the next
-        summary; logged at once on a change, else at most once a wall second."""
+        summary; logged at once on a change, else at most once a wall second. ``passing``:
+        an event, not a condition (module docstring)."""
         c = self.concerns.get(concern)
         changed = c is None or c.level != level
         if c is None:
             c = self.concerns[concern] = _Concern(level, message, dict(values))
         c.level, c.message, c.values = level, message, dict(values)
+        c.passing = passing
         c.count += 1
         now = time.monotonic()
         if changed or now - c.logged_at >= LOG_EVERY_S:
@@ -92,6 +101,12 @@ class Diagnostics:
             self.next_ns = t_ns
         if t_ns >= self.next_ns:
             self.next_ns = t_ns + self.period_ns
+            for name, c in list(self.concerns.items()):
+                if c.passing and c.level != DiagnosticStatus.OK and \
+                        c.count == c.count_at_summary:
+                    self.report(name, DiagnosticStatus.OK, 'none rejected since the last '
+                                'summary', **c.values)
+                c.count_at_summary = c.count
             self.send(list(self.concerns))
 
     def send(self, concerns: list[str]) -> None:

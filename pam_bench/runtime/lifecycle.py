@@ -17,7 +17,11 @@ as ros2_control's hardware and most driver packages). Its transitions mean:
   from here (the torque servo's ``startup_timeout_s`` for its inputs starts at its first
   active tick, however long its manager took);
 * **deactivate**: its outputs go to their safe state at once (``safe_state``: valves vented,
-  the drive off, the servo's valves vented) and it stops stepping;
+  the drive off, the servo's valves vented), it publishes what it measures there
+  (``publish_safe_state``: the vented valve's pressure) and it stops stepping;
+* a transition the present state does not have (``activate`` on an active node) is refused:
+  the service answers ``success: false`` and a WARN diagnostic names it, the node goes on
+  (rclpy's own service would raise and end the process);
 * **cleanup** and **shutdown**: as deactivate, from any state.
 
 With ``managed: false`` (the default, a node started by hand) the node configures and
@@ -29,7 +33,9 @@ readings stay those of every earlier run.
 
 from __future__ import annotations
 
+import functools
 import time
+from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.lifecycle import LifecycleNodeMixin, LifecycleState, TransitionCallbackReturn
@@ -57,6 +63,30 @@ class Lifecycle(NodeCore, LifecycleNodeMixin):
         self._awaits_manager = self.managed and bool(getattr(self.settings, 'managed', False))
         if self.managed:
             LifecycleNodeMixin.__init__(self, enable_communication_interface=True)
+            service = self._service_change_state
+            service.callback = functools.partial(self._guarded_change, service.callback)
+
+    def _guarded_change(self, change: Any, req: Any, resp: Any) -> Any:
+        """``~/change_state``, refusing a transition the present state lacks (one WARN
+        diagnostic; rclpy's own raises ``RCLError`` and the process ends) and never letting
+        an exception out."""
+        available = {t[0]: t[1] for t in self._state_machine.available_transitions}
+        asked = req.transition.label or str(req.transition.id)
+        if (req.transition.label and req.transition.label not in available.values()) or \
+                (not req.transition.label and req.transition.id not in available):
+            self.diagnose(DiagnosticStatus.WARN, f'transition {asked!r} refused in state '
+                          f'{self.lifecycle_state} (available: '
+                          f'{", ".join(sorted(set(available.values()))) or "none"})',
+                          'lifecycle')
+            resp.success = False
+            return resp
+        try:
+            return change(req, resp)
+        except Exception as exc:  # noqa: BLE001 - a service must not end the node
+            self.diagnose(DiagnosticStatus.ERROR, f'transition {asked!r} failed: {exc}',
+                          'lifecycle')
+            resp.success = False
+            return resp
 
     @property
     def lifecycle_state(self) -> str:
@@ -88,6 +118,10 @@ class Lifecycle(NodeCore, LifecycleNodeMixin):
 
     def safe_state(self) -> None:
         """Put the node's outputs in their safe state now (valves vented, the drive off)."""
+
+    def publish_safe_state(self) -> None:
+        """Publish what the node measures in the safe state it leaves (a vented valve's
+        pressure), so that its last message is not the one before the transition."""
 
     # --- the transitions ----------------------------------------------------------------
     def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
@@ -152,6 +186,7 @@ class Lifecycle(NodeCore, LifecycleNodeMixin):
         self.active = False
         try:
             self.safe_state()
+            self.publish_safe_state()
         except Exception as exc:  # noqa: BLE001 - a transition must never let an exception out
             self.diagnose(DiagnosticStatus.ERROR, f'safe state failed: {exc}', 'lifecycle')
             return

@@ -326,6 +326,49 @@ def spin(node: Any) -> int:
     return int(node.exit_code or 0)
 
 
+def _own_args(argv: list[str]) -> list[str]:
+    """The arguments before ``--ros-args`` (the program's name left out): a node takes none
+    but ``-h``/``--help``; everything it is told goes through ``--ros-args``."""
+    rest = list(argv[1:])
+    return rest[:rest.index('--ros-args')] if '--ros-args' in rest else rest
+
+
+def node_help(cls: type) -> str:
+    """What ``NODE --help`` prints: what the node is, how to start it, and its parameters
+    with unit, default and range (its settings class, the one owner of each)."""
+    import sys
+
+    from pam_bench.vocabulary.params import describe, flat_infos
+    module = sys.modules.get(cls.__module__)
+    doc = ((module.__doc__ if module is not None else '') or cls.__doc__ or
+           '').strip().splitlines()
+    name = cls.__module__.rsplit('.', 1)[-1]
+    lines = [f'usage: {name} [-h] [--ros-args [-r __node:=NAME] [-r __ns:=NS] '
+             '[--params-file FILE] [-p NAME:=VALUE ...]]', '',
+             doc[0] if doc else name, '',
+             'A ROS 2 node of pam_bench: everything it is told goes through --ros-args (see '
+             'docs/drivers.md and README, "Node by node").', '', 'parameters:']
+    settings = getattr(cls, 'SETTINGS', None)
+    for info in flat_infos(settings) if settings is not None else []:
+        lines.append(f'  {info.name} = {info.default!r}: {describe(info)}')
+    return '\n'.join(lines)
+
+
+def _answer(cls: type, own: list[str]) -> int:
+    """Answer ``-h``/``--help`` (exit 0), or refuse any other argument before ``--ros-args``
+    in one line (exit 2): a lab's ``valve_sim --params-file x`` would otherwise start the
+    node without its file."""
+    import sys
+    if own[0] in ('-h', '--help'):
+        print(node_help(cls))
+        return 0
+    name = cls.__module__.rsplit('.', 1)[-1]
+    print(f'{name}: error: unknown argument {own[0]!r}: a node takes its settings after '
+          f'--ros-args (-p NAME:=VALUE, --params-file FILE); {name} --help lists them',
+          file=sys.stderr)
+    return 2
+
+
 def run_node(cls: type[Node], args: list[str] | None = None) -> None:
     """The Jazzy ``main()``: init, spin, stop on Ctrl-C or external shutdown, clean up.
 
@@ -335,6 +378,9 @@ def run_node(cls: type[Node], args: list[str] | None = None) -> None:
     Ctrl-C or SIGTERM end it with the node's ``INTERRUPTED_CODE``.
     """
     import sys
+    own = _own_args(sys.argv if args is None else args)
+    if own:
+        sys.exit(_answer(cls, own))
     install_interrupt_handlers()
     rclpy.init(args=args)
     node: Any = None

@@ -151,6 +151,7 @@ class WallClockStepping:
         self._start_outputs: list[Output] = []     # what on_start published
         self._capturing = False
         self._stopped = False
+        self._waited = False                        # it said it waits for an input
 
     def publisher(self, msg_type: type, topic: str) -> Any:
         """A counted driver publisher (``runtime.stats``); what it publishes in ``on_start``
@@ -208,7 +209,15 @@ class WallClockStepping:
                 self._resend_ns = t
                 for send, msg in self._start_outputs:
                     send(msg)
+                missing = [node.resolve_topic_name(tp) for tp in self._topics
+                           if tp not in self._latest]
+                node.diagnose(DiagnosticStatus.WARN, f'waiting for {", ".join(missing)}: '
+                              'nothing published until it comes', 'connections')
+                self._waited = True
             return
+        if self._waited:
+            self._waited = False
+            node.diagnose(DiagnosticStatus.OK, 'every input present: stepping', 'connections')
         n = min(n, MAX_CATCH_UP)
         self._model_ns = max(self._model_ns + n * period, t - period)
         try:

@@ -60,6 +60,8 @@ class RunOptions:
             benches share a domain without mixing (``config.topics.in_namespace``).
         buses: wall clock: the register map of the DAQ the devices are served behind, with
             the CiA 402 drive, the drivers in their place ('': no buses; ``bringup.buses``).
+        external: wall clock: devices a lab's own drivers stand in for; the run starts the
+            others and waits for these (``bringup.external``).
     """
 
     seed: int = 0
@@ -74,3 +76,4 @@ class RunOptions:
     live: Any = None
     namespace: str = ''
     buses: str = ''
+    external: tuple[str, ...] = ()

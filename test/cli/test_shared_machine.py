@@ -92,6 +92,7 @@ def test_too_few_file_descriptors_is_one_line(tmp_path: pathlib.Path, ros_domain
 STUCK = textwrap.dedent("""
     import importlib, signal
     main = importlib.import_module('pam_bench.cli.main')
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM, signal.SIGINT})
     signal.signal(signal.SIGTERM, main._raise_interrupt)
     main._watch_stops()
     # the main thread in a C call that never returns to Python (sigwait on a signal that
