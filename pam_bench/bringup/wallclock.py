@@ -178,12 +178,12 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
                 start('emulator', [sys.executable, '-m', 'pam_bench.bringup.emulator',
                                    *(['--namespace', namespace] if namespace else []), pfile,
                                    *device_names])
-            def dead(n: str) -> bool:
+            def gone(n: str) -> bool:
                 return procs[n if n in procs else 'emulator'].poll() is not None
             took = 0.0
             if external and controller_names:   # the simulated devices up and stepping,
                 first = [n for n in managed if n not in controller_names]   # then the lab's
-                took += activate_nodes(first, namespace, int(env['ROS_DOMAIN_ID']), dead)
+                took += activate_nodes(first, namespace, int(env['ROS_DOMAIN_ID']), gone)
                 managed_later = [n for n in managed if n in controller_names]
                 from pam_bench.bringup.external import await_external
                 await_external(all_nodes, external, namespace, int(env['ROS_DOMAIN_ID']),
@@ -193,7 +193,7 @@ def run_wallclock(scene: Scene, settings: dict[str, Any], domain_id: int | None,
             for name in controller_names:
                 start(name, node_cmd(name, pfile, namespace),
                       pipe=name == controller_names[0])
-            took += activate_nodes(managed_later, namespace, int(env['ROS_DOMAIN_ID']), dead)
+            took += activate_nodes(managed_later, namespace, int(env['ROS_DOMAIN_ID']), gone)
             line = (f'lifecycle: {", ".join(managed)} configured and active in {took:.2f} s'
                     if managed else '')
             log.write(line + '\n')

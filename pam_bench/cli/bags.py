@@ -57,7 +57,8 @@ def _cmd_info(args: argparse.Namespace) -> int:
                 shown = {k: v for k, v in flat.items() if k not in ('run_yaml', 'end_file')}
                 print(f'  {node}: ' + ', '.join(f'{k}={v}' for k, v in sorted(shown.items())))
     else:
-        print('no run description in this bag (an older pam_bench or another recorder)')
+        print('no run description in this bag (a recorder started by hand, an older '
+              'pam_bench or another recorder)')
     if end:
         print(f"ended     {end.get('state')}" + (f": {end['reason']}" if end.get('reason')
                                                  else '') + f" at {end.get('end')}")

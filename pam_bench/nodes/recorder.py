@@ -118,6 +118,7 @@ class Recorder(BenchNode):
         # topic -> publisher -> [first, last, count] of the sequence numbers seen (the
         # publisher is '' on a topic of one; on /diagnostics, the node its statuses name)
         self.sequence: dict[str, dict[str, list[int]]] = {}
+        self.last_status: tuple[int, str] | None = None    # (state, reason) recorded last
         self._wall_subs: dict[str, tuple[Any, str, bool]] = {}   # topic -> (sub, type, BE)
         self.subscriptions_version = 0
         if not self.lockstep:
@@ -192,6 +193,8 @@ class Recorder(BenchNode):
             return
         self.count += 1
         self.written[topic] += 1
+        if self._wall_subs[topic][1] == STATUS_TYPE:        # how the protocol ends (_end)
+            self.last_status = status_of(data)
         seq = (info or {}).get('publication_sequence_number')
         if seq:
             per = self.sequence.setdefault(topic, {})
@@ -366,15 +369,22 @@ class Recorder(BenchNode):
             self.end_ns = prev            # the clock's flush tick: nothing later is recorded
 
     def _end(self) -> dict[str, Any]:
-        """How the run ended: the runner's end file, else interrupted."""
+        """How the run ended: the runner's end file; for a recorder started by hand (no
+        runner), the last protocol status it recorded (done, aborted or cancelled, with the
+        sequencer's reason); else interrupted."""
+        now = datetime.datetime.now(datetime.UTC).isoformat(timespec='milliseconds')
         try:
             with open(self.end_file, encoding='utf-8') as fh:
                 return dict(json.load(fh))
         except (OSError, ValueError):
-            return {'state': 'interrupted', 'code': None,
-                    'reason': 'the recorder stopped before the run ended',
-                    'end': datetime.datetime.now(datetime.UTC).isoformat(
-                        timespec='milliseconds')}
+            pass
+        ended = {2: ('done', 0), 3: ('aborted', 4), 4: ('cancelled', 5)}
+        if self.last_status is not None and self.last_status[0] in ended:
+            state, code = ended[self.last_status[0]]
+            return {'state': state, 'code': code, 'reason': self.last_status[1], 'end': now}
+        why = ('the recorder stopped before the protocol ended' if self.last_status is not None
+               else 'the recorder stopped before the run ended')
+        return {'state': 'interrupted', 'code': None, 'reason': why, 'end': now}
 
     def close(self) -> None:
         """Close the bag (idempotent); on a wall clock print what was written per topic and
@@ -394,6 +404,21 @@ class Recorder(BenchNode):
         """Close the bag before the node goes."""
         self.close()
         super().destroy_node()
+
+
+STATUS_TYPE = 'pam_bench_interfaces/msg/ProtocolStatus'
+"""The sequencer's status: the recorder keeps the last it recorded (``Recorder._end``)."""
+
+
+def status_of(data: bytes) -> tuple[int, str] | None:
+    """(state, reason or phase) of a serialised ``ProtocolStatus`` (None when malformed)."""
+    from pam_bench_interfaces.msg import ProtocolStatus
+    from rclpy.serialization import deserialize_message
+    try:
+        msg = deserialize_message(bytes(data), ProtocolStatus)
+    except Exception:  # noqa: BLE001 - a malformed message: nothing learnt, never fatal
+        return None
+    return int(msg.state), f'protocol {msg.protocol} ' + (msg.reason or msg.phase)
 
 
 DIAGNOSTICS_TYPE = 'diagnostic_msgs/msg/DiagnosticArray'

@@ -70,3 +70,50 @@ def test_wallclock_nodes_answer_parameter_requests(ros_domain: int) -> None:
         node.destroy_node()
         rclpy.try_shutdown()
         _stop(servo)
+
+
+SHORT = """description: two readings by hand
+exchange_step_s: 1.5
+protocol: isometric_quick
+protocol_overrides: {x_m: [0.04, 0.04, 0.01], voltage_v: [0.0, 1.0, 1.0], dwell_s: 1.5}
+nodes: [valve_1, muscle_1, load_cell_1, encoder, loading_servo, sequencer, recorder]
+"""
+
+
+@pytest.mark.parametrize('ending', ['done', 'aborted'])
+def test_a_bag_recorded_node_by_node_says_how_the_protocol_ended(
+        tmp_path: pathlib.Path, ros_domain: int, ending: str) -> None:
+    """Issue 52: the README's node-by-node run (emulate, recorder and sequencer started by
+    hand, no runner): info reads done, or aborted when the devices die mid-run, from the
+    sequencer's own status in the bag, not 'interrupted'."""
+    from pam_bench.analysis.baginfo import bag_info
+    scene = tmp_path / 'short.yaml'
+    scene.write_text(SHORT)
+    params = tmp_path / 'bench.yaml'
+    bin_dir = pathlib.Path(sys.executable).parent
+    subprocess.run([sys.executable, '-m', 'pam_bench.cli', 'params', str(scene), '--ros-yaml',
+                    str(params)], check=True, timeout=60)
+    bag = tmp_path / 'by_hand'
+    emu = _start(['-m', 'pam_bench.cli', 'emulate', str(scene)])
+    rec = subprocess.Popen([str(bin_dir / 'recorder'), '--ros-args', '--params-file',
+                            str(params), '-p', f'out_dir:={bag}'], stdout=subprocess.PIPE,
+                           stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    seq = subprocess.Popen([str(bin_dir / 'sequencer'), '--ros-args', '--params-file',
+                            str(params)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                           text=True, start_new_session=True)
+    try:
+        if ending == 'aborted':
+            assert seq.stdout is not None
+            for line in seq.stdout:                 # the first reading taken: the devices go
+                if '1/4 readings' in line or '2/4 readings' in line:
+                    break
+            _stop(emu, signal.SIGKILL)
+        seq_out = seq.communicate(timeout=90)[0]
+    finally:
+        _stop(seq)
+        rec_out = _stop(rec)
+        _stop(emu)
+    assert seq.returncode == (0 if ending == 'done' else 4), seq_out
+    end = bag_info(bag)['end']
+    assert end['state'] == ending, (end, rec_out)
+    assert end['reason'].startswith('protocol isometric_quick'), end
