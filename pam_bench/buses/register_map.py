@@ -6,9 +6,15 @@ bad values and overlapping registers are one line naming them)::
     name: generic DAQ                   # shown in diagnostics
     device_id: 1                        # Modbus unit / device id
     word_order: big                     # 32-bit values: high word first (big) or low first
+    address_space: split                # input and holding registers apart (split) or one
+                                        # space both read functions reach (unified: LabJack)
+    watchdog_s: 0.1                     # the device's own host-loss action: outputs to 0
+                                        # after this long without a write (0: it has none)
+    device_registers:                   # what else the device serves, and how (optional)
+      - {name: AIN, address: 0, count: 28, access: r}
     channels:
       - {signal: load_cell_1.force, register: input, address: 0, type: float32,
-         scale: 1.0, offset: 0.0, unit: N, low: -2000.0, high: 2000.0}
+         scale: 1.0, offset: 0.0, unit: N, low: -2000.0, high: 2000.0, access: r}
 
 Each channel converts between the raw register value r and the signal s in SI units::
 
@@ -20,7 +26,10 @@ a flipped register would give) and an output (a command outside is refused, neve
 into the register). The signals are those of ``SIGNALS``; an output signal lives in holding
 registers, an input one in input or holding registers. The inputs are read in as few requests
 as their addresses allow (``blocks``: the generic map needs one), the outputs written in one
-request per block.
+request per block. ``access`` says what the device lets a master do with a channel's registers
+(``r``, ``w``, ``rw``; default: ``r`` for an input, ``rw`` for an output): an emulated device
+refuses the rest as the real one does (``twin.modbus_server``), and ``device_registers`` are
+the device's other registers a master may touch (the emulation serves them as zeros).
 """
 
 from __future__ import annotations
@@ -36,8 +45,8 @@ from pam_bench.vocabulary.errors import PamBenchError, quoted
 from pam_bench.vocabulary.params import check_known
 from pam_bench.vocabulary.yaml_io import read_yaml
 
-__all__ = ['SIGNALS', 'TYPES', 'Channel', 'Block', 'RegisterMap', 'load_register_map',
-           'MAX_BLOCK']
+__all__ = ['SIGNALS', 'TYPES', 'ACCESS', 'Channel', 'Block', 'DeviceRegisters', 'RegisterMap',
+           'load_register_map', 'MAX_BLOCK']
 
 SIGNALS: dict[str, tuple[str, str]] = {
     'valve_1.voltage': ('output', 'V'), 'valve_2.voltage': ('output', 'V'),
@@ -57,9 +66,12 @@ TYPES: dict[str, tuple[str, int]] = {
 MAX_BLOCK = 125
 """Most registers one Modbus read request returns (the protocol's limit)."""
 
-_MAP_KEYS = ('name', 'device_id', 'word_order', 'channels', 'description')
+_MAP_KEYS = ('name', 'device_id', 'word_order', 'channels', 'description', 'address_space',
+             'watchdog_s', 'device_registers')
 _CHANNEL_KEYS = ('signal', 'register', 'address', 'type', 'scale', 'offset', 'unit', 'low',
-                 'high')
+                 'high', 'access')
+_DEVICE_KEYS = ('name', 'address', 'count', 'access', 'register')
+ACCESS = ('r', 'w', 'rw')
 
 
 @dataclasses.dataclass(frozen=True)
@@ -76,6 +88,7 @@ class Channel:
     unit: str
     low: float
     high: float
+    access: str = 'r'
 
     @property
     def count(self) -> int:
@@ -99,6 +112,18 @@ class Block:
 
 
 @dataclasses.dataclass(frozen=True)
+class DeviceRegisters:
+    """Registers of the device beyond the map's channels: ``count`` from ``address`` of kind
+    ``register``, with what a master may do (``access``)."""
+
+    name: str
+    register: str
+    address: int
+    count: int
+    access: str
+
+
+@dataclasses.dataclass(frozen=True)
 class RegisterMap:
     """A checked register map (module docstring)."""
 
@@ -106,6 +131,22 @@ class RegisterMap:
     device_id: int
     word_order: str
     channels: tuple[Channel, ...]
+    address_space: str = 'split'
+    watchdog_s: float = 0.0
+    device_registers: tuple[DeviceRegisters, ...] = ()
+
+    def access_of(self, register: str, address: int) -> str:
+        """What a master may do with one register ('' when the device has none there): in a
+        unified space both kinds name the same register."""
+        for c in self.channels:
+            if (self.address_space == 'unified' or c.register == register) and \
+                    c.address <= address < c.address + c.count:
+                return c.access
+        for d in self.device_registers:
+            if (self.address_space == 'unified' or d.register == register) and \
+                    d.address <= address < d.address + d.count:
+                return d.access
+        return ''
 
     def channel(self, signal: str) -> Channel | None:
         """The channel carrying ``signal`` (None: this map has none)."""
@@ -262,8 +303,14 @@ def parse_register_map(data: Any, where: str) -> RegisterMap:
         low, high = _number(entry, 'low', here), _number(entry, 'high', here)
         if not low < high:
             raise MapError(f'{here}: low must be below high')
+        access = entry.get('access', 'rw' if direction == 'output' else 'r')
+        if access not in ACCESS or (direction == 'output' and 'w' not in access) or \
+                (direction == 'input' and 'r' not in access):
+            raise MapError(f'{here}: access {access!r} does not let the driver '
+                           f'{"write" if direction == "output" else "read"} {signal} (one of '
+                           f'{", ".join(ACCESS)})')
         channels.append(Channel(signal, register, address, kind, scale,
-                                _number(entry, 'offset', here, 0.0), unit, low, high))
+                                _number(entry, 'offset', here, 0.0), unit, low, high, access))
     seen: dict[str, int] = {}
     for k, c in enumerate(channels):
         if c.signal in seen:
@@ -278,7 +325,38 @@ def parse_register_map(data: Any, where: str) -> RegisterMap:
                 raise MapError(f'{where}: {c.signal} and {other} share {c.register} register '
                                f'{a}')
             taken[(c.register, a)] = c.signal
-    return RegisterMap(str(data.get('name', where)), device_id, word_order, tuple(channels))
+    space = data.get('address_space', 'split')
+    if space not in ('split', 'unified'):
+        raise MapError(f'{where}: address_space must be split or unified, not {space!r}')
+    watchdog = _number(data, 'watchdog_s', where, 0.0)
+    if not 0.0 <= watchdog <= 3600.0:
+        raise MapError(f'{where}: watchdog_s must be in [0, 3600] s (0: the device has none)')
+    extra = data.get('device_registers', [])
+    if not isinstance(extra, list):
+        raise MapError(f'{where}: device_registers must be a list')
+    device: list[DeviceRegisters] = []
+    for k, entry in enumerate(extra):
+        here = f'{where}: device_registers[{k}]'
+        if not isinstance(entry, dict):
+            raise MapError(f'{here} must be a mapping')
+        try:
+            check_known(entry, _DEVICE_KEYS, here)
+        except PamBenchError as exc:
+            raise MapError(str(exc)) from None
+        start, count = entry.get('address'), entry.get('count')
+        if isinstance(start, bool) or not isinstance(start, int) or \
+                isinstance(count, bool) or not isinstance(count, int) or \
+                not (0 <= start and 1 <= count and start + count <= 65536):
+            raise MapError(f'{here}: address and count must be integers within 0..65535')
+        if entry.get('access') not in ACCESS:
+            raise MapError(f'{here}: access must be one of {", ".join(ACCESS)}')
+        register = entry.get('register', 'holding')
+        if register not in ('input', 'holding'):
+            raise MapError(f'{here}: register must be input or holding')
+        device.append(DeviceRegisters(str(entry.get('name', f'registers {start}')), register,
+                                      start, count, entry['access']))
+    return RegisterMap(str(data.get('name', where)), device_id, word_order, tuple(channels),
+                       space, watchdog, tuple(device))
 
 
 def load_register_map(path: str | pathlib.Path) -> RegisterMap:

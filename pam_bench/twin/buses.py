@@ -4,12 +4,14 @@
 the physics the device nodes run, tested against them) on the wall clock at ``rate_hz`` and
 serves it as a lab's hardware would be:
 
-- a **Modbus TCP server** on 127.0.0.1 (pymodbus) with the registers of a register map
-  (``buses.register_map``): the measured force, pulley angle and absolute valve pressure in
-  its input registers, refreshed every tick; the valve voltage read from its holding
-  registers every tick (a value the map refuses vents the valve; with no write for
-  ``watchdog_s``, 0.1 s, the DAQ's own watchdog sets its outputs to 0 V, as remote I/O
-  couplers do when their master goes quiet);
+- a **Modbus TCP server** on 127.0.0.1 (``twin.modbus_server``: the exceptions and access
+  rules of the Modbus Application Protocol and of the device's map) with the registers of a
+  register map (``buses.register_map``): the measured force, pulley angle and absolute valve
+  pressure in its input registers, refreshed every tick; the valve voltage read from its
+  holding registers every tick (a value the map refuses vents the valve); with no write for
+  the map's ``watchdog_s`` the DAQ's own watchdog sets its outputs to 0 V, as remote I/O
+  couplers do when their master goes quiet, and a device without one (a LabJack T7's TDAC)
+  keeps its output where it was;
 - a **CiA 402 drive** (the loading servo) on a CAN bus (``canopen`` local node with the EDS
   shipped in config/buses/loading_servo.eds): NMT, an SDO server, a heartbeat every
   0x1017 ms, RPDO 1 (controlword, target torque, target position) and TPDO 1 (statusword,
@@ -29,7 +31,6 @@ ends it), ``corrupt``
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
 import math
 import struct
@@ -47,7 +48,6 @@ from pam_bench.buses.cia402 import (
     State,
     next_state,
 )
-from pam_bench.buses.errors import BusUnreachable
 from pam_bench.buses.register_map import RegisterMap
 from pam_bench.models.constants import ATMOSPHERE_PA
 from pam_bench.models.loading_servo import LoadMode
@@ -91,7 +91,6 @@ class EmulatedBench:
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._threads: list[threading.Thread] = []
-        self._loop: asyncio.AbstractEventLoop | None = None
         self._server: Any = None
         self._corrupt: dict[str, tuple[list[int], float]] = {}
         self.state = State.SWITCH_ON_DISABLED
@@ -108,7 +107,7 @@ class EmulatedBench:
         self._tpdo_cob = 0x180 + node_id
         self.valve_voltage_v = 0.0
         self.rejected_outputs = 0
-        self.watchdog_s = 0.1
+        self.watchdog_s = register_map.watchdog_s    # the device's own (0: it has none)
         self._written: float | None = None      # last write of the holding registers
         self.watchdog_trips = 0
 
@@ -141,58 +140,26 @@ class EmulatedBench:
 
     # --- Modbus ---------------------------------------------------------------------------
     def _start_modbus(self) -> None:
-        from pymodbus.server import ModbusTcpServer
-        from pymodbus.simulator import DataType, SimData, SimDevice
-        hr = [SimData(b.address, count=b.count, values=0, datatype=DataType.REGISTERS)
-              for b in self.map.blocks(True) + [b for b in self.map.blocks(False)
-                                                if b.register == 'holding']]
-        ir = [SimData(b.address, count=b.count, values=0, datatype=DataType.REGISTERS)
-              for b in self.map.blocks(False) if b.register == 'input']
-        device = SimDevice(id=0, simdata=([_spare(bits=True)], [_spare(bits=True)],
-                                          hr or [_spare()], ir or [_spare()]),
-                           action=self._action)
-        ready = threading.Event()
-        failed: list[BaseException] = []
+        from pam_bench.twin.modbus_server import ModbusServer
+        self._server = ModbusServer(self.map, self.port, self._read_word,
+                                    self._write_words).start()
 
-        def serve() -> None:
-            loop = asyncio.new_event_loop()
-            self._loop = loop
-
-            async def listen() -> None:
-                self._server = ModbusTcpServer(device, address=('127.0.0.1', self.port))
-                await self._server.serve_forever(background=True)
-            try:
-                loop.run_until_complete(listen())
-            except BaseException as exc:  # noqa: BLE001 - reported to the starter
-                failed.append(exc)
-                ready.set()
-                return
-            ready.set()
-            loop.run_forever()
-            loop.close()
-
-        t = threading.Thread(target=serve, daemon=True, name='modbus-server')
-        t.start()
-        self._threads.append(t)
-        ready.wait(10.0)
-        if failed:
-            raise BusUnreachable(f'Modbus server: cannot listen on 127.0.0.1:{self.port}: '
-                                 f'{failed[0]}')
-
-    async def _action(self, function_code: int, start_address: int, address: int, count: int,
-                      current_registers: list[int], set_values: Any) -> None:
-        """The hook pymodbus calls on every access: a read gets the bench's latest words, a
-        write of holding registers is kept for the next tick."""
-        kind = 'input' if function_code == 4 else 'holding'
+    def _read_word(self, kind: str, address: int) -> int:
+        """The word a master reads at ``address`` (in a unified space either kind; a register
+        of the device the map does not use reads 0)."""
         with self._lock:
-            if set_values is not None:
-                for k, v in enumerate(set_values):
-                    self.words[('holding', address + k)] = int(v)
-                self._written = time.monotonic()
-            for k in range(len(current_registers)):
-                w = self.words.get((kind, start_address + k))
-                if w is not None:
-                    current_registers[k] = w
+            if self.map.address_space == 'unified':
+                w = self.words.get(('input', address), self.words.get(('holding', address)))
+            else:
+                w = self.words.get((kind, address))
+        return 0 if w is None else w
+
+    def _write_words(self, address: int, words: list[int]) -> None:
+        """Holding registers written by the master, kept for the next tick."""
+        with self._lock:
+            for k, v in enumerate(words):
+                self.words[('holding', address + k)] = int(v)
+            self._written = time.monotonic()
 
     def restart_modbus(self) -> None:
         """The Modbus server comes back on the same port (after ``stop_modbus``)."""
@@ -201,14 +168,9 @@ class EmulatedBench:
 
     def stop_modbus(self) -> None:
         """The Modbus server goes away (a fault: the DAQ is unplugged)."""
-        loop, server = self._loop, self._server
-        if loop is None or server is None or loop.is_closed():
-            return
-        with contextlib.suppress(Exception):
-            asyncio.run_coroutine_threadsafe(server.shutdown(), loop).result(5.0)
-        with contextlib.suppress(RuntimeError):
-            loop.call_soon_threadsafe(loop.stop)
-        self._server = None
+        if self._server is not None:
+            self._server.stop()
+            self._server = None
 
     def corrupt(self, signal: str, value: float, duration_s: float) -> None:
         """For ``duration_s``, the registers of ``signal`` hold the raw ``value`` (as a broken
@@ -375,7 +337,8 @@ class EmulatedBench:
             self.rejected_outputs += 1
             u = 0.0                                   # a command the map refuses: vent
         written = self._written
-        if written is not None and time.monotonic() - written > self.watchdog_s:
+        if self.watchdog_s and written is not None and \
+                time.monotonic() - written > self.watchdog_s:
             if u != 0.0 or self.valve_voltage_v != 0.0:
                 self.watchdog_trips += 1
             u = 0.0               # the DAQ's own watchdog: no write for a while, outputs safe
@@ -404,10 +367,3 @@ class EmulatedBench:
                 self.bench.step(dt)
             self._publish_inputs()
             self.ticks += 1
-
-
-def _spare(bits: bool = False) -> Any:
-    """A register (or bit) the map does not use: pymodbus wants every block kind."""
-    from pymodbus.simulator import DataType, SimData
-    return SimData(65000, count=1, values=0,
-                   datatype=DataType.BITS if bits else DataType.REGISTERS)

@@ -41,6 +41,8 @@ def main() -> None:
                     continue
                 m = WrenchStamped()
                 m.header.stamp = time_of(now)
+                m.header.frame_id = 'base_link' if 'wrong_frame' in faults else \
+                    f'load_cell_{i + 1}'
                 f = 300.0 + 0.061 * (k % 7)
                 m.wrench.force.x = f / 1000.0 if i == 1 and 'kn_force' in faults else f
                 pub.publish(m)
@@ -53,6 +55,7 @@ def main() -> None:
             p = FluidPressure(fluid_pressure=(0.0 if 'gauge_pressure' in faults
                                               else ATMOSPHERE_PA) + 3.0 * (k % 5))
             p.header.stamp = time_of(now)
+            p.header.frame_id = 'valve_1'
             pres.publish(p)
             k += 1
             time.sleep(max(0.0, t0 * 1e-9 + k * 1e-3 - time.time()))

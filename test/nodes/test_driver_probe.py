@@ -55,7 +55,9 @@ def test_the_wallclock_simulation_meets_the_contract(ros_domain: int) -> None:
     (['slow_force', 'kn_force', 'frozen_encoder', 'gauge_pressure'],
      {'/load_cell_1/force': 'rate', '/load_cell_2/force': 'kN',
       '/encoder/joint_state': 'stamps not increasing', '/valve_1/pressure': 'gauge'}),
-    (['wrong_type_encoder'], {'/encoder/joint_state': 'std_msgs/msg/Float64'}),
+    (['wrong_type_encoder', 'wrong_frame'], {'/encoder/joint_state': 'std_msgs/msg/Float64',
+                                             '/load_cell_1/force': "frame_id 'base_link'",
+                                             '/loading_servo/state': 'not published'}),
 ])
 def test_a_broken_driver_fails_with_its_reason(ros_domain: int, faults: list[str],
                                                expect: dict[str, str]) -> None:
