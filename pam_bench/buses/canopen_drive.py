@@ -7,8 +7,9 @@ TPDO 1 to statusword, torque actual and position actual (each mapping disabled, 
 enabled, as CiA 301 asks), the rated torque read back (0x6076), then NMT start. Every tick
 (``tick``) sends RPDO 1 with the controlword that leads the power state machine
 (``buses.cia402``) towards operation enabled while a load is wanted and towards ready to switch
-on (the power stage off) otherwise, and the set value in the drive's units (``DriveScale``);
-a change of mode goes by SDO (0x6060) with the drive off first.
+on (the power stage off) otherwise, and the set value in the drive's units (``DriveScale``),
+then a SYNC, at which the drive sends TPDO 1 (transmission type 1); a change of mode goes by
+SDO (0x6060) with the drive off first.
 
 Watching: a TPDO updates the state and the actuals; an EMCY is kept as ``fault`` (the drive
 then shows FAULT and the driver leaves it there until told to ``reset``); no heartbeat for
@@ -92,6 +93,11 @@ RPDO_MAP = ((OD['controlword'], 16), (OD['target_torque'], 16), (OD['target_posi
 TPDO_MAP = ((OD['statusword'], 16), (OD['torque_actual'], 16), (OD['position_actual'], 32))
 """TPDO 1: what the drive sends every tick (index, bits)."""
 _RPDO_FMT, _TPDO_FMT = '<Hhi', '<Hhi'
+RPDO_TYPE = 255
+"""RPDO 1's transmission type: the drive takes it at once."""
+TPDO_TYPE = 1
+"""TPDO 1's transmission type: the drive sends it at every SYNC, which the driver sends after
+each RPDO (its cycle is the master's, as CiA 301 synchronous PDOs run)."""
 
 
 class CanopenDrive:
@@ -147,8 +153,8 @@ class CanopenDrive:
         try:
             self.node.nmt.send_command(0x80)                      # pre-operational
             self._sdo(0x1017, 0, struct.pack('<H', self.heartbeat_ms))
-            self._map(0x1400, 0x1600, 0x200, RPDO_MAP)
-            self._map(0x1800, 0x1A00, 0x180, TPDO_MAP)
+            self._map(0x1400, 0x1600, 0x200, RPDO_MAP, RPDO_TYPE)
+            self._map(0x1800, 0x1A00, 0x180, TPDO_MAP, TPDO_TYPE)
             rated = struct.unpack('<I', self.node.sdo.upload(OD['rated_torque'], 0))[0]
             if rated:
                 self.scale.rated_torque_nm = rated * 1e-3
@@ -162,11 +168,13 @@ class CanopenDrive:
     def _sdo(self, index: int, sub: int, data: bytes) -> None:
         self.node.sdo.download(index, sub, data)
 
-    def _map(self, com: int, mapping: int, base: int, entries: tuple[tuple[int, int], ...]
-             ) -> None:
-        """Disable a PDO, write its mapping, enable it (CiA 301)."""
+    def _map(self, com: int, mapping: int, base: int, entries: tuple[tuple[int, int], ...],
+             kind: int) -> None:
+        """Disable a PDO, write its mapping and transmission type ``kind``, enable it (the
+        order CiA 301 asks)."""
         cob = base + self.node_id
         self._sdo(com, 1, struct.pack('<I', cob | 0x80000000))
+        self._sdo(com, 2, bytes([kind]))
         self._sdo(mapping, 0, b'\x00')
         for k, (index, bits) in enumerate(entries, 1):
             self._sdo(mapping, k, struct.pack('<I', index << 16 | bits))
@@ -198,6 +206,8 @@ class CanopenDrive:
         self.last_tpdo_s = time.monotonic()
 
     def _on_emcy(self, error: Any) -> None:
+        if error.code == 0:           # the error-reset EMCY: the drive's fault is gone, and
+            return                    # what the driver keeps is cleared by ``reset`` only
         self.fault = f'EMCY 0x{error.code:04X} ({error.get_desc() or "no text"})'
 
     def stale(self, now: float) -> bool:
@@ -249,6 +259,7 @@ class CanopenDrive:
         try:
             self.network.send_message(0x200 + self.node_id,
                                       struct.pack(_RPDO_FMT, cw, torque, position))
+            self.network.send_message(0x80, b'')                    # SYNC: the TPDO comes
         except Exception as exc:  # noqa: BLE001 - python-can and the OS raise several types
             raise BusUnreachable(f'CAN bus {self.can.get("interface")} '
                                  f'{self.can.get("channel")} lost: {exc}') from None

@@ -12,15 +12,9 @@ serves it as a lab's hardware would be:
   the map's ``watchdog_s`` the DAQ's own watchdog sets its outputs to 0 V, as remote I/O
   couplers do when their master goes quiet, and a device without one (a LabJack T7's TDAC)
   keeps its output where it was;
-- a **CiA 402 drive** (the loading servo) on a CAN bus (``canopen`` local node with the EDS
-  shipped in config/buses/loading_servo.eds): NMT, an SDO server, a heartbeat every
-  0x1017 ms, RPDO 1 (controlword, target torque, target position) and TPDO 1 (statusword,
-  torque actual, position actual, sent in answer to each RPDO: the cycle is the master's, as
-  with a SYNC) as their mapping objects say (the driver writes them by SDO), the power
-  state machine of ``buses.cia402``, modes 8 (position) and 10 (torque) through 0x6060.
-  Only in operation enabled does the drive pull: a target torque
-  T (per mille of rated) becomes the bench's force set value F = T i / r, a target position
-  its contraction set value r theta; every other state turns the drive off.
+- a **CiA 402 drive** (the loading servo) on a CAN bus, as CiA 301 and 402 say a standard
+  master sees one (``twin.cia402_drive``: NMT, SDO, PDO rules and transmission types, EMCY
+  and the error history, modes 8 and 10).
 
 Faults, for the tests of the drivers: ``stop_modbus`` (the server goes away; back with
 ``restart_modbus``), ``emcy`` (the
@@ -31,27 +25,20 @@ ends it), ``corrupt``
 
 from __future__ import annotations
 
-import contextlib
 import math
 import struct
 import threading
 import time
 from typing import Any
 
-from pam_bench.buses.canopen_drive import eds_path, open_network
 from pam_bench.buses.cia402 import (
-    MODE_CSP,
-    MODE_CST,
-    OD,
-    STATUSWORD,
     DriveScale,
     State,
-    next_state,
 )
 from pam_bench.buses.register_map import RegisterMap
 from pam_bench.models.constants import ATMOSPHERE_PA
-from pam_bench.models.loading_servo import LoadMode
 from pam_bench.twin.bench import SingleMuscleBench
+from pam_bench.twin.cia402_drive import EmulatedDrive
 
 __all__ = ['EmulatedBench']
 
@@ -59,9 +46,6 @@ MAX_STEP_S = 0.005
 """Longest step the bench takes at once after the loop was late (a longer lag is dropped:
 the bench's own clock does not stop, but the physics is stepped in pieces it can take)."""
 
-
-_FORMATS = {0x0002: 'b', 0x0003: 'h', 0x0004: 'i', 0x0005: 'B', 0x0006: 'H', 0x0007: 'I'}
-"""CANopen data type -> struct code (the integer types a PDO of the bench maps)."""
 
 
 class EmulatedBench:
@@ -93,18 +77,8 @@ class EmulatedBench:
         self._threads: list[threading.Thread] = []
         self._server: Any = None
         self._corrupt: dict[str, tuple[list[int], float]] = {}
-        self.state = State.SWITCH_ON_DISABLED
-        self.mode = 0
-        self._cw = 0
-        self._targets = (0, 0)                  # (torque per mille, position counts)
-        self._applied: tuple[LoadMode, float] | None = None
-        self._silent = False
         self.ticks = 0
-        self.network: Any = None
-        self.node: Any = None
-        self._rpdo: list[tuple[int, str]] = []
-        self._tpdo: list[tuple[int, str]] = []
-        self._tpdo_cob = 0x180 + node_id
+        self.drive = EmulatedDrive(bench, self._lock, can, node_id, self.scale)
         self.valve_voltage_v = 0.0
         self.rejected_outputs = 0
         self.watchdog_s = register_map.watchdog_s    # the device's own (0: it has none)
@@ -132,11 +106,7 @@ class EmulatedBench:
         self.stop_modbus()
         for t in self._threads:
             t.join(timeout=2.0)
-        if self.network is not None:
-            with contextlib.suppress(Exception):
-                self.node.nmt.stop_heartbeat()
-            with contextlib.suppress(Exception):
-                self.network.disconnect()
+        self.drive.stop()
 
     # --- Modbus ---------------------------------------------------------------------------
     def _start_modbus(self) -> None:
@@ -186,124 +156,31 @@ class EmulatedBench:
         self._corrupt[signal] = (words if self.map.word_order == 'big' else words[::-1],
                                  time.monotonic() + duration_s)
 
-    # --- CANopen --------------------------------------------------------------------------
+    # --- CANopen ---------------------------------------------------------------------------
     def _start_can(self) -> None:
-        import canopen
-        self.network = open_network(self.can)
-        self.node = canopen.LocalNode(self.node_id, eds_path())
-        self.network.add_node(self.node)
-        self.node.add_write_callback(self._on_write)
-        self.node.add_read_callback(self._on_read)
-        self.network.subscribe(0, self._on_nmt)
-        self.node.nmt.state = 'PRE-OPERATIONAL'
-        self.network.send_message(0x700 + self.node_id, [0])          # boot-up
-        period = self.node.get_data(0x1017, 0)
-        self._heartbeat_ms = int.from_bytes(period, 'little')
-        if self._heartbeat_ms:
-            self.node.nmt.start_heartbeat(self._heartbeat_ms)
+        self.drive.start()
 
-    def _on_nmt(self, can_id: int, data: bytearray, timestamp: float) -> None:
-        """NMT start: take the PDO mapping the master wrote (by SDO) and subscribe RPDO 1."""
-        if len(data) >= 2 and data[0] == 0x01 and data[1] in (0, self.node_id):
-            self._map_pdos()
+    @property
+    def state(self) -> State:
+        """The drive's CiA 402 power state."""
+        return self.drive.state
 
-    def _mapping(self, index: int) -> list[tuple[int, str]]:
-        """(od index, struct code) of each object a PDO mapping object lists."""
-        n = self.node.get_data(index, 0)[0]
-        out = []
-        for sub in range(1, n + 1):
-            entry = int.from_bytes(self.node.get_data(index, sub), 'little')
-            od = entry >> 16
-            out.append((od, _FORMATS[self.node.object_dictionary[od].data_type]))
-        return out
-
-    def _map_pdos(self) -> None:
-        rx_cob = int.from_bytes(self.node.get_data(0x1400, 1), 'little') & 0x7FF
-        self._tpdo_cob = int.from_bytes(self.node.get_data(0x1800, 1), 'little') & 0x7FF
-        self._rpdo, self._tpdo = self._mapping(0x1600), self._mapping(0x1A00)
-        with contextlib.suppress(Exception):
-            self.network.unsubscribe(rx_cob, self._on_rpdo)
-        self.network.subscribe(rx_cob, self._on_rpdo)
-
-    def _on_write(self, index: int, subindex: int, od: Any, data: bytes) -> None:
-        if index == OD['modes_of_operation']:
-            self.mode = struct.unpack('<b', bytes(data))[0]
-            self._apply()
-        elif index == OD['controlword']:
-            self._controlword(int.from_bytes(data, 'little'))
-
-    def _on_read(self, index: int, subindex: int, od: Any) -> int | None:
-        if index == OD['statusword']:
-            return STATUSWORD[self.state]
-        if index == OD['modes_display']:
-            return self.mode
-        return None
-
-    def _on_rpdo(self, can_id: int, data: bytearray, timestamp: float) -> None:
-        if self._silent or self.node.nmt.state != 'OPERATIONAL':
-            return
-        fmt = '<' + ''.join(code for _, code in self._rpdo)
-        if struct.calcsize(fmt) != len(data):
-            return
-        values = dict(zip((od for od, _ in self._rpdo), struct.unpack(fmt, bytes(data)),
-                          strict=True))
-        self._targets = (values.get(OD['target_torque'], self._targets[0]),
-                         values.get(OD['target_position'], self._targets[1]))
-        if OD['modes_of_operation'] in values:
-            self.mode = values[OD['modes_of_operation']]
-        self._controlword(values.get(OD['controlword'], self._cw))
-        self._send_tpdo()             # one TPDO per RPDO: the cycle the master sets
-
-    def _controlword(self, cw: int) -> None:
-        self.state, self._cw = next_state(self.state, cw, self._cw), cw
-        self._apply()
-
-    def _apply(self) -> None:
-        """What the drive does in its state and mode (module docstring)."""
-        if self.state == State.OPERATION_ENABLED and self.mode == MODE_CST:
-            wanted = (LoadMode.FORCE, self.scale.force_of_permille(self._targets[0]))
-        elif self.state == State.OPERATION_ENABLED and self.mode == MODE_CSP:
-            wanted = (LoadMode.POSITION,
-                      self.scale.angle_of(self._targets[1]) * self.scale.radius_m)
-        else:
-            wanted = (LoadMode.OFF, 0.0)
-        if wanted != self._applied:
-            self._applied = wanted
-            with self._lock:
-                self.bench.command_load(*wanted)
+    @property
+    def mode(self) -> int:
+        """The drive's mode of operation."""
+        return self.drive.mode
 
     def emcy(self, code: int = 0x2310) -> None:
         """The drive faults (default: over-current) and says so by EMCY."""
-        self.state = State.FAULT
-        self._apply()
-        self.node.emcy.send(code, 0x02)
+        self.drive.emcy(code)
 
     def silence_can(self) -> None:
         """The drive stops talking: no heartbeat, no PDO (a cut cable, a dead node)."""
-        self._silent = True
-        with contextlib.suppress(Exception):
-            self.node.nmt.stop_heartbeat()
+        self.drive.silence()
 
     def talk_can(self) -> None:
-        """The drive talks again after ``silence_can`` (the cable plugged back): heartbeat
-        and PDOs resume, in whatever power state the master's last controlword left."""
-        self._silent = False
-        if self._heartbeat_ms:
-            with contextlib.suppress(Exception):
-                self.node.nmt.start_heartbeat(self._heartbeat_ms)
-
-    def _send_tpdo(self) -> None:
-        if self._silent or not self._tpdo or self.node.nmt.state != 'OPERATIONAL':
-            return
-        servo, s = self.bench.servo, self.scale
-        values = {OD['statusword']: STATUSWORD[self.state], OD['modes_display']: self.mode,
-                  OD['position_actual']: s.counts(servo.phi),
-                  OD['torque_actual']: max(-32768, min(32767, round(
-                      1000.0 * servo.torque / s.gear_ratio / s.rated_torque_nm)))}
-        fmt = '<' + ''.join(code for _, code in self._tpdo)
-        data = struct.pack(fmt, *(values[od] for od, _ in self._tpdo))
-        with contextlib.suppress(Exception):
-            self.network.send_message(self._tpdo_cob, data)
+        """The drive talks again after ``silence_can`` (the cable plugged back)."""
+        self.drive.talk()
 
     # --- the bench ------------------------------------------------------------------------
     def _publish_inputs(self) -> None:
@@ -366,4 +243,5 @@ class EmulatedBench:
             with self._lock:
                 self.bench.step(dt)
             self._publish_inputs()
+            self.drive.tick(now)
             self.ticks += 1
