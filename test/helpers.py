@@ -7,7 +7,7 @@ from collections import defaultdict
 
 from rosbags.rosbag2 import Reader
 
-from pam_bench.analysis.types import bench_typestore
+from pam_bench.bags.types import bench_typestore
 
 
 def bag_payloads(path: pathlib.Path) -> dict[str, list[tuple[int, bytes]]]:

@@ -10,10 +10,11 @@ import pytest
 ROOT = pathlib.Path(__file__).resolve().parents[1] / 'pam_bench'
 # lower rank = lower layer; a module may import its own folder and lower ranks only
 RANK = {'vocabulary': -1, 'models': 0, 'sim': 1, 'control': 1, 'cluster': 1, 'protocol': 2,
-        'config': 3, 'buses': 3.5, 'analysis': 4, 'live': 5, 'runtime': 5.5, 'nodes': 6, 'twin': 6,
-        'verify': 7, 'bringup': 8, 'sweep': 9, 'benchmarks': 10, 'cli': 11}
+        'config': 3, 'buses': 3.5, 'bags': 3.8, 'analysis': 4, 'live': 5, 'runtime': 5.5,
+        'nodes': 6, 'twin': 6, 'verify': 7, 'fit': 7.5, 'bringup': 8, 'sweep': 9,
+        'benchmarks': 10, 'cli': 11}
 NO_ROS = {'vocabulary', 'models', 'sim', 'control', 'cluster', 'protocol', 'config', 'buses',
-          'analysis', 'live', 'twin', 'verify'}
+          'bags', 'analysis', 'live', 'twin', 'verify', 'fit'}
 MODULES = sorted(p for p in ROOT.rglob('*.py'))
 
 

@@ -1,7 +1,7 @@
-"""Offline reading of bench bags and extraction of characteristics: no rclpy."""
+"""Offline extraction of characteristics and models from bench bags: no rclpy."""
 
 from __future__ import annotations
 
-__all__ = ['bag_repair', 'bagdiff', 'baginfo', 'bagread', 'bagwrite', 'delivery', 'errors',
-           'extract', 'force_models', 'identify', 'inverse_export', 'law_scores', 'plots',
-           'report', 'servo_bag', 'smoothing', 'static', 'timing', 'types']
+__all__ = ['batch', 'delivery', 'errors', 'extract', 'force_models', 'identify',
+           'inverse_export', 'law_scores', 'plots', 'report', 'servo_bag', 'smoothing',
+           'static', 'timing']

@@ -38,7 +38,7 @@ def _date(summary: dict[str, Any], bag: str) -> str:
     runs = summary.get('runs') or []
     if runs and runs[0] and runs[0].get('start'):
         return str(runs[0]['start'])
-    from pam_bench.analysis.bagread import open_bag
+    from pam_bench.bags.bagread import open_bag
     reader = open_bag(pathlib.Path(bag))
     try:
         ns = reader.start_time

@@ -16,8 +16,6 @@ import numpy as np
 import yaml
 
 from pam_bench.analysis import plots
-from pam_bench.analysis.baginfo import bag_info
-from pam_bench.analysis.bagread import BagData, Points, StepRecord, read_bags
 from pam_bench.analysis.errors import ExtractError
 from pam_bench.analysis.force_models import FORCE_MODELS, fit_force_models
 from pam_bench.analysis.identify import fit_step
@@ -26,6 +24,8 @@ from pam_bench.analysis.law_scores import score
 from pam_bench.analysis.report import report_markdown
 from pam_bench.analysis.smoothing import centred_polyfit
 from pam_bench.analysis.static import gain_summary, kind_of
+from pam_bench.bags.baginfo import bag_info
+from pam_bench.bags.bagread import BagData, Points, StepRecord, read_bags
 from pam_bench.vocabulary.outputs import check_output, staged_output
 
 __all__ = ['extract', 'step_summary', 'coefficient_polynomials', 'inverse_model_of', 'VERB']

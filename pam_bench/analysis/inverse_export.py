@@ -13,9 +13,9 @@ from typing import Any
 
 import numpy as np
 
-from pam_bench.analysis.bagread import Points
 from pam_bench.analysis.smoothing import centred_polyfit
 from pam_bench.analysis.static import isometric_lines
+from pam_bench.bags.bagread import Points
 
 __all__ = ['inverse_model_dict', 'smoothing_polynomial']
 

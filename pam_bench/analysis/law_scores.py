@@ -17,8 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from pam_bench.analysis.bagread import Points
 from pam_bench.analysis.static import MIN_DX_M
+from pam_bench.bags.bagread import Points
 from pam_bench.models.laws.base import ForceLaw
 
 __all__ = ['length_rmse_mm', 'stiffness_rmse_kn_per_m', 'score']

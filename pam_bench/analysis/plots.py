@@ -15,8 +15,8 @@ matplotlib.use('Agg')
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from pam_bench.analysis.bagread import Points  # noqa: E402
 from pam_bench.analysis.static import isometric_gains  # noqa: E402
+from pam_bench.bags.bagread import Points  # noqa: E402
 
 __all__ = ['plot_family', 'plot_surfaces', 'plot_gains', 'plot_step_polynomials',
            'plot_model_residuals']

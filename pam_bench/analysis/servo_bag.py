@@ -7,9 +7,9 @@ from typing import Any
 
 import numpy as np
 
-from pam_bench.analysis.bagread import open_bag
-from pam_bench.analysis.errors import BagError
-from pam_bench.analysis.types import bench_typestore
+from pam_bench.bags.bagread import open_bag
+from pam_bench.bags.errors import BagError
+from pam_bench.bags.types import bench_typestore
 from pam_bench.config import topics
 
 __all__ = ['SERVO_TOPIC', 'read_servo_states']

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from pam_bench.analysis.bagread import Points
+from pam_bench.bags.bagread import Points
 
 __all__ = ['kind_of', 'KINDS', 'isometric_gains', 'isometric_lines', 'midline_fit',
            'isotonic_gains', 'isobaric_hysteresis', 'isobaric_stiffness', 'gain_summary']

@@ -178,7 +178,7 @@ def _stamp_s(msg: Any) -> float:
 
 
 def _bus_fault(kind: str, tmp: pathlib.Path) -> dict[str, Any]:
-    from pam_bench.analysis.bagread import topic_messages
+    from pam_bench.bags.bagread import topic_messages
     from pam_bench.benchmarks.faults import READINGS, SCENE
     from pam_bench.bringup.runner import Layout, RunOptions, run_scene
     from pam_bench.config.scene import load_scene

@@ -6,7 +6,7 @@ the valve's natural frequency and damping, and one set per drawn parameter puts 
 at an end of its fit interval (``FREE_BAGS``: the declared range, narrowed only for the
 reasons ``BOUND_REASONS`` states), the lower end for every other parameter, the rest at their
 defaults (``edge_parameters``); campaign_quick runs on the time-stepped numpy twin
-(``twin.protocol_run``, noise-free load cell) with each; ``verify.calibrate_bags`` fits
+(``twin.protocol_run``, noise-free load cell) with each; ``fit.calibrate_bags`` fits
 ``FREE_BAGS`` from the bench's defaults to its readings and step records. Reported per set:
 each parameter's recovery error, whether the fit could identify it (not flagged), the RMS of
 the readings before and after, the fit time.
@@ -21,11 +21,11 @@ import numpy as np
 
 from pam_bench.benchmarks.study import Study
 from pam_bench.benchmarks.tables import Row, commit_of, table
+from pam_bench.fit.calibrate_bags import FREE_BAGS, calibrate_bags, observations_from_twin
 from pam_bench.models.muscle import MuscleParams
 from pam_bench.models.sensors import LoadCellParams
 from pam_bench.models.valve import ValveParams
 from pam_bench.twin.protocol_run import run_protocol
-from pam_bench.verify.calibrate_bags import FREE_BAGS, calibrate_bags, observations_from_twin
 
 __all__ = ['STUDY', 'DRAWN', 'draw_parameters', 'edge_parameters', 'invalid', 'recovery_errors',
            'measure_round_trips', 'calibrate_section', 'calibrate_results']

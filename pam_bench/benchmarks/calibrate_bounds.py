@@ -1,7 +1,7 @@
 """Study ``calibrate_bounds``: the bag calibration round trip across the fit intervals (issue 42).
 
 Muscles a lab may bring, on the numpy twin with the load cell's noise on, each calibrated
-from its own campaign_quick run as ``pam-bench calibrate`` would (``verify.calibrate_bags``:
+from its own campaign_quick run as ``pam-bench calibrate`` would (``fit.calibrate_bags``:
 the start read off the data, multi-start when the first fit is not at the noise level):
 
 - ``SETS`` sets with every free parameter drawn uniformly over its whole fit interval
@@ -34,10 +34,10 @@ import numpy as np
 from pam_bench.benchmarks.calibrate import invalid
 from pam_bench.benchmarks.study import Study
 from pam_bench.benchmarks.tables import Row, commit_of, table
+from pam_bench.fit.calibrate_bags import FREE_BAGS, Mapper
 from pam_bench.models.muscle import MuscleParams
 from pam_bench.models.sensors import LoadCellParams
 from pam_bench.models.valve import ValveParams
-from pam_bench.verify.calibrate_bags import FREE_BAGS, Mapper
 from pam_bench.vocabulary.errors import PamBenchError
 
 __all__ = ['STUDY', 'SETS', 'draw_uniform', 'end_set', 'small_muscle', 'one_set', 'TOLERANCE']
@@ -115,8 +115,8 @@ def _fit_set(job: tuple[str, str, dict[str, Any], int], mapper: Mapper | None
     """``one_set``; ``mapper``: the Jacobian's columns and the starts evaluated through it, as
     ``pam-bench calibrate`` does on its cluster (None: in this process)."""
     from pam_bench.config.protocols import load_protocols
+    from pam_bench.fit.calibrate_bags import calibrate_bags, observations_from_twin
     from pam_bench.twin.protocol_run import run_protocol
-    from pam_bench.verify.calibrate_bags import calibrate_bags, observations_from_twin
     label, protocol, what, seed = job
     try:
         valve, muscle = small_muscle() if what.get('small') else _apply(what['values'])
@@ -152,8 +152,8 @@ def _straight_fibre_try(mapper: Mapper) -> dict[str, Any]:
     """000's straight-fibre muscle on its own protocol, calibrated as the McKibben bench (the
     Jacobian and the starts through ``mapper``)."""
     from pam_bench.config.scene import load_scene
+    from pam_bench.fit.calibrate_bags import calibrate_bags, observations_from_bags
     from pam_bench.twin.protocol_run import bag_data_of, run_scene
-    from pam_bench.verify.calibrate_bags import calibrate_bags, observations_from_bags
     obs = observations_from_bags(bag_data_of(run_scene(load_scene('straight_fibre_quick'))))
     t0 = time.perf_counter()
     res = calibrate_bags(obs, workers=mapper, map_starts=mapper)
@@ -165,7 +165,7 @@ def _straight_fibre_try(mapper: Mapper) -> dict[str, Any]:
 
 
 def _line(verdict: dict[str, Any]) -> str:
-    from pam_bench.verify.calibrate_verdict import Verdict
+    from pam_bench.fit.calibrate_verdict import Verdict
     return Verdict(**verdict).line()
 
 

@@ -24,7 +24,7 @@ import yaml
 from pam_bench.benchmarks.calibrate import draw_parameters, recovery_errors
 from pam_bench.benchmarks.study import Study
 from pam_bench.benchmarks.tables import Row, commit_of, table
-from pam_bench.verify.calibrate_bags import overlay_of
+from pam_bench.fit.calibrate_bags import overlay_of
 
 __all__ = ['STUDY', 'measure_nodes_round_trip', 'calibrate_nodes_section',
            'calibrate_nodes_results']
@@ -51,8 +51,8 @@ def _run(overlay: dict[str, Any], out: pathlib.Path, name: str) -> tuple[pathlib
 
 def measure_nodes_round_trip(out: pathlib.Path) -> dict[str, Any]:
     """Run the round trip (module docstring) into ``out``; return its figures."""
-    from pam_bench.analysis.bagread import read_bags
-    from pam_bench.verify.calibrate_bags import calibrate_bags, observations_from_bags
+    from pam_bench.bags.bagread import read_bags
+    from pam_bench.fit.calibrate_bags import calibrate_bags, observations_from_bags
     from pam_bench.verify.wallclock import compare_readings
     out.mkdir(parents=True, exist_ok=True)
     valve, muscle = draw_parameters(np.random.default_rng(2026))

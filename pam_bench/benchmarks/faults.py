@@ -61,7 +61,7 @@ def _stamp(msg: Any) -> int:
 
 
 def _case(kind: str, out: pathlib.Path) -> dict[str, Any]:
-    from pam_bench.analysis.bagread import topic_messages
+    from pam_bench.bags.bagread import topic_messages
     fault, survives, words = CASES[kind]
     path = out / f'fault_{kind}.yaml'
     path.write_text(SCENE.format(fault=fault), encoding='utf-8')

@@ -15,8 +15,8 @@ matplotlib.use('Agg')
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from pam_bench.analysis.bagread import read_bags  # noqa: E402
 from pam_bench.analysis.servo_bag import read_servo_states  # noqa: E402
+from pam_bench.bags.bagread import read_bags  # noqa: E402
 from pam_bench.benchmarks.fidelity import fidelity_table  # noqa: E402
 from pam_bench.benchmarks.study import Study  # noqa: E402
 from pam_bench.benchmarks.tables import RESULTS, Row, commit_of, pct, table  # noqa: E402

@@ -40,8 +40,8 @@ def measure(quick: bool, out: pathlib.Path, scenes: list[str] | None) -> dict[st
 
 def _extraction(out: pathlib.Path, names: list[str], quick: bool) -> dict[str, Any]:
     """Extract each recorded scene bag, compare with its truth; time 680 step fits."""
-    from pam_bench.analysis.errors import BagError
     from pam_bench.analysis.extract import extract
+    from pam_bench.bags.errors import BagError
     from pam_bench.twin.quasistatic import QuasiStaticBench
     from pam_bench.verify.truth import compare, scene_schedule, truth_summary
     rows = []
@@ -73,7 +73,7 @@ def _extraction(out: pathlib.Path, names: list[str], quick: bool) -> dict[str, A
     # identification speed on the full 17 x 40 grid (every 10th record with --quick), and the
     # extraction of a bag the size of the full campaign's (its points settled on the
     # quasi-static bench, 0.2 N / 5 um noise)
-    from pam_bench.analysis.bagwrite import write_bag
+    from pam_bench.bags.bagwrite import write_bag
     readings = [r for r in scene_schedule('step_response') if r.record_s > 0]
     if quick:
         readings = readings[::10]

@@ -7,8 +7,8 @@ import pathlib
 import time
 from typing import Any
 
-from pam_bench.analysis.bagread import read_bags
 from pam_bench.analysis.extract import model_comparison
+from pam_bench.bags.bagread import read_bags
 from pam_bench.benchmarks.study import Study
 from pam_bench.benchmarks.tables import Row, commit_of, table
 from pam_bench.bringup.runner import RunOptions, run_scene

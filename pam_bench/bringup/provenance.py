@@ -1,4 +1,4 @@
-"""How a run was made, for the bag to carry (``analysis.baginfo`` reads it back).
+"""How a run was made, for the bag to carry (``bags.baginfo`` reads it back).
 
 ``run_description`` gathers the scene (name and file text), the resolved parameters of every
 node, the seed, the command line, the layout, the project commit with a dirty flag, the

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pathlib
 
-from pam_bench.analysis.bagread import read_bags
+from pam_bench.bags.bagread import read_bags
 from pam_bench.config.protocols import protocol_schedule
 from pam_bench.config.scene import Scene
 from pam_bench.protocol.schedules import resume_index
@@ -21,7 +21,7 @@ def resume_reading(scene: Scene, bag: str | pathlib.Path) -> tuple[int, int]:
     ``protocol.schedules.with_approach``).
 
     Raises:
-        analysis.bagread.BagError: the bag cannot be read or holds no points.
+        bags.bagread.BagError: the bag cannot be read or holds no points.
         ParameterError: the scene's protocol is unknown or malformed.
     """
     readings, _ = protocol_schedule(scene.protocol, scene.protocol_overrides)

@@ -36,7 +36,7 @@ def _flatten(d: dict[str, Any], prefix: str = '') -> dict[str, Any]:
 
 
 def _cmd_info(args: argparse.Namespace) -> int:
-    from pam_bench.analysis.baginfo import bag_info
+    from pam_bench.bags.baginfo import bag_info
     info = bag_info(args.bag)
     if args.json:
         print(json.dumps(info, indent=2, default=str))
@@ -74,7 +74,7 @@ def _cmd_info(args: argparse.Namespace) -> int:
 
 
 def _cmd_diff(args: argparse.Namespace) -> int:
-    from pam_bench.analysis.bagdiff import diff_bags
+    from pam_bench.bags.bagdiff import diff_bags
     d = diff_bags(args.bag_a, args.bag_b)
     if args.json:
         print(json.dumps(d, indent=2))
@@ -91,7 +91,7 @@ def _cmd_diff(args: argparse.Namespace) -> int:
 
 
 def _cmd_bag_repair(args: argparse.Namespace) -> int:
-    from pam_bench.analysis.bag_repair import OLD_METADATA, repair_bag
+    from pam_bench.bags.bag_repair import OLD_METADATA, repair_bag
     rep = repair_bag(args.bag)
     if not rep.needed:
         print(f'{args.bag} is a valid bag: every chunk decompresses and passes its CRC; '

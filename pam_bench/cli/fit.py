@@ -12,7 +12,7 @@ from typing import Any
 from pam_bench.cli.cluster_args import add_cluster_args, cluster_of
 from pam_bench.cli.errors import UsageError
 from pam_bench.cli.numbers import integer, number, out_path
-from pam_bench.verify.calibrate_verdict import NOT_CONVERGED, Verdict
+from pam_bench.fit.calibrate_verdict import NOT_CONVERGED, Verdict
 from pam_bench.vocabulary.outputs import (
     check_output_file,
     staged_output,
@@ -126,9 +126,9 @@ def _cmd_calibration(args: argparse.Namespace) -> int:
 def _calibrate_bags(args: argparse.Namespace) -> int:
     import yaml
 
-    from pam_bench.analysis.bagread import read_bags
+    from pam_bench.bags.bagread import read_bags
     from pam_bench.cluster.layer import connect, map_on
-    from pam_bench.verify.calibrate_bags import (
+    from pam_bench.fit.calibrate_bags import (
         bench_of_scene,
         calibrate_bags,
         observations_from_bags,
@@ -166,7 +166,7 @@ def _calibrate_bags(args: argparse.Namespace) -> int:
 
 
 def _print_fit(res: dict[str, Any]) -> None:
-    from pam_bench.verify.calibrate_bags import PATH_WIDTH_M
+    from pam_bench.fit.calibrate_bags import PATH_WIDTH_M
     print('started from (read off the data where it shows them):')
     for n, v in res['start'].items():
         print(f"  {n:28s} {v:12.6g}  {res['start_from'].get(n, 'the bench default')}")
@@ -213,7 +213,7 @@ def _calibrate_jobs(args: argparse.Namespace, out: pathlib.Path | None) -> tuple
     import yaml
 
     from pam_bench.cluster.layer import run_jobs
-    from pam_bench.verify.calibrate_bags import calibrate_bag, overlay_of
+    from pam_bench.fit.calibrate_bags import calibrate_bag, overlay_of
     jobs = [(b, args.max_evaluations, args.replay, args.start, args.starts, args.law,
              args.scene) for b in args.bags]
     results = run_jobs(calibrate_bag, jobs, label='calibrate', **cluster_of(args))
@@ -240,7 +240,7 @@ def _calibrate_jobs(args: argparse.Namespace, out: pathlib.Path | None) -> tuple
 def _cmd_calibrate(args: argparse.Namespace) -> int:
     import yaml
 
-    from pam_bench.verify.calibrate import calibrate_004
+    from pam_bench.fit.calibrate import calibrate_004
     if args.bags:
         return _calibrate_bags(args)
     if args.target != '004':
@@ -259,7 +259,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         _figure_table(res['figures'])
         print(f"fit: {res['evaluations']} evaluations in {res['fit_s']:.1f} s, cost "
               f"{res['cost']:.3g}")
-        from pam_bench.verify.calibrate import fit_report
+        from pam_bench.fit.calibrate import fit_report
         for n, line in fit_report(res, 'not fixed by the figures').items():
             print(f'  {n:28s} {line}')
         if args.out:

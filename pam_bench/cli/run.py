@@ -274,8 +274,8 @@ def _replayed(args: argparse.Namespace) -> tuple[Any, dict[str, Any] | None]:
     """The scene and settings a bag recorded (``run --replay BAG``)."""
     import tempfile
 
-    from pam_bench.analysis.baginfo import run_of_bag
-    from pam_bench.analysis.errors import BagError
+    from pam_bench.bags.baginfo import run_of_bag
+    from pam_bench.bags.errors import BagError
     from pam_bench.config.scene import load_scene, settings_of_params_file
     from pam_bench.vocabulary.run import Layout
     try:
@@ -307,8 +307,8 @@ def _resume_start(scene: Any, bag: str) -> tuple[int, int]:
     Raises:
         BagError: unreadable, of another scene or protocol, or without readings.
     """
-    from pam_bench.analysis.baginfo import run_of_bag
-    from pam_bench.analysis.errors import BagError
+    from pam_bench.bags.baginfo import run_of_bag
+    from pam_bench.bags.errors import BagError
     from pam_bench.bringup.resume import resume_reading
     try:
         run = run_of_bag(bag)
@@ -322,7 +322,7 @@ def _resume_start(scene: Any, bag: str) -> tuple[int, int]:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from pam_bench.analysis.splitwriter import check_room
+    from pam_bench.bags.splitwriter import check_room
     from pam_bench.bringup.runner import Layout, RunOptions, run_scene
     from pam_bench.vocabulary.outputs import check_output, clear_output
     settings = None

@@ -24,7 +24,7 @@ __all__ = ['LiveServer', 'Throttle', 'schema_text']
 def schema_text(msgtype: str) -> str:
     """The ``ros2msg`` schema of ``msgtype`` (e.g. ``geometry_msgs/msg/WrenchStamped``): its
     definition, then each type it uses after a ``MSG:`` separator line."""
-    from pam_bench.analysis.types import bench_typestore
+    from pam_bench.bags.types import bench_typestore
     text, _ = bench_typestore().generate_msgdef(msgtype, ros_version=2)
     return str(text)
 

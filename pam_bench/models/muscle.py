@@ -44,7 +44,7 @@ Static force (quasi-static: the muscle's own mass and the gas inertia are neglec
   x) and sum(mu_i) < 1 (while they slide, dF/dF_bb = 1 -+ sum mu_i > 0); both are checked.
 
 The default parameters are fitted to 004's figures by ``pam-bench calibrate --target 004``
-(``pam_bench.verify.calibrate``); ``pam-bench calibration`` reports each figure.
+(``pam_bench.fit.calibrate``); ``pam-bench calibration`` reports each figure.
 
 Chamber volume from the inextensible-braid kinematics (001 Eq. 1-2): with thread length
 b = l_n / cos(theta_0) and n_t = b sin(theta_0) / (pi d_n) turns,
@@ -93,7 +93,7 @@ class MuscleParams:
     which muscle the bench holds (``kind``: ``pam_bench.models.bench_muscle``).
 
     The friction's break forces, their growth with load and the slip compliance are not
-    fitted to 004's figures (``verify.calibrate.FREE``); they are set so that the braid
+    fitted to 004's figures (``fit.calibrate.FREE``); they are set so that the braid
     friction biases the extraction's midline gains by under 2 % against the friction-free
     backbone (the isometric gain at 80 mm is the most exposed) while the fit reaches 004's
     isotonic minimum (0.13 mm/V at 0 V, 100 N), which asks for a soft braid (BENCHMARKS.md,

@@ -36,9 +36,9 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
 
-from pam_bench.analysis.baginfo import END_KEY, RUN_KEY
-from pam_bench.analysis.splitwriter import DiskFull, SplitWriter
-from pam_bench.analysis.types import bench_typestore
+from pam_bench.bags.baginfo import END_KEY, RUN_KEY
+from pam_bench.bags.splitwriter import DiskFull, SplitWriter
+from pam_bench.bags.types import bench_typestore
 from pam_bench.config.settings import RecorderSettings
 from pam_bench.config.topics import in_namespace
 from pam_bench.runtime import cdr
@@ -53,25 +53,6 @@ __all__ = ['Recorder', 'main']
 
 KEEP_ALL = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE,
                       history=HistoryPolicy.KEEP_ALL, durability=DurabilityPolicy.VOLATILE)
-
-
-_NEVER, _ALWAYS = '', '*'
-_WIDE = ('sequence<double>', 'sequence<int64>', 'sequence<uint64>')
-_NARROW = ('boolean', 'byte', 'char', 'octet', 'float', 'double', 'string', 'int8', 'uint8',
-           'int16', 'uint16', 'int32', 'uint32', 'int64', 'uint64')
-
-
-def _trim_rule(cls: type) -> str:
-    """When a message of ``cls`` needs cutting (``Recorder._cdr``): never (its last field is
-    a number, a string or a sequence of narrow numbers), when its last field, a sequence of
-    8-byte numbers, is empty (that field's name), or always (measured)."""
-    name, kind = list(cdr.fields_of(cls).items())[-1]
-    if kind in _WIDE:
-        return name
-    if kind in _NARROW or kind.startswith('string') or (
-            kind.startswith('sequence<') and kind[9:-1] in _NARROW[:-2]):
-        return _NEVER
-    return _ALWAYS
 
 
 class Recorder(BenchNode):
@@ -349,8 +330,9 @@ class Recorder(BenchNode):
         raw = serialize_message(msg)
         rule = self._trim.get(topic)
         if rule is None:
-            rule = self._trim[topic] = _trim_rule(type(msg))
-        if rule is _NEVER or (rule is not _ALWAYS and len(getattr(msg, rule)) > 0):
+            rule = self._trim[topic] = cdr.trim_rule(type(msg))
+        if rule is cdr.TRIM_NEVER or (rule is not cdr.TRIM_ALWAYS and
+                                      len(getattr(msg, rule)) > 0):
             return raw
         msgdef = self.store.get_msgdef(self.connections[topic])
         end, _ = msgdef.getsize_cdr_to_ros1(memoryview(raw)[4:], 0, None, 0, self.store)

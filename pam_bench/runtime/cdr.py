@@ -28,7 +28,8 @@ import struct
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ['fields_of', 'element_of', 'ARRAY_CODES', 'encoder', 'ends_padded', 'clock_cdr']
+__all__ = ['fields_of', 'element_of', 'ARRAY_CODES', 'encoder', 'ends_padded', 'clock_cdr',
+           'trim_rule', 'TRIM_NEVER', 'TRIM_ALWAYS']
 
 Encoder = Callable[[Any], bytes]
 
@@ -210,3 +211,24 @@ def clock_cdr(t_ns: int) -> bytes:
     encapsulation header, then builtin_interfaces/Time's int32 sec and uint32 nanosec (the
     recorder writes one per exchange; ``test_cdr`` checks it against rclpy)."""
     return _CLOCK.pack(b'\x00\x01\x00\x00', t_ns // 1_000_000_000, t_ns % 1_000_000_000)
+
+
+TRIM_NEVER, TRIM_ALWAYS = '', '*'
+"""What ``trim_rule`` says besides a field's name: never cut, always cut."""
+_WIDE_SEQUENCES = ('sequence<double>', 'sequence<int64>', 'sequence<uint64>')
+_NARROW = ('boolean', 'byte', 'char', 'octet', 'float', 'double', 'string', 'int8', 'uint8',
+           'int16', 'uint16', 'int32', 'uint32', 'int64', 'uint64')
+
+
+def trim_rule(cls: type) -> str:
+    """When a message of ``cls`` needs cutting (the recorder cuts the padding rclpy leaves
+    after a message: ``nodes.recorder``): never (its last field is a number, a string or a
+    sequence of narrow numbers), when its last field, a sequence of 8-byte numbers, is empty
+    (that field's name), or always (measured)."""
+    name, kind = list(fields_of(cls).items())[-1]
+    if kind in _WIDE_SEQUENCES:
+        return name
+    if kind in _NARROW or kind.startswith('string') or (
+            kind.startswith('sequence<') and kind[9:-1] in _NARROW[:-2]):
+        return TRIM_NEVER
+    return TRIM_ALWAYS

@@ -5,7 +5,7 @@ A figure is a dotted path into a job's result (``sweep.jobs``). The protocol nam
 extraction's estimators, so their paths are read off one probe: the twin's ``campaign_quick``
 (every protocol kind, a couple of seconds, once per process). The others are the producers'
 own keys: ``servo.*`` (``twin.servo_bench.tracking_metrics``), ``readings.*`` and ``run.*``
-(``sweep.jobs``), and ``calibrate.*`` (``verify.calibrate_bags``: every free parameter's value
+(``sweep.jobs``), and ``calibrate.*`` (``fit.calibrate_bags``: every free parameter's value
 and standard error, the RMS per protocol, the cost, the evaluations). A list's items are
 addressed by index (``step_response.fits.0.b``). A name that fits none is one ``ConfigError``
 naming the nearest that does.
@@ -58,7 +58,7 @@ def _protocol_paths() -> frozenset[str]:
 
 
 def _calibrate_paths() -> set[str]:
-    from pam_bench.verify.calibrate_bags import FREE_BAGS
+    from pam_bench.fit.calibrate_bags import FREE_BAGS
     names = [n for _, n, _, _ in FREE_BAGS]
     kinds = ('isometric', 'isotonic', 'isobaric', 'step_records')
     return ({f'calibrate.values.{n}' for n in names} | {f'calibrate.stderr.{n}' for n in names}

@@ -5,7 +5,7 @@ nodes into a scratch bag; either way its readings and step records go through th
 estimators (``analysis.static.gain_summary``, ``analysis.extract.step_summary``), so a figure
 means what it means in summary.json. A servo scene runs on the servo twin
 (``twin.servo_bench``) or through the nodes, and gives ``servo.*`` (``tracking_metrics``). A
-``calibrate.*`` figure fits the bench to the run's own readings (``verify.calibrate_bags``).
+``calibrate.*`` figure fits the bench to the run's own readings (``fit.calibrate_bags``).
 Figures a run does not produce are NaN.
 """
 
@@ -54,7 +54,7 @@ def _protocol_result(scene: Any, job: Job, engine: str, figures: list[str]) -> d
         data = bag_data_of(run)
         out: dict[str, Any] = {'run': {'sim_s': run.sim_s, 'exit_code': run.exit_code}}
     else:
-        from pam_bench.analysis.bagread import read_bags
+        from pam_bench.bags.bagread import read_bags
         from pam_bench.bringup.runner import RunOptions
         from pam_bench.bringup.runner import run_scene as run_nodes
         from pam_bench.cluster.layer import worker_domain
@@ -72,7 +72,7 @@ def _protocol_result(scene: Any, job: Job, engine: str, figures: list[str]) -> d
     if data.records:
         out['step_response'] = step_summary(data.records)
     if any(f.startswith('calibrate.') for f in figures):
-        from pam_bench.verify.calibrate_bags import (
+        from pam_bench.fit.calibrate_bags import (
             bench_of_settings,
             calibrate_bags,
             observations_from_bags,

@@ -24,8 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from pam_bench.analysis.bagread import BagData, Points
-from pam_bench.analysis.bagread import StepRecord as BagRecord
+from pam_bench.bags.bagread import BagData, Points
+from pam_bench.bags.bagread import StepRecord as BagRecord
 from pam_bench.config.protocols import parse_overrides, protocol_schedule
 from pam_bench.config.scene import Scene
 from pam_bench.models.constants import SUB_STEP_S
@@ -167,7 +167,7 @@ def run_scene(scene: Scene, seed: int = 0, events: Sequence[tuple[float, str]] =
 
 def bag_data_of(run: TwinRun) -> BagData:
     """A twin run's readings and step records as the extraction reads a bag's
-    (``analysis.bagread``): the same estimators then apply to both."""
+    (``bags.bagread``): the same estimators then apply to both."""
     by: dict[str, list[Point]] = {}
     for pt in run.points:
         by.setdefault(pt.reading.protocol, []).append(pt)

@@ -28,8 +28,8 @@ from typing import Any
 
 import numpy as np
 
-from pam_bench.analysis.bagread import Points
 from pam_bench.analysis.static import isometric_gains, isometric_lines, isotonic_gains
+from pam_bench.bags.bagread import Points
 from pam_bench.config.protocols import protocol_schedule
 from pam_bench.control.torque_servo import TorqueServoParams
 from pam_bench.models.loading_servo import LoadingServoParams

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from pam_bench.analysis.bagread import Points
+from pam_bench.bags.bagread import Points
 
 __all__ = ['PROTOTYPE', 'prototype_figures']
 

@@ -91,10 +91,10 @@ def run_against_twin(bag: str | pathlib.Path, scene_name: str, exchange_step_s: 
         twin's exchanges and wall time}.
 
     Raises:
-        pam_bench.analysis.bagread.BagError: the bag cannot be read.
+        pam_bench.bags.bagread.BagError: the bag cannot be read.
         ValueError: the bag does not hold the scene's readings in the twin's order.
     """
-    from pam_bench.analysis.bagread import read_bags
+    from pam_bench.bags.bagread import read_bags
     from pam_bench.config.scene import load_scene
     from pam_bench.twin.protocol_run import run_protocol
     from pam_bench.verify.truth import scene_models
@@ -111,7 +111,7 @@ def run_against_twin(bag: str | pathlib.Path, scene_name: str, exchange_step_s: 
 
 def compare_run(data: Any, twin: Any) -> dict[str, Any]:
     """The per-protocol and step-record rows of ``run_against_twin`` for bag data
-    (``analysis.bagread.BagData``) and a ``twin.protocol_run.TwinRun`` of the same schedule.
+    (``bags.bagread.BagData``) and a ``twin.protocol_run.TwinRun`` of the same schedule.
 
     Raises:
         ValueError: the bag does not hold the twin's readings.

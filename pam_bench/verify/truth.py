@@ -35,10 +35,10 @@ from typing import Any, NamedTuple, TypeVar
 
 import numpy as np
 
-from pam_bench.analysis.bagread import Points
 from pam_bench.analysis.extract import coefficient_polynomials
 from pam_bench.analysis.identify import fit_step
 from pam_bench.analysis.static import gain_summary
+from pam_bench.bags.bagread import Points
 from pam_bench.config.protocols import protocol_schedule
 from pam_bench.config.scene import load_scene
 from pam_bench.models.loading_servo import LoadingServoParams

@@ -14,7 +14,7 @@ from collections.abc import Collection
 
 import numpy as np
 
-from pam_bench.analysis.bagread import read_bags
+from pam_bench.bags.bagread import read_bags
 
 __all__ = ['ReadingsDiff', 'compare_readings', 'FORCE_BOUND_N', 'CONTRACTION_BOUND_M']
 
@@ -60,7 +60,7 @@ def compare_readings(bag_a: str | pathlib.Path, bag_b: str | pathlib.Path,
                      skip: Collection[tuple[str, float, float]] = ()) -> ReadingsDiff:
     """Compare the characteristic points of two bags reading by reading, leaving out those
     of ``skip``: (protocol kind, u V, held value: x m for isometric, the load N otherwise), as
-    ``verify.calibrate_bags`` lists the readings it leaves out.
+    ``fit.calibrate_bags`` lists the readings it leaves out.
 
     Raises:
         BagError: a bag cannot be read.

@@ -2,6 +2,6 @@
 
 from __future__ import annotations
 
-from pam_bench.analysis.bagwrite import write_bag
+from pam_bench.bags.bagwrite import write_bag
 
 __all__ = ['write_bag']

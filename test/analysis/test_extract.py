@@ -8,9 +8,9 @@ import pathlib
 import numpy as np
 import pytest
 
-from pam_bench.analysis.bagread import read_bags
-from pam_bench.analysis.errors import BagError
 from pam_bench.analysis.extract import extract
+from pam_bench.bags.bagread import read_bags
+from pam_bench.bags.errors import BagError
 from pam_bench.cli import main as cli
 from pam_bench.control.inverse import InverseModel
 from test.analysis.bags import write_bag

@@ -50,8 +50,8 @@ def test_one_sweep_gives_its_own_slope() -> None:
 @pytest.mark.parametrize('k_up, k_down', [(2.0e4, 2.5e4), (5.0e4, 5.0e4)])
 def test_isobaric_stiffness_of_a_linear_spring(k_up: float, k_down: float) -> None:
     """x = x0 - F / k on each branch: -dF/dx is k exactly, at the mid forces."""
-    from pam_bench.analysis.bagread import Points
     from pam_bench.analysis.static import isobaric_stiffness
+    from pam_bench.bags.bagread import Points
     f = np.arange(50.0, 960.0, 10.0)
     n = len(f)
     force = np.concatenate([f, f[::-1]])

@@ -7,9 +7,9 @@ import dataclasses
 import pytest
 
 from pam_bench.benchmarks.calibrate import DRAWN, edge_parameters
+from pam_bench.fit.calibrate_bags import FREE_BAGS
 from pam_bench.models.muscle import MuscleParams
 from pam_bench.models.valve import ValveParams
-from pam_bench.verify.calibrate_bags import FREE_BAGS
 
 
 @pytest.mark.parametrize('k', range(len(DRAWN)))

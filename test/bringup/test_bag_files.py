@@ -44,7 +44,7 @@ def test_split_compressed_bag_extracts_as_one_plain_file(tmp_path: pathlib.Path,
     assert _results(a) == _results(b)
     assert a['isometric'] and a['step_response']
     # every other reader of a bag: info, diff, --replay's run description, --resume
-    from pam_bench.analysis.baginfo import bag_info, run_of_bag
+    from pam_bench.bags.baginfo import bag_info, run_of_bag
     from pam_bench.bringup.resume import resume_reading
     from pam_bench.cli import main
     from pam_bench.config.scene import load_scene
@@ -61,8 +61,8 @@ def test_a_disk_filling_up_ends_the_run_with_a_valid_bag_and_one_line(
         capsys: pytest.CaptureFixture[str]) -> None:
     """Composed in this process, the recorder's disk reports 10 MB free after a while: the
     recorder closes the bag with what it holds and the run ends with exit code 2."""
-    from pam_bench.analysis import splitwriter
-    from pam_bench.analysis.baginfo import bag_info
+    from pam_bench.bags import splitwriter
+    from pam_bench.bags.baginfo import bag_info
     from pam_bench.bringup.runner import RunOptions, run_scene
     from pam_bench.config.scene import load_scene
     calls = [0]

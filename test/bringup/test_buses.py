@@ -37,7 +37,7 @@ def test_a_run_through_the_buses_lands_on_the_lockstep_readings(tmp_path: pathli
     from mcap.reader import make_reader  # the MCAP project's own reader too
     from mcap_ros2.decoder import DecoderFactory
 
-    from pam_bench.analysis.baginfo import bag_info
+    from pam_bench.bags.baginfo import bag_info
     mcap_file = next((tmp_path / 'bus').glob('*.mcap'))
     with open(mcap_file, 'rb') as fh:
         points = [ros for _, _, _, ros in make_reader(

@@ -21,7 +21,7 @@ def _run(args: list[str], timeout: float = 120.0) -> subprocess.CompletedProcess
 
 def test_a_run_composes_by_default_and_exits_0_with_a_valid_bag(
         tmp_path: pathlib.Path, ros_domain: int) -> None:
-    from pam_bench.analysis.baginfo import run_of_bag
+    from pam_bench.bags.baginfo import run_of_bag
     bag = tmp_path / 'bag'
     res = _run([str(SHORT), '--out', str(bag)])
     assert res.returncode == 0, res.stdout + res.stderr

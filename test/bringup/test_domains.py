@@ -102,8 +102,8 @@ def test_two_runs_and_a_sweep_in_one_exported_domain_stay_apart(tmp_path: pathli
                                                                  ros_domain: int) -> None:
     """Issue 51: each bag (and each sweep row) equals the same run done alone; the sweep's
     workers are pinned to the very domain the runs have (``PAM_BENCH_DOMAINS``)."""
-    from pam_bench.analysis.bagdiff import diff_bags
-    from pam_bench.analysis.bagread import read_bags
+    from pam_bench.bags.bagdiff import diff_bags
+    from pam_bench.bags.bagread import read_bags
     env = {**os.environ, 'ROS_DOMAIN_ID': str(ros_domain),
            'PAM_BENCH_DOMAINS': str(ros_domain)}
     sweep = tmp_path / 'two.yaml'

@@ -11,7 +11,7 @@ from typing import Any
 
 import pytest
 
-from pam_bench.analysis.baginfo import bag_info
+from pam_bench.bags.baginfo import bag_info
 from pam_bench.benchmarks.faults import CASES, READINGS, SCENE
 from pam_bench.bringup.runner import Layout, RunOptions, run_scene
 from pam_bench.config.scene import Scene, load_scene

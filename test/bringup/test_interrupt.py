@@ -11,7 +11,7 @@ import time
 
 import pytest
 
-from pam_bench.analysis.baginfo import bag_info
+from pam_bench.bags.baginfo import bag_info
 from test.helpers import bag_payloads
 
 
@@ -117,7 +117,7 @@ def test_a_killed_lockstep_run_loses_about_a_second(tmp_path: pathlib.Path,
     second are on disk, and bag-repair makes a valid bag of them (the README: a killed run
     loses at most its last second). The separate processes of a sparse protocol write less
     than a chunk's megabyte in seconds: before, nothing reached the disk."""
-    from pam_bench.analysis.bag_repair import repair_bag
+    from pam_bench.bags.bag_repair import repair_bag
     bag = tmp_path / 'bag'
     proc, lines = start_run('isometric', bag, extra=('--processes',), progress_lines=1)
     try:
@@ -136,7 +136,7 @@ def test_a_killed_lockstep_run_loses_about_a_second(tmp_path: pathlib.Path,
             proc.kill()
         for pid in node_processes(proc):
             os.kill(pid, signal.SIGKILL)
-    from pam_bench.analysis.splitwriter import bag_in_use
+    from pam_bench.bags.splitwriter import bag_in_use
     end = time.monotonic() + 20.0        # gone, its lock on the bag with it (a killed
     while (node_processes(proc) or bag_in_use(bag)) and time.monotonic() < end:
         time.sleep(0.05)                 # process on a loaded machine takes a while)

@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from pam_bench.analysis.bagread import read_bags
+from pam_bench.bags.bagread import read_bags
 from test.bringup.test_wallclock import SETTLED
 
 pytestmark = pytest.mark.wallclock

@@ -11,8 +11,8 @@ import sys
 
 import yaml
 
-from pam_bench.analysis.bagdiff import diff_bags
-from pam_bench.analysis.baginfo import bag_info, run_of_bag
+from pam_bench.bags.bagdiff import diff_bags
+from pam_bench.bags.baginfo import bag_info, run_of_bag
 
 SHORT = pathlib.Path(__file__).resolve().parents[1] / 'config_short.yaml'
 

@@ -6,8 +6,8 @@ import pathlib
 
 import pytest
 
-from pam_bench.analysis.bagwrite import write_bag
-from pam_bench.analysis.errors import BagError
+from pam_bench.bags.bagwrite import write_bag
+from pam_bench.bags.errors import BagError
 from pam_bench.bringup.resume import resume_reading
 from pam_bench.config.protocols import protocol_schedule
 from pam_bench.config.scene import load_scene

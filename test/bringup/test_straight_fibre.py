@@ -8,7 +8,7 @@ import pathlib
 import subprocess
 import sys
 
-from pam_bench.analysis.bagread import read_bags
+from pam_bench.bags.bagread import read_bags
 from pam_bench.verify.prototype import prototype_figures
 
 

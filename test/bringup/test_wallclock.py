@@ -195,7 +195,7 @@ def test_killed_device_process_vents_both_servo_valves(tmp_path: pathlib.Path,
 
 def test_ctrl_c_in_a_wallclock_run_leaves_a_valid_bag(tmp_path: pathlib.Path, ros_domain: int,
                                                       settled_scene: pathlib.Path) -> None:
-    from pam_bench.analysis.baginfo import bag_info
+    from pam_bench.bags.baginfo import bag_info
     bag = tmp_path / 'bag'
     proc = _wall_run(settled_scene, bag, [])
     try:

@@ -104,8 +104,8 @@ def test_a_bad_protocol_value_is_refused_before_the_old_bag_is_touched(
 
 def test_bag_repair_keeps_the_run_description_and_the_old_metadata(
         demo_bag: pathlib.Path, tmp_path: pathlib.Path) -> None:
-    from pam_bench.analysis.bag_repair import OLD_METADATA
-    from pam_bench.analysis.baginfo import run_of_bag
+    from pam_bench.bags.bag_repair import OLD_METADATA
+    from pam_bench.bags.baginfo import run_of_bag
     bag = _copy(demo_bag, tmp_path / 'bag')
     old_meta = (bag / 'metadata.yaml').read_text()
     _damage_a_chunk(next(bag.glob('*.mcap')))

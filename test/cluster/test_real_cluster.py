@@ -43,8 +43,8 @@ def _rows(path: pathlib.Path) -> list[dict[str, str]]:
 
 def test_sweep_and_batch_extraction_on_an_external_scheduler_equal_the_local_run(
         tmp_path: pathlib.Path, cluster: tuple[str, list]) -> None:
-    from pam_bench.analysis.bagwrite import write_bag
     from pam_bench.analysis.batch import extract_each
+    from pam_bench.bags.bagwrite import write_bag
     address, _ = cluster
     spec = tmp_path / 'sweep.yaml'
     spec.write_text(SWEEP)

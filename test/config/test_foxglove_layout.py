@@ -9,7 +9,7 @@ import re
 
 import pytest
 
-from pam_bench.analysis.types import bench_typestore
+from pam_bench.bags.types import bench_typestore
 from pam_bench.bringup.live import live_topics
 from pam_bench.config.scene import load_scene
 

@@ -25,7 +25,7 @@ class Harness:
         self.executor = SingleThreadedExecutor(context=self.context)
         self.node = None
         self.tester = rclpy.create_node('tester', context=self.context)
-        self.clock_pub = self.tester.create_publisher(Clock, '/clock', RELIABLE)
+        self._clock_pub: Any = None        # made at the first tick: a clock under test
         self.acks: list[int] = []
         self.diagnostics: list[DiagnosticArray] = []
         self.received: dict[str, list[Any]] = {}
@@ -64,6 +64,14 @@ class Harness:
             if time.monotonic() > deadline:
                 raise TimeoutError('condition not met in time')
             self.executor.spin_once(timeout_sec=0.02)
+
+    @property
+    def clock_pub(self) -> Any:
+        """The tester's /clock publisher, made at its first use: a sim clock under test sees
+        no other /clock publisher otherwise (it stops a run that does)."""
+        if self._clock_pub is None:
+            self._clock_pub = self.tester.create_publisher(Clock, '/clock', RELIABLE)
+        return self._clock_pub
 
     def tick(self, t_ns: int) -> None:
         """Publish /clock t (repeated while unacknowledged) and wait for the node's ack."""

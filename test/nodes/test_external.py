@@ -12,7 +12,7 @@ import sys
 
 import pytest
 
-from pam_bench.analysis.bagread import read_bags
+from pam_bench.bags.bagread import read_bags
 
 pytestmark = pytest.mark.wallclock
 

@@ -39,7 +39,10 @@ def test_record_all_then_sigterm_leaves_a_valid_bag(tmp_path: pathlib.Path,
     emu = _start(['-m', 'pam_bench.cli', 'emulate', 'demo'])
     bag = tmp_path / 'bag'
     try:
-        time.sleep(2.0)
+        assert emu.stdout is not None
+        for line in emu.stdout:               # the devices are up (a loaded machine is slow)
+            if 'running on the wall clock' in line:
+                break
         rec = _start(['-m', 'pam_bench.cli', 'record', '--all', '--out', str(bag)])
         time.sleep(4.0)
         out = _stop(rec, signal.SIGTERM)
@@ -86,7 +89,7 @@ def test_a_bag_recorded_node_by_node_says_how_the_protocol_ended(
     """Issue 52: the README's node-by-node run (emulate, recorder and sequencer started by
     hand, no runner): info reads done, or aborted when the devices die mid-run, from the
     sequencer's own status in the bag, not 'interrupted'."""
-    from pam_bench.analysis.baginfo import bag_info
+    from pam_bench.bags.baginfo import bag_info
     scene = tmp_path / 'short.yaml'
     scene.write_text(SHORT)
     params = tmp_path / 'bench.yaml'

@@ -81,8 +81,8 @@ def _check_bag(bag: pathlib.Path, scene: str, readings: int) -> None:
     muscle that pulls, and the run description of the installed copy."""
     import numpy as np
 
-    from pam_bench.analysis.baginfo import bag_info
-    from pam_bench.analysis.bagread import read_bags
+    from pam_bench.bags.baginfo import bag_info
+    from pam_bench.bags.bagread import read_bags
     data = read_bags([str(bag)])
     (points,) = data.points.values()
     assert len(points) == readings

@@ -16,7 +16,7 @@ import shutil
 import subprocess
 import sys
 
-from pam_bench.analysis.bagwrite import write_bag
+from pam_bench.bags.bagwrite import write_bag
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
 

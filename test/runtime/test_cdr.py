@@ -14,7 +14,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import FluidPressure, JointState
 from std_msgs.msg import Header, String
 
-from pam_bench.analysis.types import bench_typestore
+from pam_bench.bags.types import bench_typestore
 from pam_bench.config import topics
 from pam_bench.runtime.cdr import encoder, ends_padded
 from pam_bench.runtime.messages import force_reading, message_class, time_of

@@ -7,7 +7,7 @@ import pathlib
 import numpy as np
 import pytest
 
-from pam_bench.analysis.bagread import read_bags
+from pam_bench.bags.bagread import read_bags
 from pam_bench.twin.protocol_run import run_protocol
 from pam_bench.verify.reference_check import compare_run, series_readings
 from pam_bench.verify.truth import scene_models

@@ -10,11 +10,11 @@ import shutil
 
 import pytest
 
-from pam_bench.analysis import bag_repair
-from pam_bench.analysis.bag_repair import repair_bag
-from pam_bench.analysis.bagread import open_bag, read_bags
-from pam_bench.analysis.errors import BagError
-from pam_bench.analysis.splitwriter import SplitWriter, bag_in_use
+from pam_bench.bags import bag_repair
+from pam_bench.bags.bag_repair import repair_bag
+from pam_bench.bags.bagread import open_bag, read_bags
+from pam_bench.bags.errors import BagError
+from pam_bench.bags.splitwriter import SplitWriter, bag_in_use
 from pam_bench.vocabulary.outputs import MARKER
 from test.cli.helpers import tree_digest
 

@@ -17,7 +17,7 @@ tells): ``bag-repair`` refuses a bag that is still being written, and ``info`` a
 say so instead of calling it torn. The kernel drops the lock when the recorder dies.
 
 A recorder killed with SIGKILL leaves the closed files whole and the last one torn in its part
-folder, without metadata.yaml; ``analysis.bag_repair`` rebuilds the torn file from its complete
+folder, without metadata.yaml; ``bags.bag_repair`` rebuilds the torn file from its complete
 chunks (at most ``flush``'s period is lost) and writes the metadata of all.
 """
 
@@ -37,7 +37,7 @@ from typing import Any
 
 import yaml
 
-from pam_bench.analysis.errors import DiskFull
+from pam_bench.bags.errors import DiskFull
 from pam_bench.vocabulary.outputs import claim_output, seal_output
 
 __all__ = ['SplitWriter', 'DiskFull', 'check_room', 'bag_in_use', 'lock_bag', 'part_name',

@@ -14,8 +14,8 @@ from typing import Any
 
 import yaml
 
-from pam_bench.analysis.bagread import open_bag
-from pam_bench.analysis.errors import BagError
+from pam_bench.bags.bagread import open_bag
+from pam_bench.bags.errors import BagError
 
 __all__ = ['RUN_KEY', 'END_KEY', 'bag_info', 'run_of_bag']
 

@@ -9,9 +9,9 @@ import shutil
 import pytest
 from ruamel.yaml import YAML
 
-from pam_bench.analysis.bag_repair import repair_bag
-from pam_bench.analysis.splitwriter import SplitWriter
-from pam_bench.analysis.types import bench_typestore
+from pam_bench.bags.bag_repair import repair_bag
+from pam_bench.bags.splitwriter import SplitWriter
+from pam_bench.bags.types import bench_typestore
 from test.helpers import bag_payloads, node_executable
 
 FORCE = '/load_cell_1/force'
@@ -193,7 +193,7 @@ def test_mcap_core_decodes_a_split_compressed_bag(tmp_path: pathlib.Path) -> Non
 
 
 def test_a_disk_already_full_refuses_to_start(tmp_path: pathlib.Path) -> None:
-    from pam_bench.analysis.splitwriter import DiskFull, free_bytes
+    from pam_bench.bags.splitwriter import DiskFull, free_bytes
     w = SplitWriter(tmp_path / 'bag', min_free_bytes=free_bytes(tmp_path) + 10**12)
     with pytest.raises(DiskFull, match='MB left on the disk'):
         w.open()
@@ -202,7 +202,7 @@ def test_a_disk_already_full_refuses_to_start(tmp_path: pathlib.Path) -> None:
 
 def test_a_disk_filling_up_stops_the_writes_and_the_bag_closes_valid(
         tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    from pam_bench.analysis import splitwriter
+    from pam_bench.bags import splitwriter
     free = [10**12]
     monkeypatch.setattr(splitwriter, 'free_bytes', lambda path: free[0])
     store = bench_typestore()
@@ -252,7 +252,7 @@ def test_direct_write_applies_to_this_rosbags(tmp_path: pathlib.Path) -> None:
     (else every bag would quietly take the slower path)."""
     from rosbags.rosbag2 import StoragePlugin, Writer
 
-    from pam_bench.analysis.splitwriter import direct_write
+    from pam_bench.bags.splitwriter import direct_write
     w = Writer(tmp_path / 'bag', version=9, storage_plugin=StoragePlugin.MCAP)
     w.open()
     try:

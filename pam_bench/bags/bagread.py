@@ -15,8 +15,8 @@ from typing import Any
 import numpy as np
 from rosbags.rosbag2 import Reader
 
-from pam_bench.analysis.errors import BagError
-from pam_bench.analysis.types import bench_typestore
+from pam_bench.bags.errors import BagError
+from pam_bench.bags.types import bench_typestore
 from pam_bench.config import topics
 
 __all__ = ['Points', 'StepRecord', 'BagData', 'read_bags', 'open_bag',
@@ -79,7 +79,7 @@ def open_bag(path: pathlib.Path) -> Reader:
                        'metadata.yaml and the .mcap file)')
     if not (path / 'metadata.yaml').exists():
         if any(path.glob('*.mcap')) or any(path.glob('.part_*/*.mcap')):
-            from pam_bench.analysis.splitwriter import bag_in_use
+            from pam_bench.bags.splitwriter import bag_in_use
             if bag_in_use(path):
                 raise BagError(f'{path}: being written (its recorder is running): read it '
                                'once the run has ended')

@@ -1,6 +1,6 @@
 """Check a bag through, and repair one whose recorder was killed or whose chunks are damaged.
 
-The recorder (``analysis.splitwriter``) writes MCAP chunks (schemas, channels, messages) into
+The recorder (``bags.splitwriter``) writes MCAP chunks (schemas, channels, messages) into
 the file it is filling, in ``NAME/.part_N/``, and closes a chunk at least once a wall-clock
 second; files it closed lie beside it, listed in ``.closed_parts.json``. Only a close writes a
 file's summary and footer, and the bag's metadata.yaml. After a SIGKILL the open file ends in
@@ -34,15 +34,15 @@ import pathlib
 import shutil
 from typing import Any
 
-from pam_bench.analysis.errors import BagError
-from pam_bench.analysis.splitwriter import (
+from pam_bench.bags.errors import BagError
+from pam_bench.bags.splitwriter import (
     CLOSED,
     PART_PREFIX,
     part_name,
     read_closed,
     write_metadata,
 )
-from pam_bench.analysis.types import bench_typestore
+from pam_bench.bags.types import bench_typestore
 from pam_bench.vocabulary.outputs import claim_output, seal_output
 
 __all__ = ['RepairReport', 'FileScan', 'scan_file', 'repair_bag', 'OLD_METADATA']
@@ -334,7 +334,7 @@ def repair_bag(path: str | pathlib.Path) -> RepairReport:
     Raises:
         BagError: not a bag folder, being written, not a ROS 2 bag, or nothing readable in it.
     """
-    from pam_bench.analysis.splitwriter import lock_bag
+    from pam_bench.bags.splitwriter import lock_bag
     given = pathlib.Path(path)
     path = given.resolve()
     if not path.is_dir():

@@ -1,6 +1,6 @@
 """Replaying a lab's recordings on the simulated bench: what the bag calibration compares.
 
-The observations are what the extraction reads from the bags (``analysis.bagread``): every
+The observations are what the extraction reads from the bags (``bags.bagread``): every
 static reading in time order (isometric: force at held x and u; isotonic: contraction at held
 load and u; isobaric: contraction at held u and set load) and every step record (force
 samples after a valve step at held x). The prediction replays the static readings in order on
@@ -46,7 +46,7 @@ from typing import Any
 
 import numpy as np
 
-from pam_bench.analysis.bagread import BagData
+from pam_bench.bags.bagread import BagData
 from pam_bench.models import compiled
 from pam_bench.models.constants import SUB_STEP_S
 from pam_bench.models.coupling import SETTLE_OFF
@@ -99,7 +99,7 @@ class Observations:
 
 
 def observations_from_bags(data: BagData) -> Observations:
-    """The static readings and step records of bags read by ``analysis.bagread``."""
+    """The static readings and step records of bags read by ``bags.bagread``."""
     rows = []
     for name, p in data.points.items():
         kind = next((k for k in ('isometric', 'isotonic', 'isobaric') if name.startswith(k)),

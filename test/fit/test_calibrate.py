@@ -11,9 +11,9 @@ import pytest
 
 from pam_bench.config.errors import ConfigError
 from pam_bench.config.scene import apply_overlay, load_scene
+from pam_bench.fit.calibrate import FREE, calibrate_004, residuals_004
 from pam_bench.models.errors import ModelError
 from pam_bench.models.muscle import MuscleParams
-from pam_bench.verify.calibrate import FREE, calibrate_004, residuals_004
 from pam_bench.verify.figures_004 import measure_004
 
 
@@ -73,7 +73,7 @@ def _exact_observations(valve, muscle):
     """campaign_quick's readings and records with the values the quasi-static bench gives
     for (valve, muscle): the model the fit uses, so the round trip must be exact."""
     from pam_bench.config.protocols import protocol_schedule
-    from pam_bench.verify.calibrate_bags import Bench, Observations, predict
+    from pam_bench.fit.calibrate_bags import Bench, Observations, predict
     readings, recs = [], []
     for r in protocol_schedule('campaign_quick', {})[0]:
         if r.record_s > 0.0:
@@ -93,8 +93,8 @@ def _exact_observations(valve, muscle):
 
 
 def test_bag_calibration_recovers_a_known_bench() -> None:
+    from pam_bench.fit.calibrate_bags import calibrate_bags
     from pam_bench.models.valve import ValveParams
-    from pam_bench.verify.calibrate_bags import calibrate_bags
     true_m = dataclasses.replace(MuscleParams(), gain_n_per_pa=3.4e-3,
                                  threshold_pressure_pa=7.5e4)
     true_v = dataclasses.replace(ValveParams(), damping_ratio=0.4)
@@ -124,10 +124,10 @@ def test_replay_of_a_twin_run_at_its_true_parameters(replay: str, isotonic_mm: f
     parameters: the stepped replay (004's drive, a coarser sub-step while the force loop
     settles) lands within 0.15 mm RMS, the quasi-static one within 0.6 mm (its ideal drive
     leaves out the transient that places the muscle in its friction loop)."""
+    from pam_bench.fit.calibrate_bags import Bench, observations_from_twin, rms_by_kind
     from pam_bench.models.sensors import LoadCellParams
     from pam_bench.models.valve import ValveParams
     from pam_bench.twin.protocol_run import run_protocol
-    from pam_bench.verify.calibrate_bags import Bench, observations_from_twin, rms_by_kind
     valve, muscle = ValveParams(), MuscleParams()
     run = run_protocol('isotonic_quick', 3.0, valve=valve, muscle=muscle,
                        load_cell=LoadCellParams(noise=False))
@@ -144,11 +144,11 @@ def test_step_records_of_a_fast_valve_replay_at_the_true_parameters(
     period (``record_sub_step_s``) they land within 0.12 N RMS; one 10 ms sub-step per
     compared sample leaves about 2 N at 300 rad/s (the top of the fit interval), a bias a fit
     pays for with wrong parameters. At 004's 5 Hz loop one sub-step would do nearly as well."""
+    from pam_bench.fit import calibrate_replay
+    from pam_bench.fit.calibrate_bags import Bench, observations_from_twin, rms_by_kind
     from pam_bench.models.sensors import LoadCellParams
     from pam_bench.models.valve import ValveParams
     from pam_bench.twin.protocol_run import run_protocol
-    from pam_bench.verify import calibrate_replay
-    from pam_bench.verify.calibrate_bags import Bench, observations_from_twin, rms_by_kind
     table = {'steps': {'kind': 'step_response', 'x_m': [0.0, 0.08, 0.04],
                        'up': {'u0_v': 1.0, 'step_v': 4.0, 'n': 1},
                        'down': {'u0_v': 5.0, 'step_v': -4.0, 'n': 1},
@@ -173,9 +173,9 @@ def test_step_records_of_a_fast_valve_replay_at_the_true_parameters(
 
 
 def test_an_unknown_replay_is_an_error() -> None:
+    from pam_bench.fit.calibrate_bags import Bench, Observations, predict
     from pam_bench.models.errors import ModelError
     from pam_bench.models.valve import ValveParams
-    from pam_bench.verify.calibrate_bags import Bench, Observations, predict
     with pytest.raises(ModelError, match="'stepd'"):
         predict(Observations([], []), Bench(ValveParams(), MuscleParams()), replay='stepd')
 
@@ -184,8 +184,8 @@ def test_a_parameter_the_recordings_do_not_reach_stays_at_its_start_and_is_flagg
     """campaign_quick has no reading past x_m once its 6 V, 50 N isobaric readings are left
     out, so the gain's rise there is free: the weak prior keeps it at its starting value
     (the data's small errors carried it to -97 % without), and it is flagged."""
+    from pam_bench.fit.calibrate_bags import calibrate_bags
     from pam_bench.models.valve import ValveParams
-    from pam_bench.verify.calibrate_bags import calibrate_bags
     true_m = dataclasses.replace(MuscleParams(), gain_n_per_pa=3.4e-3)
     obs = _exact_observations(ValveParams(), true_m)
     res = calibrate_bags(obs, max_nfev=15, only=('gain_n_per_pa', 'gain_rise_n_per_pa_m'),
@@ -217,7 +217,7 @@ def test_the_bench_a_bag_was_recorded_on_comes_from_its_scene(tmp_path: pathlib.
     """``calibrate --scene``: the muscle's size (and every value the fit does not free) from
     the scene the bags were recorded on; no scene: the bench's defaults."""
     from pam_bench.config.scene import scenes_dir
-    from pam_bench.verify.calibrate_bags import bench_of_scene
+    from pam_bench.fit.calibrate_bags import bench_of_scene
     scene = tmp_path / 'small.yaml'
     scene.write_text((scenes_dir() / 'campaign_quick.yaml').read_text()
                      + 'parameters:\n  muscle_1: {muscle: {nominal_diameter_m: 0.01}}\n')
@@ -245,8 +245,8 @@ def test_calibrate_with_a_bad_scene_is_one_line_and_writes_nothing(
 
 
 def test_every_fit_interval_lies_in_the_declared_range_and_says_why() -> None:
+    from pam_bench.fit.calibrate_bags import BOUND_REASONS, FREE_BAGS
     from pam_bench.models.valve import ValveParams
-    from pam_bench.verify.calibrate_bags import BOUND_REASONS, FREE_BAGS
     from pam_bench.vocabulary.params import param_infos
     infos = {(m, i.name): i for m, cls in (('muscle', MuscleParams), ('valve', ValveParams))
              for i in param_infos(cls)}
@@ -267,7 +267,7 @@ def test_covariance_matches_a_linear_problem_with_a_known_one(rho: float) -> Non
     """y = A theta + e, e ~ N(0, s^2): cov(theta) = s^2 (A^T A)^-1 exactly. A is built so that
     the correlation of the two estimates is -rho; a third column repeats the first (a
     direction the data do not see), which gets zero variance and zero correlations."""
-    from pam_bench.verify.calibrate import covariance
+    from pam_bench.fit.calibrate import covariance
     a = np.array([[1.0, rho], [0.0, np.sqrt(1.0 - rho ** 2)], [1.0, 0.0], [0.0, 1.0]])
     cov, corr = covariance(a, 2.0)
     want = 2.0 * np.linalg.inv(a.T @ a)
@@ -284,7 +284,7 @@ def test_covariance_matches_a_linear_problem_with_a_known_one(rho: float) -> Non
 def test_correlations_of_ill_conditioned_jacobians_stay_in_range() -> None:
     """Random near-singular Jacobians (columns nearly repeated, scales 1e-8 to 1e8): the
     correlations come out in [-1, 1] before any clip would act."""
-    from pam_bench.verify.calibrate import covariance
+    from pam_bench.fit.calibrate import covariance
     rng = np.random.default_rng(7)
     for _ in range(50):
         j = rng.normal(size=(30, 6)) * 10.0 ** rng.uniform(-8, 8, size=6)
@@ -297,7 +297,7 @@ def test_correlations_of_ill_conditioned_jacobians_stay_in_range() -> None:
 
 
 def test_a_value_at_its_bound_is_reported_so_without_an_error() -> None:
-    from pam_bench.verify.calibrate import fit_report
+    from pam_bench.fit.calibrate import fit_report
     summary = {'names': ['a', 'b'], 'values': {'a': 0.0, 'b': 2.0},
                'stderr': {'a': 9.5e-12, 'b': 0.1}, 'flags': ['a'], 'at_bound': ['a']}
     rep = fit_report(summary)
@@ -312,7 +312,7 @@ def test_the_gauss_newton_share_is_the_step_to_a_linear_optimum(z_end: float,
     share of the value theta = lower + z span is (z* - z) span / theta."""
     from types import SimpleNamespace
 
-    from pam_bench.verify.calibrate_bags import gauss_newton_share
+    from pam_bench.fit.calibrate_bags import gauss_newton_share
     lower, span = np.array([1.0, -4.0]), np.array([10.0, 2.0])
     z = np.array([z_end, z_end])
     sol = SimpleNamespace(x=z, jac=2.0 * np.eye(2), fun=2.0 * (z - z_best))

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from pam_bench.analysis.bagread import read_bags
+from pam_bench.bags.bagread import read_bags
 
 __all__ = ['diff_bags']
 

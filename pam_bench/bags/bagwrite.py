@@ -7,7 +7,7 @@ import pathlib
 
 from rosbags.rosbag2 import StoragePlugin, Writer
 
-from pam_bench.analysis.types import bench_typestore
+from pam_bench.bags.types import bench_typestore
 from pam_bench.config import topics
 
 __all__ = ['write_bag']

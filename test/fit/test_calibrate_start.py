@@ -9,11 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from pam_bench.models.muscle import MuscleParams
-from pam_bench.models.sensors import LoadCellParams
-from pam_bench.models.valve import ValveParams
-from pam_bench.twin.protocol_run import run_protocol
-from pam_bench.verify.calibrate_bags import (
+from pam_bench.fit.calibrate_bags import (
     FREE_BAGS,
     Observations,
     calibrate_bags,
@@ -21,7 +17,11 @@ from pam_bench.verify.calibrate_bags import (
     observations_from_twin,
     reached,
 )
-from pam_bench.verify.calibrate_verdict import FLOOR, NOISE_FACTOR, noise_levels, verdict
+from pam_bench.fit.calibrate_verdict import FLOOR, NOISE_FACTOR, noise_levels, verdict
+from pam_bench.models.muscle import MuscleParams
+from pam_bench.models.sensors import LoadCellParams
+from pam_bench.models.valve import ValveParams
+from pam_bench.twin.protocol_run import run_protocol
 
 # A muscle far from 004's: a smaller, stiffer one whose contact threshold lies below the
 # grid's first non-zero voltage (0.2 V... it lies at 0.35 V: inside the grid, which crosses it),
@@ -55,8 +55,8 @@ def far_obs() -> Observations:
 
 
 def test_the_start_is_read_off_the_data(far_obs: Observations) -> None:
-    from pam_bench.verify.calibrate_bags import _models
-    from pam_bench.verify.calibrate_init import initial_values
+    from pam_bench.fit.calibrate_bags import _models
+    from pam_bench.fit.calibrate_init import initial_values
     bounds = {n: (lo, hi) for _, n, lo, hi in FREE_BAGS}
     start = {n: 1.0 if n == 'friction_stiffness_scale' else
              getattr(ValveParams() if m == 'valve' else MuscleParams(), n)
@@ -184,9 +184,9 @@ def test_a_fit_that_stopped_short_goes_on_to_recover_a_weak_friction() -> None:
     bounds")."""
     from pam_bench.benchmarks import calibrate_bounds as cb
     from pam_bench.config.protocols import load_protocols
+    from pam_bench.fit.calibrate_bags import calibrate_bags, observations_from_twin
     from pam_bench.models.sensors import LoadCellParams
     from pam_bench.twin.protocol_run import run_protocol
-    from pam_bench.verify.calibrate_bags import calibrate_bags, observations_from_twin
     k = next(i for i in range(2 * len(cb.FREE_BAGS))
              if cb._end_label(i).startswith('friction_stiffness_scale at its lower end'))
     values = cb.end_set(k)
@@ -203,8 +203,8 @@ def test_a_fit_that_stopped_short_goes_on_to_recover_a_weak_friction() -> None:
 def test_a_gain_rise_past_the_stability_rule_is_clamped_not_refused() -> None:
     """A trial past g_r 1 MPa < k_bl (``models.muscle``) builds a muscle just inside the rule:
     the fit reads a flat slope there, not a refused model."""
+    from pam_bench.fit.calibrate_bags import RISE_MARGIN, Bench, _bench
     from pam_bench.models.muscle import MAX_PRESSURE_PA, MuscleModel
-    from pam_bench.verify.calibrate_bags import RISE_MARGIN, Bench, _bench
     free = tuple(f for f in FREE_BAGS if f[1] in ('gain_rise_n_per_pa_m',
                                                   'bladder_stiffness_n_per_m'))
     for rise, kbl in ((9.0e-4, 400.0), (1.0e-4, 400.0)):

@@ -12,9 +12,9 @@ import time
 
 import pytest
 
-from pam_bench.analysis.bag_repair import repair_bag
-from pam_bench.analysis.bagread import open_bag
-from pam_bench.analysis.errors import BagError
+from pam_bench.bags.bag_repair import repair_bag
+from pam_bench.bags.bagread import open_bag
+from pam_bench.bags.errors import BagError
 from test.helpers import bag_messages
 
 

@@ -1,9 +1,9 @@
 """Fit the bench's muscle and valve to a lab's own recordings (``pam-bench calibrate BAG``).
 
-The readings and records are replayed on the simulated bench (``verify.calibrate_replay``:
+The readings and records are replayed on the simulated bench (``fit.calibrate_replay``:
 how, and how the residuals are scaled); the fit starts from values read off the data
-(``verify.calibrate_init``) and ends with a verdict against the noise
-(``verify.calibrate_verdict``).
+(``fit.calibrate_init``) and ends with a verdict against the noise
+(``fit.calibrate_verdict``).
 
 Residuals are scaled to the bench's tolerances (issue 18): forces in units of 1 % of the load
 cell's 2000 N range (20 N), contractions in 0.5 mm. ``scipy.optimize.least_squares`` (trust
@@ -30,7 +30,7 @@ data's Jacobian in z, [(J^T J + delta I)^-1]_ii > ``UNFIXED_SHARE``, delta tiny:
 a grid that stops short of x_m: 0.24 to 0.89, the braid friction's scale: about 0.1), and the
 standard error, a straight line's reading of it, is far too small; a threshold band the grid
 crosses in steps of 0.2 V reads about 0.012, just past it, and is recovered within 1.3 %
-(test/verify/test_calibrate_start.py): the flag errs on the side of saying less. And a
+(test/fit/test_calibrate_start.py): the flag errs on the side of saying less. And a
 parameter the data fix only jointly with a flagged one (the gain curve's exponent when the
 grid stops short of x_m) is not fixed by the recordings either: a parameter whose data-only
 correlation with a flagged one reaches ``JOINT_CORRELATION`` is flagged too (the
@@ -69,14 +69,9 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares
 
-from pam_bench.models.errors import ModelError
-from pam_bench.models.laws.base import ForceLaw
-from pam_bench.models.loading_servo import LoadingServoParams
-from pam_bench.models.muscle import MuscleParams, gain_rise_limit
-from pam_bench.models.valve import ValveParams
-from pam_bench.verify.calibrate import fit_report, fit_summary
-from pam_bench.verify.calibrate_init import initial_values, law_start
-from pam_bench.verify.calibrate_replay import (
+from pam_bench.fit.calibrate import fit_report, fit_summary
+from pam_bench.fit.calibrate_init import initial_values, law_start
+from pam_bench.fit.calibrate_replay import (
     CONTRACTION_SCALE_M,
     FORCE_SCALE_N,
     PATH_WIDTH_M,
@@ -92,7 +87,12 @@ from pam_bench.verify.calibrate_replay import (
     rms_by_kind,
     rms_of,
 )
-from pam_bench.verify.calibrate_verdict import noise_levels, verdict
+from pam_bench.fit.calibrate_verdict import noise_levels, verdict
+from pam_bench.models.errors import ModelError
+from pam_bench.models.laws.base import ForceLaw
+from pam_bench.models.loading_servo import LoadingServoParams
+from pam_bench.models.muscle import MuscleParams, gain_rise_limit
+from pam_bench.models.valve import ValveParams
 from pam_bench.vocabulary.errors import ParameterError
 
 __all__ = ['FREE_BAGS', 'BOUND_REASONS', 'Observations', 'Bench', 'observations_from_bags',
@@ -462,12 +462,12 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
                    start: str = 'data', starts: int = 8, map_starts: Mapper | None = None,
                    law: str | None = None) -> dict[str, Any]:
     """Fit ``FREE_BAGS`` (or the names in ``only``) to the observations and say whether the fit
-    found the muscle (``verify.calibrate_verdict``).
+    found the muscle (``fit.calibrate_verdict``).
 
     The fit starts from values read off the data (``start='data'``,
-    ``verify.calibrate_init``; 'defaults': from ``valve`` and ``muscle``, the bench's
+    ``fit.calibrate_init``; 'defaults': from ``valve`` and ``muscle``, the bench's
     defaults when None), runs a local fit with the readings replayed ``replay`` ('stepped' or
-    'static', ``verify.calibrate_replay``), and when the residual is not at the noise level,
+    'static', ``fit.calibrate_replay``), and when the residual is not at the noise level,
     tries ``starts`` more starts spread over the fit intervals (a Latin hypercube; each a local
     fit on the static replay, through ``map_starts``: the cluster), refines the best with the
     replay asked for and keeps whichever fit is better. With ``law`` the muscle is that force
@@ -641,7 +641,7 @@ def calibrate_bag(job: tuple[str, int, str, str, int, str | None, str | None]
         BagError: the bag cannot be read.
         ConfigError: the scene cannot be loaded.
     """
-    from pam_bench.analysis.bagread import read_bags
+    from pam_bench.bags.bagread import read_bags
     bag, max_nfev, replay, start, starts, law, scene = job
     return calibrate_bags(observations_from_bags(read_bags([bag])), *bench_of_scene(scene),
                           max_nfev=max_nfev, replay=replay, start=start, starts=starts,
