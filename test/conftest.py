@@ -6,7 +6,6 @@ from __future__ import annotations
 import itertools
 import os
 import pathlib
-import shutil
 from collections.abc import Iterator
 
 import pytest
@@ -38,6 +37,40 @@ def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line(
         'markers', 'wallclock: runs on the wall clock against deadlines (stale timeouts, '
         'rates, kill-to-vent latency); `make test` runs these alone, after the others')
+    config.addinivalue_line(
+        'markers', 'ros: starts ROS 2 nodes or processes (marked by where it lies and what it '
+        'uses: ``ROS_FOLDERS``, ``ROS_FIXTURES``, ``ROS_WORDS``); `make check` leaves it out')
+    config.addinivalue_line(
+        'markers', 'slow: takes more than a few seconds without ROS (a fit, a sweep, a '
+        'cluster); `make check` leaves it out')
+
+
+ROS_FOLDERS = ('nodes', 'bringup', 'runtime', 'live', 'packaging', 'benchmarks', 'cluster')
+"""Test folders whose every test starts nodes, processes or a cluster."""
+ROS_FIXTURES = {'ros_domain', 'demo_bag'}
+"""Fixtures that start ROS (a domain for nodes, a demo run)."""
+ROS_WORDS = ('rclpy', "'run'", 'run_scene', '_pam_bench(', "'emulate'", 'engine: ros')
+"""What a test module says when it starts ROS some other way."""
+SLOW_WORDS = ('calibrate_bags', 'run_jobs', "'sweep'", 'connect(', 'LocalCluster',
+              "'calibrate'", 'hypothesis')
+"""What a test module says when it fits, sweeps or starts a cluster (slow without ROS)."""
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Mark every test ``ros`` or ``slow`` by its folder, fixtures and module text (the
+    quick tier, ``make check``, runs the rest)."""
+    texts: dict[pathlib.Path, str] = {}
+    for item in items:
+        path = pathlib.Path(str(item.fspath))
+        if path not in texts:
+            texts[path] = path.read_text(encoding='utf-8', errors='replace')
+        text = texts[path]
+        folder = path.parent.name
+        if folder in ROS_FOLDERS or ROS_FIXTURES & set(getattr(item, 'fixturenames', ())) \
+                or any(w in text for w in ROS_WORDS):
+            item.add_marker(pytest.mark.ros)
+        if any(w in text for w in SLOW_WORDS):
+            item.add_marker(pytest.mark.slow)
 
 
 @pytest.fixture
@@ -69,9 +102,3 @@ def demo_bag(tmp_path_factory: pytest.TempPathFactory) -> pathlib.Path:
     code, out, err = cli('run', 'demo', '--out', bag)
     assert code == 0, out + err
     return bag
-
-
-@pytest.fixture
-def bag_copy(demo_bag: pathlib.Path, tmp_path: pathlib.Path) -> pathlib.Path:
-    """A copy of the demo bag this test may change, at ``tmp_path / 'bag'``."""
-    return pathlib.Path(shutil.copytree(demo_bag, tmp_path / 'bag'))

@@ -361,7 +361,6 @@ class SplitWriter:
         self._index = 0
         self._start_ns: int | None = None
         self._since_check = 0
-        self.bytes_closed = 0                        # bytes of the closed files
         self._lock: int | None = None                # the folder's flock while writing
 
     # --- the rosbags Writer's surface the recorder uses ------------------------------------
@@ -489,7 +488,6 @@ class SplitWriter:
         meta = _meta_of(part / 'metadata.yaml')
         name = part_name(self.path, self._index, single)
         src = part / f'{part.name}.mcap'
-        self.bytes_closed += src.stat().st_size
         src.replace(self.path / name)
         for f in meta['files']:
             f['path'] = name

@@ -119,9 +119,10 @@ def probe_wakeups(seconds: float, period_s: float = 0.001) -> dict[str, float]:
 def _through_buses(quick: bool) -> dict[str, Any]:
     import json
 
-    from pam_bench.bringup.runner import Layout, RunOptions, run_scene
+    from pam_bench.bringup.runner import run_scene
     from pam_bench.config.scene import load_scene
     from pam_bench.verify.wallclock import compare_readings
+    from pam_bench.vocabulary.run import Layout, RunOptions
     with tempfile.TemporaryDirectory(prefix='pam_bench_buses_') as tmp:
         if quick:
             path = pathlib.Path(tmp) / 'settled.yaml'
@@ -180,8 +181,9 @@ def _stamp_s(msg: Any) -> float:
 def _bus_fault(kind: str, tmp: pathlib.Path) -> dict[str, Any]:
     from pam_bench.bags.bagread import topic_messages
     from pam_bench.benchmarks.faults import READINGS, SCENE
-    from pam_bench.bringup.runner import Layout, RunOptions, run_scene
+    from pam_bench.bringup.runner import run_scene
     from pam_bench.config.scene import load_scene
+    from pam_bench.vocabulary.run import Layout, RunOptions
     old = ('[{{input: force, low: -50.0, high: 1000.0, stale_s: 0.2,\n    '
            'resume_after_s: 0.3}}]')
     rules = EVERY_INPUT if kind != 'can_emcy' else EVERY_INPUT.replace(

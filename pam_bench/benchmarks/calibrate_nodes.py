@@ -29,13 +29,10 @@ from pam_bench.fit.calibrate_bags import overlay_of
 __all__ = ['STUDY', 'measure_nodes_round_trip', 'calibrate_nodes_section',
            'calibrate_nodes_results']
 
-GOAL_FORCE_N = 20.0          # 1 % of the load cell's 2000 N range (issue 18)
-GOAL_CONTRACTION_M = 0.5e-3
-
-
 def _run(overlay: dict[str, Any], out: pathlib.Path, name: str) -> tuple[pathlib.Path, float]:
-    from pam_bench.bringup.runner import Layout, RunOptions, run_scene
+    from pam_bench.bringup.runner import run_scene
     from pam_bench.config.scene import apply_overlay, load_scene
+    from pam_bench.vocabulary.run import Layout, RunOptions
     path = out / f'{name}.yaml'
     path.write_text(yaml.safe_dump(overlay, sort_keys=False), encoding='utf-8')
     scene = load_scene('campaign_quick')

@@ -4,12 +4,8 @@ from __future__ import annotations
 
 from pam_bench.vocabulary.errors import PamBenchError
 
-__all__ = ['UsageError', 'StudyError']
+__all__ = ['UsageError']
 
 
 class UsageError(PamBenchError, ValueError):
     """A study or option that does not exist (named, with the nearest)."""
-
-
-class StudyError(PamBenchError, RuntimeError):
-    """A run a study needs did not complete (the message says which and how)."""

@@ -19,8 +19,9 @@ from typing import Any
 
 from pam_bench.benchmarks.study import Study
 from pam_bench.benchmarks.tables import Row, commit_of, table
-from pam_bench.bringup.runner import Layout, RunOptions, run_scene
+from pam_bench.bringup.runner import run_scene
 from pam_bench.config.scene import load_scene
+from pam_bench.vocabulary.run import Layout, RunOptions
 
 __all__ = ['STUDY', 'SCENE', 'READINGS', 'CASES', 'measure_faults', 'faults_section',
            'faults_results']

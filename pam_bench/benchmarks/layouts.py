@@ -8,7 +8,7 @@ import pathlib
 from typing import Any
 
 from pam_bench.benchmarks.pingpong import pingpong_rate
-from pam_bench.benchmarks.runs import scene_run
+from pam_bench.benchmarks.runs import scene_bag, scene_run
 from pam_bench.benchmarks.study import Study
 from pam_bench.benchmarks.tables import Row, commit_of, pct, table
 from pam_bench.vocabulary.run import Layout
@@ -29,18 +29,16 @@ def measure(quick: bool, out: pathlib.Path, scenes: list[str] | None) -> dict[st
         fanout[str(n)] = fanout_rate(n, 1000 if quick else 2000)
     rows = []
     for name in ('demo', 'servo_sin_t', 'campaign_quick') + (() if quick else ('campaign',)):
-        for one in (False, True):
-            layout = Layout.COMPOSED if one else Layout.PROCESSES
+        for layout in (Layout.PROCESSES, Layout.COMPOSED):
             print(f'  {name}, {layout.value} ...', flush=True)
-            if quick and name != 'demo' and not one:
+            if quick and name != 'demo' and layout is Layout.PROCESSES:
                 continue             # separate processes: the demo shows them (the rest, about
                 #                      25 s, in the full run)
-            row = scene_run(name, out, one_process=one)
-            row['layout'] = layout.value
+            row = scene_run(name, out, layout)
             if name.startswith('servo'):
                 from pam_bench.twin.servo_bench import tracking_metrics
                 from pam_bench.twin.servo_setup import servo_run_of_bag
-                run = servo_run_of_bag(out / f'{name}{"_one" if one else ""}', 2)
+                run = servo_run_of_bag(scene_bag(name, out, layout), 2)
                 row['torque_rms_error_nm'] = tracking_metrics(run)['rms_error']
             row['round_trips_per_exchange'] = pp / row['lockstep_rate_steps_per_s'] \
                 if row['lockstep_rate_steps_per_s'] else None

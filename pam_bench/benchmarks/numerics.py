@@ -21,11 +21,12 @@ from pam_bench.benchmarks.fidelity import fidelity_table  # noqa: E402
 from pam_bench.benchmarks.study import Study  # noqa: E402
 from pam_bench.benchmarks.tables import RESULTS, Row, commit_of, pct, table  # noqa: E402
 from pam_bench.benchmarks.work_precision import work_precision  # noqa: E402
-from pam_bench.bringup.runner import RunOptions, run_scene  # noqa: E402
+from pam_bench.bringup.runner import run_scene  # noqa: E402
 from pam_bench.config.paths import config_dir  # noqa: E402
 from pam_bench.config.scene import load_scene  # noqa: E402
 from pam_bench.control.inverse import InverseModel  # noqa: E402
 from pam_bench.verify.reference_check import FULL_SCALE_N  # noqa: E402
+from pam_bench.vocabulary.run import RunOptions
 
 __all__ = ['STUDY', 'measure', 'plot_work_precision']
 
@@ -80,7 +81,7 @@ def measure(quick: bool, out: pathlib.Path) -> dict[str, Any]:
     print('torque servo: controllers compared ...', flush=True)
     from pam_bench.benchmarks.servo_compare import compare_servo
     few = ['servo_sin_t', 'force_verify_20mm']
-    res['servo'] = compare_servo(out / 'servo_numpy', 'numpy', few if quick else None)
+    res['servo'] = compare_servo(out / 'servo_twin', 'twin', few if quick else None)
     if not quick:
         res['servo'] += compare_servo(out / 'servo_ros', 'ros', ['servo_sin_t',
                                                                  'force_verify_20mm'])

@@ -21,9 +21,10 @@ from typing import Any
 
 from pam_bench.benchmarks.study import Study
 from pam_bench.benchmarks.tables import table
-from pam_bench.bringup.runner import Layout, RunOptions, run_scene
+from pam_bench.bringup.runner import run_scene
 from pam_bench.config.scene import load_scene
 from pam_bench.runtime.profiling import ENV
+from pam_bench.vocabulary.run import Layout, RunOptions
 
 __all__ = ['STUDY', 'CAUSES', 'cause_of', 'profile_scene']
 
@@ -76,7 +77,7 @@ def _split(prof_dir: pathlib.Path) -> dict[str, dict[str, float]]:
     return out
 
 
-def profile_scene(name: str, duration_s: float, one_process: bool) -> dict[str, Any]:
+def profile_scene(name: str, duration_s: float, layout: Layout) -> dict[str, Any]:
     """Run ``name`` cut to ``duration_s`` of sim time with every process profiled.
 
     Returns:
@@ -92,7 +93,6 @@ def profile_scene(name: str, duration_s: float, one_process: bool) -> dict[str, 
         old = os.environ.get(ENV)
         os.environ[ENV] = str(prof)
         try:
-            layout = Layout.COMPOSED if one_process else Layout.PROCESSES
             res = run_scene(scene, str(pathlib.Path(tmp) / 'bag'),
                             RunOptions(layout=layout, quiet=True))
         finally:
@@ -104,7 +104,6 @@ def profile_scene(name: str, duration_s: float, one_process: bool) -> dict[str, 
     n = max(res.steps, 1)
     per = {p: {c: 1e6 * s / n for c, s in by.items()} for p, by in split.items()}
     total = {c: sum(p[c] for p in per.values()) for c in CAUSES}
-    layout = Layout.COMPOSED if one_process else Layout.PROCESSES
     return {'scene': name, 'layout': layout.value,
             'exchanges': res.steps, 'wall_s': res.wall_s,
             'wall_us_per_exchange': 1e6 * res.wall_s / n, 'us_per_exchange': total,
@@ -114,10 +113,10 @@ def profile_scene(name: str, duration_s: float, one_process: bool) -> dict[str, 
 def measure(quick: bool, out: pathlib.Path, scenes: list[str] | None) -> dict[str, Any]:
     """servo_sin_t (2 s) in both layouts and campaign_quick composed, profiled (quick: the
     composed servo only; the separate-process one runs at about a fifth of real time)."""
-    runs = [('servo_sin_t', 2.0, True)]
+    runs = [('servo_sin_t', 2.0, Layout.COMPOSED)]
     if not quick:
-        runs += [('servo_sin_t', 2.0, False), ('campaign_quick', 0.0, True)]
-    return {'profile': [profile_scene(name, dur, one) for name, dur, one in runs]}
+        runs += [('servo_sin_t', 2.0, Layout.PROCESSES), ('campaign_quick', 0.0, Layout.COMPOSED)]
+    return {'profile': [profile_scene(name, dur, layout) for name, dur, layout in runs]}
 
 
 def section(r: dict[str, Any], root: pathlib.Path) -> list[str]:

@@ -6,26 +6,26 @@ import pathlib
 import time
 from typing import Any
 
-from pam_bench.bringup.runner import Layout, RunOptions, run_scene
+from pam_bench.bringup.runner import run_scene
 from pam_bench.config.scene import load_scene
+from pam_bench.vocabulary.run import Layout, RunOptions
 
 __all__ = ['scene_run', 'scene_bag']
 
 
-def scene_bag(name: str, out: pathlib.Path, one_process: bool) -> pathlib.Path:
+def scene_bag(name: str, out: pathlib.Path, layout: Layout) -> pathlib.Path:
     """Where ``scene_run`` records scene ``name`` in ``out`` (one folder per layout)."""
-    return out / f'{name}{"_one" if one_process else ""}'
+    return out / f'{name}{"_one" if layout is Layout.COMPOSED else ""}'
 
 
-def scene_run(name: str, out: pathlib.Path, one_process: bool = False) -> dict[str, Any]:
-    """Run scene ``name`` into ``out`` (``scene_bag``) and return its timing row."""
+def scene_run(name: str, out: pathlib.Path, layout: Layout = Layout.PROCESSES
+              ) -> dict[str, Any]:
+    """Run scene ``name`` into ``out`` (``scene_bag``) in ``layout``; its timing row."""
     t0 = time.perf_counter()
-    bag = scene_bag(name, out, one_process)
-    res = run_scene(load_scene(name), str(bag),
-                    RunOptions(layout=Layout.COMPOSED if one_process else Layout.PROCESSES,
-                               quiet=True))
+    bag = scene_bag(name, out, layout)
+    res = run_scene(load_scene(name), str(bag), RunOptions(layout=layout, quiet=True))
     wall = time.perf_counter() - t0
-    row = {'scene': name, 'layout': (Layout.COMPOSED if one_process else Layout.PROCESSES).value,
+    row = {'scene': name, 'layout': layout.value,
            'code': res.code, 'exchange_steps': res.steps, 'sim_s': res.sim_s,
            'wall_s_lockstep': res.wall_s, 'wall_s_total': wall,
            'real_time_factor': res.sim_s / res.wall_s if res.wall_s else 0.0,

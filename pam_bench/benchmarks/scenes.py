@@ -25,10 +25,10 @@ def measure(quick: bool, out: pathlib.Path, scenes: list[str] | None) -> dict[st
     """The scenes (default: the campaign), the campaign against its twin, the extraction."""
     campaign = 'campaign_quick' if quick else 'campaign'
     names = scenes or [campaign]
-    report: dict[str, Any] = {'scenes': [scene_run(n, out, one_process=True) for n in names]}
+    report: dict[str, Any] = {'scenes': [scene_run(n, out, Layout.COMPOSED) for n in names]}
     if campaign in names:
         print(f'{campaign} against its numpy twin (scene steps, then 1 ms) ...', flush=True)
-        bag = scene_bag(campaign, out, True)
+        bag = scene_bag(campaign, out, Layout.COMPOSED)
         report['campaign'] = {'scene': campaign,
                               'twin_same_steps': run_against_twin(bag, campaign, *SCENE_STEPS)}
         if not quick:         # 26 s for campaign_quick, 27 min for the campaign
@@ -47,7 +47,7 @@ def _extraction(out: pathlib.Path, names: list[str], quick: bool) -> dict[str, A
     rows = []
     for name in names:
         try:
-            summary = extract([str(scene_bag(name, out, True))], str(out / f'{name}_x'),
+            summary = extract([str(scene_bag(name, out, Layout.COMPOSED))], str(out / f'{name}_x'),
                               figures=False)
         except (BagError, ValueError) as exc:
             rows.append({'scene': name, 'error': str(exc)})

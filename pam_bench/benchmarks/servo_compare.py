@@ -32,6 +32,7 @@ from pam_bench.control.torque_servo import (  # noqa: E402
 )
 from pam_bench.twin.servo_bench import ServoRun, run_servo, tracking_metrics  # noqa: E402
 from pam_bench.twin.servo_setup import scene_servo_setup, servo_run_of_bag  # noqa: E402
+from pam_bench.vocabulary.run import Layout
 
 __all__ = ['STUDY', 'servo_scenes', 'compare_servo', 'one_run']
 
@@ -42,8 +43,10 @@ def servo_scenes() -> list[str]:
 
 
 def _ros_run(scene: Scene, controller: str, duration_s: float | None,
-             tmp: pathlib.Path, one_process: bool = False) -> tuple[ServoRun, float, float]:
-    from pam_bench.bringup.runner import Layout, RunOptions, run_scene
+             tmp: pathlib.Path, layout: Layout = Layout.PROCESSES
+             ) -> tuple[ServoRun, float, float]:
+    from pam_bench.bringup.runner import run_scene
+    from pam_bench.vocabulary.run import RunOptions
     params = {k: dict(v) for k, v in scene.parameters.items()}
     params.setdefault('torque_servo', {})['controller'] = controller
     sc = dataclasses.replace(scene, parameters=params,
@@ -51,27 +54,27 @@ def _ros_run(scene: Scene, controller: str, duration_s: float | None,
     out = tmp / f'{scene.name}_{controller}'
     from pam_bench.cluster.layer import worker_domain
     res = run_scene(sc, str(out),
-                    RunOptions(layout=Layout.COMPOSED if one_process else Layout.PROCESSES,
+                    RunOptions(layout=layout,
                                quiet=True, domain_id=worker_domain()))
     if res.code != 0:
         raise RuntimeError(f'scene {scene.name} ({controller}) failed: exit {res.code}')
     return servo_run_of_bag(out, 2 if 'valve_2' in scene.nodes else 1), res.wall_s, res.sim_s
 
 
-def compare_servo(out_dir: pathlib.Path, engine: str = 'numpy', scenes: list[str] | None = None,
-                  duration_s: float | None = None, one_process: bool = True,
+def compare_servo(out_dir: pathlib.Path, engine: str = 'twin', scenes: list[str] | None = None,
+                  duration_s: float | None = None, layout: Layout = Layout.COMPOSED,
                   cluster: dict[str, Any] | None = None,
                   controllers: list[str] | None = None) -> list[dict[str, Any]]:
     """Run every scene x controller (the built-ins, then ``controllers``: plug-ins' names);
     write out_dir/metrics.json and one PNG per scene.
 
-    ``engine``: 'numpy' (the twin) or 'ros' (the nodes; composed in one process with
-    ``one_process``, which gives the same bags faster). The runs are jobs of the execution
+    ``engine``: 'twin' (the numpy twin) or 'ros' (the nodes; composed in one process with
+    ``Layout.COMPOSED``, which gives the same bags faster). The runs are jobs of the execution
     layer (``cluster.layer``; ``cluster``: ``connect``'s keywords), each ROS run on its worker's
     own domain. A run that fails is reported and left out of the metrics; the others complete.
     """
     from pam_bench.cluster.layer import run_jobs
-    label = 'ros, composed' if engine == 'ros' and one_process else engine
+    label = 'ros, composed' if engine == 'ros' and layout is Layout.COMPOSED else engine
     out_dir.mkdir(parents=True, exist_ok=True)
     names = scenes or servo_scenes()
     ctls = [m.value for m in ServoMode] + [c for c in controllers or []
@@ -79,7 +82,7 @@ def compare_servo(out_dir: pathlib.Path, engine: str = 'numpy', scenes: list[str
     tasks = [(name, ctl) for name in names for ctl in ctls]
     results: dict[tuple[str, str], tuple[ServoRun, float, float]] = {}
     with tempfile.TemporaryDirectory(prefix='pam_bench_servo_') as tmp:
-        jobs = [(engine, name, ctl, duration_s, tmp, one_process) for name, ctl in tasks]
+        jobs = [(engine, name, ctl, duration_s, tmp, layout) for name, ctl in tasks]
         for r in run_jobs(_one_job, jobs, label=f'servo-compare ({label})',
                           ros=engine == 'ros', **(cluster or {})):
             if r.ok:
@@ -105,19 +108,19 @@ def compare_servo(out_dir: pathlib.Path, engine: str = 'numpy', scenes: list[str
     return rows
 
 
-def _one_job(job: tuple[str, str, str, float | None, str, bool]
+def _one_job(job: tuple[str, str, str, float | None, str, Layout]
              ) -> tuple[ServoRun, float, float]:
-    engine, name, ctl, duration_s, tmp, one_process = job
-    return one_run(engine, name, ctl, duration_s, tmp, one_process)
+    engine, name, ctl, duration_s, tmp, layout = job
+    return one_run(engine, name, ctl, duration_s, tmp, layout)
 
 
 def one_run(engine: str, name: str, ctl: str, duration_s: float | None, tmp: str,
-            one_process: bool) -> tuple[ServoRun, float, float]:
+            layout: Layout) -> tuple[ServoRun, float, float]:
     """One scene with one controller: (its run, wall s, sim s)."""
     scene = load_scene(name)
     t0 = time.perf_counter()
     if engine == 'ros':
-        return _ros_run(scene, ctl, duration_s, pathlib.Path(tmp), one_process)
+        return _ros_run(scene, ctl, duration_s, pathlib.Path(tmp), layout)
     setup = scene_servo_setup(scene)
     sim = duration_s or scene.duration_s
     run = run_servo(ctl, setup['signal'], sim, setup['angle_rad'], scene.exchange_step_s,
@@ -175,7 +178,7 @@ def measure(quick: bool, out: pathlib.Path, scenes: list[str] | None) -> dict[st
     jobs = os.cpu_count() or 1
     t0 = time.perf_counter()
     rows = compare_servo(out / 'servo_compare', 'ros', ['servo_sin_t'] if quick else None,
-                         2.0 if quick else None, one_process=True)
+                         2.0 if quick else None, layout=Layout.COMPOSED)
     return {'servo_compare': {'wall_s': time.perf_counter() - t0, 'jobs': jobs, 'runs': len(rows),
             'sim_s': sum(r['sim_s'] for r in rows), 'rows': rows}}
 

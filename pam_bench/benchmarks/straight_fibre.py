@@ -11,9 +11,10 @@ from pam_bench.analysis.extract import model_comparison
 from pam_bench.bags.bagread import read_bags
 from pam_bench.benchmarks.study import Study
 from pam_bench.benchmarks.tables import Row, commit_of, table
-from pam_bench.bringup.runner import RunOptions, run_scene
+from pam_bench.bringup.runner import run_scene
 from pam_bench.config.scene import load_scene
 from pam_bench.verify.prototype import prototype_figures
+from pam_bench.vocabulary.run import RunOptions
 
 __all__ = ['STUDY', 'SCENES', 'measure_straight_fibre', 'straight_fibre_section',
            'straight_fibre_results']

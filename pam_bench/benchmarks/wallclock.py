@@ -21,10 +21,11 @@ import numpy as np
 from pam_bench.analysis.delivery import delivery_table
 from pam_bench.benchmarks.study import Study
 from pam_bench.benchmarks.tables import Row, commit_of, table
-from pam_bench.bringup.runner import Layout, RunOptions, RunResult, run_scene
+from pam_bench.bringup.runner import RunResult, run_scene
 from pam_bench.config.scene import Scene, load_scene
 from pam_bench.config.settings import LiveViewSettings
 from pam_bench.verify.wallclock import compare_readings
+from pam_bench.vocabulary.run import Layout, RunOptions
 
 __all__ = ['STUDY', 'measure_wallclock', 'SERVO_SETUPS', 'wallclock_section', 'wallclock_results']
 

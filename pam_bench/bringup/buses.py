@@ -86,8 +86,3 @@ def start_buses(start: Callable[..., subprocess.Popen], pfile: str, ports: tuple
             raise LayoutError(line.strip())
     proc.wait(timeout=10.0)
     raise LayoutError(f'the bench behind its buses stopped (exit code {proc.returncode})')
-
-
-def replace_devices(scene: Any, device_names: list[str]) -> Any:
-    """The scene without its simulated devices (the buses serve them)."""
-    return dataclasses.replace(scene, nodes=[n for n in scene.nodes if n not in device_names])

@@ -24,7 +24,7 @@ from pam_bench.bringup.live import live_topics, live_view
 from pam_bench.config.scene import Scene, params_file
 from pam_bench.vocabulary.run import Layout, RunOptions
 
-__all__ = ['RunResult', 'RunOptions', 'Layout', 'ros_env', 'run_scene', 'write_params_file']
+__all__ = ['RunResult', 'ros_env', 'run_scene', 'write_params_file']
 
 
 def run_scene(scene: Scene, out_dir: str, options: RunOptions | None = None) -> RunResult:

@@ -21,8 +21,8 @@ def register(sub: Any) -> None:
     p.add_argument('--json', action='store_true')
     p.set_defaults(func=_cmd_pingpong)
     p = sub.add_parser('servo-compare', help='every servo scene x controller -> metrics.json')
-    p.add_argument('--engine', choices=['numpy', 'ros'], default='ros',
-                   help='ros: the nodes, composed (--processes: one process each); numpy: the '
+    p.add_argument('--engine', choices=['twin', 'ros'], default='ros',
+                   help='ros: the nodes, composed (--processes: one process each); twin: the '
                    'same models without ROS (seconds)')
     p.add_argument('--out', type=out_path,
                    default='reports/servo', help='output folder (new; it takes its '
@@ -36,7 +36,6 @@ def register(sub: Any) -> None:
                    help='sim time per run, s (default: the scene)')
     p.add_argument('--processes', action='store_true',
                    help='with --engine ros: every node in its own process (same bags, slower)')
-    p.add_argument('--one-process', action='store_true', help=argparse.SUPPRESS)  # the default
     add_cluster_args(p)
     p.set_defaults(func=_cmd_servo_compare)
     p = sub.add_parser('bench', help='benchmarks -> BENCHMARKS.md and bench.json')
@@ -74,8 +73,10 @@ def _cmd_servo_compare(args: argparse.Namespace) -> int:
     out = pathlib.Path(args.out)
     cluster = cluster_of(args)
     with staged_output(out, 'pam-bench servo-compare', args.overwrite) as tmp:
+        from pam_bench.vocabulary.run import Layout
         rows = compare_servo(tmp, args.engine, args.scene or None, args.duration,
-                             not args.processes, cluster, args.controller)
+                             Layout.PROCESSES if args.processes else Layout.COMPOSED, cluster,
+                             args.controller)
     rows = sorted(rows, key=lambda r: (r['scene'], r['rms_error']))   # ranked per scene
     print(f"{'scene':26s} {'controller':20s} {'RMS':>8s} {'max':>8s} {'at reversal':>12s}")
     for r in rows:

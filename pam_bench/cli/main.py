@@ -111,7 +111,7 @@ def main(argv: list[str] | None = None) -> int:
     if code == 130:
         # a cluster stopped while it started: Dask's exit hook then fails on its half-made
         # workers and prints a traceback after the one line (the processes still go)
-        sys.unraisablehook = lambda unraisable: None
+        sys.unraisablehook = lambda _: None
     return 143 if code == 130 and signal.SIGTERM in _received else code
 
 

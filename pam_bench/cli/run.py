@@ -35,7 +35,6 @@ def register(sub: Any) -> None:
     p.add_argument('--processes', action='store_true', help='lock-step: every node in its own '
                    'process, as beside drivers (default: the nodes composed in one process on '
                    'the intra-process bus)')
-    p.add_argument('--one-process', action='store_true', help=argparse.SUPPRESS)  # the default
     p.add_argument('--resume', metavar='BAG', help='bag of an interrupted run of this scene: '
                    'start at the first reading it lacks (into a new --out)')
     p.add_argument('--wallclock', action='store_true', help='run on the wall clock as on a '
@@ -323,8 +322,9 @@ def _resume_start(scene: Any, bag: str) -> tuple[int, int]:
 
 def _cmd_run(args: argparse.Namespace) -> int:
     from pam_bench.bags.splitwriter import check_room
-    from pam_bench.bringup.runner import Layout, RunOptions, run_scene
+    from pam_bench.bringup.runner import run_scene
     from pam_bench.vocabulary.outputs import check_output, clear_output
+    from pam_bench.vocabulary.run import Layout, RunOptions
     settings = None
     if args.replay:
         if args.scene or not args.out:
@@ -461,8 +461,9 @@ def _cmd_live(args: argparse.Namespace) -> int:
 
 
 def _cmd_emulate(args: argparse.Namespace) -> int:
-    from pam_bench.bringup.runner import Layout, RunOptions, run_scene
+    from pam_bench.bringup.runner import run_scene
     from pam_bench.config.scene import load_scene
+    from pam_bench.vocabulary.run import Layout, RunOptions
     res = run_scene(load_scene(args.scene), '',
                     RunOptions(layout=Layout.WALL_CLOCK, seed=args.seed, devices_only=True,
                                namespace=args.namespace, buses=args.buses,

@@ -15,7 +15,7 @@ __all__ = ['Topic', 'TOPICS', 'valve_command', 'valve_pressure', 'valve_samples'
            'LOAD_STATE', 'MOTOR_JOINT', 'PULLEY_JOINT', 'PULLEY_STATE', 'PULLEY_LAW', 'POINT',
            'RECORD', 'STATUS', 'RUN', 'PAUSE', 'RESUME', 'SERVO_SETPOINT', 'SERVO_STATE',
            'SERVO_RESET', 'DIAGNOSTICS',
-           'CLOCK', 'ACK', 'STEP_TOPIC_SOURCES', 'EVENT_TOPICS', 'STEP_TOPICS', 'step_topics',
+           'CLOCK', 'ACK', 'EVENT_TOPICS', 'STEP_TOPICS', 'step_topics',
            'absolute', 'in_namespace', 'same_topic']
 
 
@@ -129,7 +129,6 @@ TOPICS: tuple[Topic, ...] = (
     Topic(absolute(SERVO_STATE), _PB + 'TorqueServoState', ('torque_servo',)),
     Topic(CLOCK, 'rosgraph_msgs/msg/Clock', ('sim_clock',)),
 )
-STEP_TOPIC_SOURCES = {t.spec: t.sources for t in TOPICS}
 
 EVENT_TOPICS = [
     f'{absolute(POINT)}:{_PB}CharacteristicPoint',

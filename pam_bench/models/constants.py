@@ -7,8 +7,7 @@ parameter in config/bench.yaml).
 
 from __future__ import annotations
 
-__all__ = ['ATMOSPHERE_PA', 'PULLEY_PITCH_DIAMETER_M', 'LOAD_CELL_RANGE_N', 'SUB_STEP_S',
-           'SAMPLE_PERIOD_S']
+__all__ = ['ATMOSPHERE_PA', 'PULLEY_PITCH_DIAMETER_M', 'LOAD_CELL_RANGE_N', 'SUB_STEP_S']
 
 ATMOSPHERE_PA = 101325.0
 """Pa: standard atmosphere; ``valve_N/pressure`` is absolute, the models work in gauge."""
@@ -23,5 +22,3 @@ SUB_STEP_S = 0.005
 """s: default sub-step on which the valve's pressure samples, the muscle and the drive are
 solved inside one exchange (a scene's ``sub_step_s``)."""
 
-SAMPLE_PERIOD_S = 0.001
-"""s: sample period of a step record and of the torque servo (004: 1 kHz)."""

@@ -75,9 +75,6 @@ class Holder(Protocol):
     def contraction(self, force_n: float) -> float:
         """End position X(F) for the force at the end of the sub-step, m."""
 
-    def compliance(self, force_n: float) -> float:
-        """dX/dF, m/N."""
-
     def contraction_and_compliance(self, force_n: float) -> tuple[float, float]:
         """(X(F) m, dX/dF m/N) in one evaluation."""
 

@@ -82,7 +82,3 @@ class MaxwellSlip:
         self.commit(t)
         return t[0]
 
-    @property
-    def sticking_stiffness(self) -> float:
-        """dF_f/ds of the elements currently sticking, N/m."""
-        return sum(k for k, s in zip(self.k, self.sticking, strict=True) if s)

@@ -285,10 +285,6 @@ class MuscleModel(FrictionMuscle):
         """g(x), N/Pa."""
         return self.gain_and_slope(contraction_m)[0]
 
-    def gain_slope(self, contraction_m: float) -> float:
-        """dg/dx, N/(Pa m)."""
-        return self.gain_and_slope(contraction_m)[1]
-
     def gain_and_slope(self, contraction_m: float) -> tuple[float, float]:
         """(g(x) N/Pa, dg/dx N/(Pa m))."""
         p = self.p

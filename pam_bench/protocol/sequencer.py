@@ -91,7 +91,6 @@ class Sequencer:
         self._pause_request: tuple[str, bool] | None = None
         self._resume_request = False
         self._paused: tuple[str, bool, Phase, float] = ('', False, Phase.IDLE, 0.0)
-        self._done_s = 0.0               # scheduled time of the readings already taken
         self.bands = dict(bands or {})
         keep = max((r.window_s for r in readings), default=0.0) + 0.1
         self.windows = {'force': SampleWindow(keep), 'contraction': SampleWindow(keep)}

@@ -2,7 +2,7 @@
 
 rclpy has no intra-process shortcut: two nodes of one process still serialise every message
 and pass it through DDS, and rclpy's executor wakes up once per message. When a scene is
-composed (``pam-bench run --one-process``) the runner activates one ``IntraProcessBus``
+composed (``pam-bench run``, ``Layout.COMPOSED``) the runner activates one ``IntraProcessBus``
 before it builds the nodes. The bench nodes then create their lock-step and event topics
 through it (``bus_publisher``, ``bus_subscription``):
 

@@ -161,4 +161,3 @@ def _joint_value(msg: Any, name: str, field: str) -> float:
     except (TypeError, ValueError):
         return math.nan
     return math.nan
-    return math.nan

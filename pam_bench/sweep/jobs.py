@@ -55,9 +55,9 @@ def _protocol_result(scene: Any, job: Job, engine: str, figures: list[str]) -> d
         out: dict[str, Any] = {'run': {'sim_s': run.sim_s, 'exit_code': run.exit_code}}
     else:
         from pam_bench.bags.bagread import read_bags
-        from pam_bench.bringup.runner import RunOptions
         from pam_bench.bringup.runner import run_scene as run_nodes
         from pam_bench.cluster.layer import worker_domain
+        from pam_bench.vocabulary.run import RunOptions
         with tempfile.TemporaryDirectory(prefix='pam_bench_sweep_') as tmp:
             bag = pathlib.Path(tmp) / 'bag'
             res = run_nodes(scene, str(bag),
@@ -100,9 +100,9 @@ def _servo_result(scene: Any, job: Job, engine: str, duration_s: float | None
                         st['muscle_1'].muscle, seed=job.seed, plugins=setup['plugins'])
         code = 0
     else:
-        from pam_bench.bringup.runner import RunOptions
         from pam_bench.bringup.runner import run_scene as run_nodes
         from pam_bench.cluster.layer import worker_domain
+        from pam_bench.vocabulary.run import RunOptions
         with tempfile.TemporaryDirectory(prefix='pam_bench_sweep_') as tmp:
             bag = pathlib.Path(tmp) / 'bag'
             res = run_nodes(dataclasses.replace(scene, duration_s=sim), str(bag),

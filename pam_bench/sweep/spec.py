@@ -35,10 +35,9 @@ from typing import Any
 import numpy as np
 
 from pam_bench.config.errors import ConfigError
-from pam_bench.config.nodes import NODES
 from pam_bench.config.scene import load_scene
 from pam_bench.sweep.figures import check_figures
-from pam_bench.vocabulary.params import check_known, flat_infos, hint
+from pam_bench.vocabulary.params import check_known, hint
 from pam_bench.vocabulary.yaml_io import read_yaml
 
 __all__ = ['Sweep', 'Job', 'load_sweep', 'FIGURE_ROOTS', 'ENGINES', 'SWEEP_KEYS']
@@ -225,9 +224,3 @@ def load_sweep(path: str | pathlib.Path) -> Sweep:
     return Sweep(p.stem, scenes, engine, list(seeds), combos, figures,
                  float(duration) if duration is not None else None,
                  str(data.get('description', '')))
-
-
-def settings_paths(scene: str) -> list[str]:
-    """Every settings path of a scene (what a sweep may vary)."""
-    sc = load_scene(scene)
-    return [f'{n}.{i.name}' for n in sc.nodes for i in flat_infos(NODES[n].settings)]

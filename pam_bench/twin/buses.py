@@ -80,10 +80,8 @@ class EmulatedBench:
         self.ticks = 0
         self.drive = EmulatedDrive(bench, self._lock, can, node_id, self.scale)
         self.valve_voltage_v = 0.0
-        self.rejected_outputs = 0
         self.watchdog_s = register_map.watchdog_s    # the device's own (0: it has none)
         self._written: float | None = None      # last write of the holding registers
-        self.watchdog_trips = 0
 
     # --- life ---------------------------------------------------------------------------
     def start(self) -> EmulatedBench:
@@ -211,13 +209,10 @@ class EmulatedBench:
             ws = [self.words.get(('holding', c.address + k), 0) for k in range(c.count)]
         u = self.map.decode(c, ws)
         if not math.isfinite(u):
-            self.rejected_outputs += 1
             u = 0.0                                   # a command the map refuses: vent
         written = self._written
         if self.watchdog_s and written is not None and \
                 time.monotonic() - written > self.watchdog_s:
-            if u != 0.0 or self.valve_voltage_v != 0.0:
-                self.watchdog_trips += 1
             u = 0.0               # the DAQ's own watchdog: no write for a while, outputs safe
             with self._lock:
                 for k in range(c.count):

@@ -33,7 +33,7 @@ from pam_bench.models.straight_fibre_muscle import StraightFibreParams
 from pam_bench.models.valve import ValveModel, ValveParams
 from pam_bench.protocol.schedules import Reading
 
-__all__ = ['QuasiStaticBench', 'SettledReading', 'settle_schedule']
+__all__ = ['QuasiStaticBench', 'SettledReading']
 
 
 @dataclasses.dataclass(frozen=True)
@@ -189,10 +189,3 @@ class QuasiStaticBench:
             return 1.0 / self.valve.p.time_constant_s, 0.0
         w = self.valve.natural_frequency(self.muscle.volume(contraction_m))
         return 2.0 * self.valve.p.damping_ratio * w, w * w
-
-
-def settle_schedule(bench: QuasiStaticBench, readings: list[Reading]
-                    ) -> list[tuple[Reading, SettledReading]]:
-    """Every reading of a schedule in order, the friction state carried along."""
-    return [(r, bench.settle(r)) for r in readings]
-

@@ -30,6 +30,7 @@ def isometric_points(gains: dict[float, float]) -> list[dict]:
     return pts
 
 
+@pytest.mark.slow
 def test_isometric_gains_recovered(tmp_path: pathlib.Path) -> None:
     gains = {0.0: 284.3, 0.05: 95.0, 0.095: 17.4}
     write_bag(tmp_path / 'bag', isometric_points(gains))
@@ -41,6 +42,7 @@ def test_isometric_gains_recovered(tmp_path: pathlib.Path) -> None:
     assert (tmp_path / 'out' / 'isometric.csv').exists()
 
 
+@pytest.mark.slow
 def test_step_coefficients_and_polynomials(tmp_path: pathlib.Path) -> None:
     recs = []
     truth = {}

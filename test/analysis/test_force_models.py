@@ -23,6 +23,7 @@ def grid() -> tuple[np.ndarray, np.ndarray]:
     ('straight_fibre', (0.3, 0.8, 0.1, -1.7)),
     ('bench_mckibben', (2.8e-3, 1.5e-4, 0.1, 2.2, 1e-4, 5e4, 2e4, 300.0)),
 ])
+@pytest.mark.slow
 def test_model_recovers_its_own_data(name: str, theta: tuple[float, ...]) -> None:
     model = next(m for m in FORCE_MODELS if m.name == name)
     p, x = grid()
@@ -35,6 +36,7 @@ def test_model_recovers_its_own_data(name: str, theta: tuple[float, ...]) -> Non
     assert fits[0]['n_params'] == len(theta)
 
 
+@pytest.mark.slow
 def test_all_models_report_finite_figures() -> None:
     p, x = grid()
     f = np.maximum(2.8e-3 * (1 - x / 0.15) ** 2.65 * (p - 2e4) - 100 * x, 0.0)

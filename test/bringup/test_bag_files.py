@@ -63,8 +63,9 @@ def test_a_disk_filling_up_ends_the_run_with_a_valid_bag_and_one_line(
     recorder closes the bag with what it holds and the run ends with exit code 2."""
     from pam_bench.bags import splitwriter
     from pam_bench.bags.baginfo import bag_info
-    from pam_bench.bringup.runner import RunOptions, run_scene
+    from pam_bench.bringup.runner import run_scene
     from pam_bench.config.scene import load_scene
+    from pam_bench.vocabulary.run import RunOptions
     calls = [0]
 
     def free(path: pathlib.Path) -> int:

@@ -10,9 +10,10 @@ import time
 
 import pytest
 
-from pam_bench.bringup.runner import Layout, RunOptions, run_scene
+from pam_bench.bringup.runner import run_scene
 from pam_bench.config.scene import load_scene
 from pam_bench.verify.wallclock import CONTRACTION_BOUND_M, FORCE_BOUND_N, compare_readings
+from pam_bench.vocabulary.run import Layout, RunOptions
 from test.bringup.test_wallclock import SETTLED
 from test.helpers import bag_messages
 

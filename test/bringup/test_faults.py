@@ -13,8 +13,9 @@ import pytest
 
 from pam_bench.bags.baginfo import bag_info
 from pam_bench.benchmarks.faults import CASES, READINGS, SCENE
-from pam_bench.bringup.runner import Layout, RunOptions, run_scene
+from pam_bench.bringup.runner import run_scene
 from pam_bench.config.scene import Scene, load_scene
+from pam_bench.vocabulary.run import Layout, RunOptions
 from test.conftest import next_domain
 from test.helpers import bag_messages
 

@@ -16,8 +16,9 @@ import subprocess
 
 import pytest
 
-from pam_bench.bringup.runner import RunOptions, run_scene
+from pam_bench.bringup.runner import run_scene
 from pam_bench.config.scene import load_scene
+from pam_bench.vocabulary.run import RunOptions
 from test.helpers import canonical_payloads
 
 

@@ -49,7 +49,7 @@ def test_plugins_lists_the_law_and_the_controller(site: pathlib.Path) -> None:
                and ln.endswith('ok') for ln in lines), out.stdout
 
 
-@pytest.mark.parametrize('engine', ['numpy', 'ros'])
+@pytest.mark.parametrize('engine', ['twin', 'ros'])
 def test_servo_compare_ranks_the_plugin_beside_the_builtins(site: pathlib.Path,
                                                            tmp_path: pathlib.Path,
                                                            engine: str) -> None:

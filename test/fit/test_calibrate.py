@@ -164,7 +164,7 @@ def test_step_records_of_a_fast_valve_replay_at_the_true_parameters(
     assert rule < 0.12
     assert calibrate_replay.record_sub_step_s(0.001, omega_rad_s) == pytest.approx(0.001)
     monkeypatch.setattr(calibrate_replay, 'record_sub_step_s',              # one sub-step
-                        lambda period_s, omega: period_s * calibrate_replay.RECORD_STRIDE)
+                        lambda period_s, _: period_s * calibrate_replay.RECORD_STRIDE)
     one = rms_by_kind(obs, bench)['step_records']
     if one_sub_step_n is None:
         assert one < 0.12

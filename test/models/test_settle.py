@@ -98,7 +98,7 @@ def test_a_moving_drive_is_not_held() -> None:
     """A force set value far above what the muscle gives: the drive keeps pulling, so no span
     is held even where the force and pressure look settled for a sub-step."""
     case = _dwell(LoadMode.FORCE, 2000.0, 0.0)
-    f_all, x_all, _, ds_all = _solve(case, SETTLE_OFF)
+    f_all, x_all, _, _ = _solve(case, SETTLE_OFF)
     f, x, held, ds = _solve(case, SettleParams(force_n=1e3, contraction_m=1e-3,
                                                pressure_pa=1e5))
     assert held < 100

@@ -9,11 +9,12 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 from rosbags.rosbag2 import Reader
 
-from pam_bench.bringup.runner import Layout, RunOptions, run_scene
+from pam_bench.bringup.runner import run_scene
 from pam_bench.config.scene import load_scene
 from pam_bench.config.topics import EVENT_TOPICS, STEP_TOPICS
 from pam_bench.models.muscle import MuscleModel
 from pam_bench.twin.protocol_run import run_protocol
+from pam_bench.vocabulary.run import Layout, RunOptions
 from test.conftest import next_domain
 from test.helpers import bag_messages, bag_payloads, canonical_payloads
 

@@ -7,9 +7,10 @@ import pathlib
 import numpy as np
 import pytest
 
-from pam_bench.bringup.runner import Layout, RunOptions, run_scene
+from pam_bench.bringup.runner import run_scene
 from pam_bench.config.scene import load_scene
 from pam_bench.protocol.schedules import Direction
+from pam_bench.vocabulary.run import Layout, RunOptions
 from test.conftest import next_domain
 from test.helpers import bag_messages
 

@@ -15,9 +15,10 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
 from pam_bench.analysis.servo_bag import read_servo_states
-from pam_bench.bringup.runner import RunOptions, run_scene
+from pam_bench.bringup.runner import run_scene
 from pam_bench.config.scene import load_scene
 from pam_bench.nodes.torque_servo import TorqueServoNode
+from pam_bench.vocabulary.run import RunOptions
 from test.conftest import next_domain
 from test.nodes.harness import Harness
 

@@ -21,6 +21,7 @@ def sin_3t() -> dict[ServoMode, dict]:
     return {m: tracking_metrics(run_servo(m, sig, 3.5, inverse=inv)) for m in ServoMode}
 
 
+@pytest.mark.slow
 def test_controller_ordering(sin_3t: dict) -> None:
     rms = {m: r['rms_error'] for m, r in sin_3t.items()}
     assert rms[ServoMode.DYNAMIC] < rms[ServoMode.STATIC] < rms[ServoMode.PID]
@@ -49,6 +50,7 @@ def test_metrics_find_the_reversals() -> None:
     assert m['error_elsewhere'] == pytest.approx(0.01)
 
 
+@pytest.mark.slow
 def test_servo_compare_numpy_writes_metrics(tmp_path: pathlib.Path) -> None:
     import json
 

@@ -17,14 +17,16 @@ def test_the_setup_holds_the_scenes_muscle_and_inverse_model() -> None:
 
 
 def test_the_numpy_engine_runs_the_scenes_muscle() -> None:
-    """servo-compare's numpy engine and the nodes agree on a scene that changes the muscle
+    """servo-compare's twin engine and the nodes agree on a scene that changes the muscle
     (it used to run the default muscle)."""
     from pam_bench.benchmarks.servo_compare import one_run
     from pam_bench.control.torque_servo import ServoMode
     from pam_bench.twin.servo_bench import tracking_metrics
-    sharp, _, _ = one_run('numpy', 'force_verify_20mm_sharp_band', ServoMode.DYNAMIC_ONLY, 3.0,
-                          '', True)
-    plain, _, _ = one_run('numpy', 'force_verify_20mm', ServoMode.DYNAMIC_ONLY, 3.0, '', True)
+    from pam_bench.vocabulary.run import Layout
+    sharp, _, _ = one_run('twin', 'force_verify_20mm_sharp_band', ServoMode.DYNAMIC_ONLY, 3.0,
+                          '', Layout.COMPOSED)
+    plain, _, _ = one_run('twin', 'force_verify_20mm', ServoMode.DYNAMIC_ONLY, 3.0, '',
+                          Layout.COMPOSED)
     # the sharp band's muscle with its own inverse model: 0.28 of the default's RMS (0.57 when
-    # the numpy engine ran the default muscle with that model)
+    # the twin engine ran the default muscle with that model)
     assert tracking_metrics(sharp)['rms_error'] < 0.4 * tracking_metrics(plain)['rms_error']

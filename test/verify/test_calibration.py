@@ -50,6 +50,7 @@ def test_every_figure_has_a_row_and_passes(measured: dict[str, Any]) -> None:
     assert [r['key'] for r in rows if not r['ok']] == []
 
 
+@pytest.mark.slow
 def test_the_dynamic_bench_agrees_at_the_coarse_grid(figures: dict[str, float],
                                                      measured: dict[str, Any]) -> None:
     """The time-stepped bench (0.5 V steps, 3 s dwell) reads the same gains."""

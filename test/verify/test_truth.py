@@ -74,6 +74,7 @@ def test_truth_cli_against_an_extraction(tmp_path, capsys) -> None:
     assert cli(['truth', 'isometric_quick', '--against', str(tmp_path / 'none')]) == 2
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('scene, segments', [('straight_fibre_quick', 3),
                                              ('straight_fibre_4_quick', 4)])
 def test_truth_and_twin_build_the_muscle_the_scene_names(scene: str, segments: int) -> None:

@@ -187,10 +187,6 @@ class LoadingServoModel:
         ``force_n`` (N) at its end, m. Continuous and non-decreasing in the force."""
         return self.contraction_and_compliance(force_n)[0]
 
-    def compliance(self, force_n: float) -> float:
-        """dX/dF of the prepared sub-step at ``force_n`` (the piece the force falls on), m/N."""
-        return self.contraction_and_compliance(force_n)[1]
-
     def contraction_and_compliance(self, force_n: float) -> tuple[float, float]:
         """(X(F) m, dX/dF m/N) of the prepared sub-step at ``force_n``: ``contraction`` and
         ``compliance`` in one evaluation (the coupled solve asks for both at every iterate)."""

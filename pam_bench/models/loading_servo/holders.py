@@ -33,10 +33,6 @@ class IdealHold:
         """x_0 + F / k_b, m."""
         return self.x0 + force_n / self.k_b
 
-    def compliance(self, force_n: float) -> float:
-        """1 / k_b, m/N."""
-        return 1.0 / self.k_b
-
     def contraction_and_compliance(self, force_n: float) -> tuple[float, float]:
         """(X(F) m, dX/dF m/N)."""
         return self.x0 + force_n / self.k_b, 1.0 / self.k_b

@@ -1,0 +1,43 @@
+"""What the dead-code check (vulture, `make test`) is told is used: entry points and
+interfaces called from outside the code it reads (rclpy, python-can, pytest, plug-in authors),
+and message or result fields written for others. Add a name only with its reason."""
+# ruff: noqa
+
+_.bus_error  # kept on the network for whoever looks at a lost bus (canopen_drive._BusLost)
+_.on_message_received  # python-can's Listener interface
+_.on_error  # python-can's Listener and rclpy's lifecycle callbacks
+_.RESPONSE_TIMEOUT  # canopen's SDO client setting
+_.unraisablehook  # sys hook set on interrupt
+worker  # JobResult field: where a job ran
+_.from_settings  # the plug-in authors' constructor (examples/, docs)
+step_v  # a protocol setting read through the settings framework
+STEPPINGS  # mypy checks each is a Stepping
+_._parameter_service  # rclpy's parameter service, kept alive
+_.on_configure  # rclpy's lifecycle callbacks
+_.on_activate  # rclpy's lifecycle callbacks
+_.on_deactivate  # rclpy's lifecycle callbacks
+_.on_cleanup  # rclpy's lifecycle callbacks
+_.on_shutdown  # rclpy's lifecycle callbacks
+_._frame_id  # message slots filled without their setters
+_._x  # message slots filled without their setters
+_._y  # message slots filled without their setters
+_._z  # message slots filled without their setters
+_._torque  # message slots filled without their setters
+_._wrench  # message slots filled without their setters
+_._check_fields  # message slots filled without their setters
+_.floating_point_range  # ROS ParameterDescriptor fields
+_.integer_range  # ROS ParameterDescriptor fields
+muscle_contraction_m  # a result field read by its users
+rms_contraction_m  # a result field read by its users
+_.maxdict  # reprlib's limits
+_.maxlevel  # reprlib's limits
+_.maxlist  # reprlib's limits
+_.maxtuple  # reprlib's limits
+_.maxlong  # reprlib's limits
+_.maxother  # reprlib's limits
+_.maxstring  # reprlib's limits
+pytestmark  # pytest's module marks
+pytest_configure  # pytest's hook
+core_restored  # an autouse fixture
+_.server_info  # the test client keeps what the server said
+_.closed_by_server  # the test client keeps what the server said
