@@ -10,7 +10,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from pam_bench.models import compiled
+from pam_bench.models import jit
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')
@@ -84,13 +84,13 @@ def ros_domain(monkeypatch: pytest.MonkeyPatch) -> int:
 
 @pytest.fixture(autouse=True)
 def core_restored() -> Iterator[None]:
-    """The physics core this test found (``models.compiled.core``) is the one the next test
-    finds: a test that switches to the reference (``compiled.use``, a node whose wall ticks
+    """The physics core this test found (``models.jit.core``) is the one the next test
+    finds: a test that switches to the reference (``jit.use``, a node whose wall ticks
     pin it) does not leave the rest of its worker on it."""
-    before = compiled.core()
+    before = jit.core()
     yield
-    if compiled.core() != before:
-        compiled.use(before)
+    if jit.core() != before:
+        jit.use(before)
 
 
 @pytest.fixture(scope='session')

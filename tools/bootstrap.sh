@@ -78,8 +78,8 @@ fi
 "$VPY" -m compileall -q pam_bench > /dev/null
 "$VPY" -c 'import rclpy, pam_bench_interfaces.msg, pam_bench' \
   || { log "the environment does not import; remove .venv and run again"; exit 1; }
-# 5. The compiled physics core, compiled once into its cache (models/compiled.py says where).
-"$VPY" -c 'from pam_bench.models.compiled import warm_up; warm_up()' \
+# 5. The compiled physics core, compiled once into its cache (models/jit.py says where).
+"$VPY" -c 'from pam_bench.models.jit import warm_up; warm_up()' \
   || { log "the compiled core does not compile"; exit 1; }
 # 6. With --with-js (make test): the headless JavaScript clients the tests run (test/js).
 want=$(hash_of test/js/package.json test/js/package-lock.json)

@@ -41,3 +41,5 @@ pytest_configure  # pytest's hook
 core_restored  # an autouse fixture
 _.server_info  # the test client keeps what the server said
 _.closed_by_server  # the test client keeps what the server said
+_.__qualname__  # the kernel's entry point named as the kernel (models.jit)
+pytest_collection_modifyitems  # pytest's hook

@@ -74,8 +74,8 @@ def _series(quick: bool) -> list[dict[str, Any]]:
 
 def settle_study(quick: bool) -> dict[str, Any]:
     """Both parts (module docstring); the campaign part on ``campaign_quick`` when quick."""
-    from pam_bench.models import compiled
-    compiled.warm_up()                  # numba's load is not the first row's
+    from pam_bench.models import jit
+    jit.warm_up()                  # numba's load is not the first row's
     scene = 'campaign_quick' if quick else 'campaign'
     runs = [_campaign(scene, f) for f in FACTORS]
     base = runs[0]

@@ -55,8 +55,8 @@ def _noop(x: int) -> int:
 def _warm() -> float:
     """On a worker: import the twin and load the compiled core (s), as the first job would."""
     import pam_bench.twin.protocol_run  # noqa: F401
-    from pam_bench.models import compiled
-    return compiled.warm_up()
+    from pam_bench.models import jit
+    return jit.warm_up()
 
 
 def _timed_sweep(sweep: Any, out: pathlib.Path, client: Any) -> float:

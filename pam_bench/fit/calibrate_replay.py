@@ -47,7 +47,7 @@ from typing import Any
 import numpy as np
 
 from pam_bench.bags.bagread import BagData
-from pam_bench.models import compiled
+from pam_bench.models import jit
 from pam_bench.models.constants import SUB_STEP_S
 from pam_bench.models.coupling import SETTLE_OFF
 from pam_bench.models.errors import ModelError
@@ -219,7 +219,7 @@ def _compiled_core() -> None:
     """A replay is thousands of long exchanges: load the compiled core now (in each process
     that evaluates; the reference runs where it does not load)."""
     try:
-        compiled.warm_up()
+        jit.warm_up()
     except RuntimeError:
         pass
 

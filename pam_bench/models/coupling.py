@@ -52,15 +52,166 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from pam_bench.models import compiled
+from pam_bench.models import jit
 from pam_bench.models.bench_muscle import BenchMuscle
 from pam_bench.models.errors import ModelError
+from pam_bench.models.friction import friction_on_backbone
+from pam_bench.models.jit import Array, Slots, Values
 from pam_bench.models.loading_servo.drive import LoadingServoModel
-from pam_bench.models.muscle import MuscleModel
+from pam_bench.models.loading_servo.substep import (
+    CONTRACTION,
+    MODE_POSITION,
+    NO_PREP,
+    DriveRecord,
+    drive_commit,
+    drive_contraction_and_compliance,
+    drive_prepare,
+)
+from pam_bench.models.muscle import McKibbenRecord, MuscleModel, backbone, effective_pressure
 from pam_bench.vocabulary.params import field
 
 __all__ = ['Holder', 'SettleParams', 'SubStepResult', 'solve_substep', 'solve_substeps',
            'substep_grid', 'SETTLE_OFF']
+
+
+# --- the coupled solve, compiled (models.jit) ---------------------------------------------
+FORCE_TOLERANCE_N = 1.0e-7
+MAX_ITERATIONS = 60
+OK, BAD_POSITION = 0, 1
+"""How a compiled solve ended: every sub-step solved, or the drive left its travel."""
+
+
+@jit.helper
+def _muscle_trial(e: float, x: float, mp: McKibbenRecord, fk: Array, ff0: Array, fmu: Array,
+                  z: Array, zt: Array, st: Array) -> tuple[float, float, float]:
+    """(F, -dF/dx, friction) of the McKibben muscle at (e(p), x); the friction elements'
+    trial state into zt, st."""
+    f_bb, k_bb = backbone(e, x, mp)
+    f, k, ff, _ = friction_on_backbone(f_bb, k_bb, x, mp.hysteresis, mp.ct, fk, ff0, fmu, z,
+                                       zt, st)
+    return f, k, ff
+
+
+@jit.helper
+def newton_next(f: float, g: float, k: float, dxdf: float, lo: float, hi: float,
+                f_hi: float) -> float:
+    """The next iterate of the bracketed Newton on g(F) = F_m(p, X(F)) - F (``models.coupling``)
+    from F = ``f`` N with g = ``g`` N, the muscle's -dF_m/dx ``k`` N/m and the holder's dX/dF
+    ``dxdf`` m/N: the Newton step F + g / (1 + k dX/dF) inside the bracket (lo, hi), else the
+    bracket's midpoint once its ends are known, else 0 (while F_hi = F_m(X(0)), ``f_hi``, is
+    not tried: negative) or 2 F_hi."""
+    nxt = f + g / (1.0 + k * dxdf)
+    if lo < nxt < hi:
+        return nxt
+    if hi < math.inf and (lo > 0.0 or f_hi >= 0.0):
+        return 0.5 * (lo + hi)
+    if f_hi < 0.0:
+        return 0.0
+    return 2.0 * f_hi
+
+
+@jit.helper
+def suffix_extremes(values: Values, hi: Slots, lo: Slots) -> None:
+    """``hi[j]``, ``lo[j]`` = max, min of ``values[j:]`` for every j (``hi``, ``lo`` start as
+    copies of ``values``), shapes (n,)."""
+    for j in range(len(values) - 2, -1, -1):
+        hi[j] = hi[j] if hi[j] > hi[j + 1] else hi[j + 1]
+        lo[j] = lo[j] if lo[j] < lo[j + 1] else lo[j + 1]
+
+
+def _solve_mckibben(steps: Array, pressures: Array, f: float, mp: McKibbenRecord, fk: Array,
+                    ff0: Array, fmu: Array, z: Array, st: Array, dp: DriveRecord, ds: Array,
+                    mode: int, sp: float, out_f: Array, out_x: Array, tol: Array
+                    ) -> tuple[float, float, int, int, int]:
+    """Every sub-step of an exchange (``models.coupling.solve_substeps``) for a McKibben muscle
+    on the loading drive. ``z``, ``st`` (friction) and ``ds`` (drive) are updated in place;
+    forces and contractions go to ``out_f``, ``out_x``. ``tol``: the settle tolerances (force
+    N, contraction m, pressure Pa; negative: never settle), shape (3,). Returns (stiffness
+    -dF/dx N/m and friction N at the end, Newton iterations, status: ``OK`` or
+    ``BAD_POSITION``, sub-steps held)."""
+    n_el = fk.shape[0]
+    n = steps.shape[0]
+    zt = z.copy()
+    stt = st.copy()
+    prep = NO_PREP
+    k_last = 0.0
+    ff_last = 0.0
+    iters = 0
+    settle = tol[0] >= 0.0 and n > 2
+    saved = ds.copy() if settle else ds          # the arrays are copied only when used
+    next_try = 0
+    hi_p = pressures.copy() if settle else pressures
+    lo_p = pressures.copy() if settle else pressures
+    if settle:
+        suffix_extremes(pressures, hi_p, lo_p)
+    for idx in range(n):
+        d = steps[idx]
+        p = pressures[idx]
+        e = effective_pressure(p, mp)
+        if dp.dynamics != 0.0:
+            prep = drive_prepare(d, dp, ds, mode, sp)
+        lo, hi = 0.0, math.inf
+        f = f if f > 0.0 else 0.0
+        f_hi = -1.0
+        it = 1
+        while True:
+            x, dxdf = drive_contraction_and_compliance(f, dp, ds, mode, sp, prep)
+            if not math.isfinite(x):
+                return k_last, ff_last, iters, BAD_POSITION, 0
+            tf, tk, tff = _muscle_trial(e, x, mp, fk, ff0, fmu, z, zt, stt)
+            if f == 0.0:
+                f_hi = tf
+            g = tf - f
+            if g >= 0.0:
+                lo = f
+            else:
+                hi = f
+            if abs(g) <= FORCE_TOLERANCE_N or hi - lo <= FORCE_TOLERANCE_N or \
+                    it >= MAX_ITERATIONS:
+                break
+            it += 1
+            f = newton_next(f, g, tk, dxdf, lo, hi, f_hi)
+        if mp.hysteresis != 0.0:
+            for i in range(n_el):
+                z[i] = zt[i]
+                st[i] = stt[i]
+        drive_commit(f, dp, ds, mode, sp, prep)
+        out_f[idx] = f
+        out_x[idx] = x
+        k_last, ff_last = tk, tff
+        iters += it
+        left = n - 1 - idx
+        if settle and 0 < idx and left > 0 and idx >= next_try and \
+                abs(f - out_f[idx - 1]) * left <= tol[0] and \
+                abs(x - out_x[idx - 1]) * left <= tol[1] and \
+                max(hi_p[idx + 1] - p, p - lo_p[idx + 1]) <= tol[2]:
+            for i in range(ds.shape[0]):
+                saved[i] = ds[i]
+            for j in range(idx + 1, n):
+                if dp.dynamics != 0.0:
+                    prep = drive_prepare(steps[j], dp, ds, mode, sp)
+                drive_commit(f, dp, ds, mode, sp, prep)
+            if abs(ds[CONTRACTION] - x) <= tol[1]:
+                for j in range(idx + 1, n):
+                    out_f[j] = f
+                    out_x[j] = x
+                return k_last, ff_last, iters, OK, left
+            for i in range(ds.shape[0]):
+                ds[i] = saved[i]
+            next_try = idx + 1 + left // 2
+    return k_last, ff_last, iters, OK, 0
+
+
+def _solve_example() -> tuple[Any, ...]:
+    muscle = MuscleModel()
+    muscle.reset(0.0, 1e5)
+    dp, ds = LoadingServoModel().arrays()
+    return (np.full(2, 0.005), np.full(2, 1e5), 0.0, *muscle.arrays(), dp, ds, MODE_POSITION,
+            0.0, np.zeros(2), np.zeros(2), _NO_SETTLE)
+
+
+solve_mckibben = jit.kernel('solve_mckibben', _solve_mckibben, _solve_example)
+
 
 FORCE_TOLERANCE_N = 1.0e-7
 MAX_ITERATIONS = 60
@@ -165,7 +316,7 @@ def solve_substep(muscle: BenchMuscle, holder: Holder, d: float, pressure_pa: fl
         if abs(g) <= FORCE_TOLERANCE_N or hi - lo <= FORCE_TOLERANCE_N or it >= MAX_ITERATIONS:
             break
         it += 1
-        f = compiled.newton_next(f, g, trial[1], dxdf, lo, hi, f_hi)
+        f = newton_next(f, g, trial[1], dxdf, lo, hi, f_hi)
     muscle.commit(trial)
     holder.commit(f)
     return f, x, trial[1], trial[2], it
@@ -184,7 +335,7 @@ def solve_substeps(muscle: BenchMuscle, holder: Holder, steps_s: list[float],
     if len(steps_s) != len(pressures_pa) or not len(steps_s):
         raise ModelError(f'{len(pressures_pa)} pressures for {len(steps_s)} sub-steps')
     if type(muscle) is MuscleModel and type(holder) is LoadingServoModel and \
-            compiled.wanted(len(steps_s)):
+            jit.wanted(len(steps_s)):
         return _solve_compiled(muscle, holder, steps_s, pressures_pa, force_n, settle)
     forces: list[float] = []
     xs: list[float] = []
@@ -222,15 +373,15 @@ def solve_substeps(muscle: BenchMuscle, holder: Holder, steps_s: list[float],
 
 
 def _suffix_extremes(values: list[float]) -> tuple[list[float], list[float]]:
-    """(max, min) of ``values[j:]`` for every j, shapes (n,) (``compiled.suffix_extremes``)."""
+    """(max, min) of ``values[j:]`` for every j, shapes (n,) (``suffix_extremes``)."""
     hi, lo = list(values), list(values)
-    compiled.suffix_extremes(values, hi, lo)
+    suffix_extremes(values, hi, lo)
     return hi, lo
 
 
 def _solve_compiled(muscle: MuscleModel, drive: LoadingServoModel, steps_s: Any,
                     pressures_pa: Any, force_n: float, settle: SettleParams) -> SubStepResult:
-    """``solve_substeps`` on the compiled core (``models.compiled``): bit-equal results, the
+    """``solve_substeps`` on the compiled core (``models.jit``): bit-equal results, the
     muscle's friction and the drive's state kept as the reference keeps them."""
     steps = np.asarray(steps_s, dtype=float)
     pressures = np.asarray(pressures_pa, dtype=float)
@@ -246,10 +397,10 @@ def _solve_compiled(muscle: MuscleModel, drive: LoadingServoModel, steps_s: Any,
     out_f, out_x = np.empty(n), np.empty(n)
     tol = (np.array([settle.force_n, settle.contraction_m, settle.pressure_pa])
            if settle.enabled else _NO_SETTLE)
-    k, ff, iters, status, held = compiled.solve_mckibben(
+    k, ff, iters, status, held = solve_mckibben(
         steps, pressures, float(force_n), mp, fk, ff0, fmu, z, st, dp, ds, int(drive.mode),
         float(drive.setpoint), out_f, out_x, tol)
-    if status != compiled.OK:
+    if status != OK:
         raise ModelError('holder position is not finite')
     muscle.friction.set_state(z, st)
     drive.set_state(ds)

@@ -16,16 +16,71 @@ of s, not on the step size (rate independence). ``trial`` evaluates a move witho
 (the implicit sub-step of ``pam_bench.models.coupling`` tries several); ``commit`` keeps one.
 The element bank is short (three elements by default) and evaluated thousands of times per
 simulated second, so the object keeps Python floats and tuples; the law itself is the compiled
-core's (``compiled.slip_elements``), run here interpreted on them.
+core's (``slip_elements``), run here interpreted on them.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-from pam_bench.models import compiled
+from pam_bench.models import jit
+from pam_bench.models.jit import Slots, Values
 
-__all__ = ['MaxwellSlip', 'FrictionTrial']
+__all__ = ['MaxwellSlip', 'FrictionTrial', 'slip_elements', 'friction_on_backbone']
+
+
+# --- the law, compiled (models.jit) -------------------------------------------------------
+@jit.helper
+def slip_elements(s: float, load: float, fk: Values, ff0: Values, fmu: Values, z: Values,
+                  zt: Slots, st: Slots) -> tuple[float, float]:
+    """The Maxwell-slip elements (``models.friction``, 004 section 2.2) moved to the slip
+    coordinate ``s`` m under ``load`` N >= 0 from their positions ``z`` m: element i
+    (stiffness fk_i N/m, break force ff0_i + fmu_i load N) sticks while |s - z_i| < lim_i =
+    (ff0_i + fmu_i load) / fk_i, else slides to s -+ lim_i. Its trial position goes to
+    ``zt[i]``, 1 (sticking) or 0 to ``st[i]``. Returns (F_f = sum fk_i (s - zt_i) N, the
+    sticking elements' stiffness N/m). Arrays or sequences of length n."""
+    force = 0.0
+    k_stick = 0.0
+    for i in range(len(fk)):
+        k = fk[i]
+        lim = (ff0[i] + fmu[i] * load) / k
+        zi = z[i]
+        d = s - zi
+        if d >= lim:
+            zi = s - lim
+            st[i] = 0
+        elif d <= -lim:
+            zi = s + lim
+            st[i] = 0
+        else:
+            k_stick += k
+            st[i] = 1
+        zt[i] = zi
+        force += k * (s - zi)
+    return force, k_stick
+
+
+@jit.helper
+def friction_on_backbone(f_bb: float, k_bb: float, x: float, hysteresis: float, ct: float,
+                         fk: Values, ff0: Values, fmu: Values, z: Values, zt: Slots,
+                         st: Slots) -> tuple[float, float, float, float]:
+    """A bench muscle at contraction ``x`` m from its backbone (F_bb N, K_bb = -dF_bb/dx N/m):
+    with ``hysteresis`` (1) the braid friction F_f on s = x + c_t F_bb^+ under the load F_bb^+
+    (``slip_elements``; trial state into ``zt``, ``st``), F = F_bb - F_f, never pushing, and
+    -dF/dx = K_bb + K_stick (1 - c_t K_bb while the braid is under tension). Returns
+    (F N, -dF/dx N/m, F_f N, K_stick N/m); F <= 0 gives (0, 0, F_f, K_stick)."""
+    ff = 0.0
+    kf = 0.0
+    k_stick = 0.0
+    if hysteresis != 0.0:
+        tension = f_bb if f_bb > 0.0 else 0.0
+        ff, k_stick = slip_elements(x + ct * tension, tension, fk, ff0, fmu, z, zt, st)
+        kf = k_stick * (1.0 - ct * k_bb if f_bb > 0.0 else 1.0)
+    f = f_bb - ff
+    if f <= 0.0:
+        return 0.0, 0.0, ff, k_stick
+    return f, k_bb + kf, ff, k_stick
+
 
 FrictionTrial = tuple[float, float, tuple[float, ...], tuple[bool, ...]]
 """(friction force N, stiffness dF_f/ds of the sticking elements N/m, z_i m, sticking_i)."""
@@ -59,10 +114,10 @@ class MaxwellSlip:
 
     def trial(self, s_m: float, load_n: float) -> FrictionTrial:
         """The move to slip coordinate ``s_m`` (m) under the load ``load_n`` (N), not kept
-        (the elements' law: ``compiled.slip_elements``)."""
+        (the elements' law: ``slip_elements``)."""
         zt = list(self.z)
         st = [1] * len(zt)
-        force, k_stick = compiled.slip_elements(s_m, load_n if load_n > 0.0 else 0.0, self.k,
+        force, k_stick = slip_elements(s_m, load_n if load_n > 0.0 else 0.0, self.k,
                                                 self.f0, self.mu, self.z, zt, st)
         return force, k_stick, tuple(zt), tuple(v == 1 for v in st)
 

@@ -27,7 +27,10 @@ import math
 
 import numpy as np
 
-__all__ = ['zoh', 'zoh_2x2_floats', 'second_order_matrices', 'ZohCache']
+from pam_bench.models import jit
+from pam_bench.models.jit import Array
+
+__all__ = ['zoh', 'zoh_2x2_floats', 'second_order_matrices', 'ZohCache', 'zoh_run']
 
 
 def zoh(a: np.ndarray, b: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
@@ -205,3 +208,19 @@ class ZohCache:
                 self._floats.pop(next(iter(self._floats)))
             self._floats[k] = hit
         return hit
+
+
+# --- compiled (models.jit) ------------------------------------------------------------------
+def _zoh_run(s0: float, s1: float, a00: float, a01: float, a10: float, a11: float, b0: float,
+             b1: float, n: int, p_max: float, out: Array, start: int) -> tuple[float, float]:
+    """``n`` equal ZOH sub-steps from the state (s0 Pa, s1 Pa/s) with the (already scaled)
+    input terms b0, b1; the clamped gauge pressure of each into ``out[start:start + n]``.
+    Returns the state after them."""
+    for i in range(n):
+        s0, s1 = a00 * s0 + a01 * s1 + b0, a10 * s0 + a11 * s1 + b1
+        out[start + i] = min(max(s0, 0.0), p_max)
+    return s0, s1
+
+
+zoh_run = jit.kernel('zoh_run', _zoh_run, lambda: (
+    0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 2, 1.0, np.zeros(2), 0))

@@ -56,19 +56,18 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
-from pam_bench.models import compiled
-from pam_bench.models.compiled import McKibbenRecord, backbone
-from pam_bench.models.compiled import softplus as _softplus
+from pam_bench.models import jit
 from pam_bench.models.errors import ModelError
-from pam_bench.models.friction import FrictionTrial, MaxwellSlip
+from pam_bench.models.friction import FrictionTrial, MaxwellSlip, friction_on_backbone
 from pam_bench.vocabulary.params import field
 
 __all__ = ['FrictionMuscle', 'MuscleParams', 'MuscleModel', 'MuscleOutput', 'MuscleTrial',
-           'LOCK_COS', 'gain_rise_limit']
+           'LOCK_COS', 'gain_rise_limit', 'McKibbenRecord', 'softplus', 'effective_pressure',
+           'backbone']
 
 MAX_PRESSURE_PA = 1.0e6
 """The valve's largest output pressure (004: 0..1 MPa over 0..10 V), Pa."""
@@ -85,6 +84,73 @@ def gain_rise_limit(bladder_stiffness_n_per_m: float) -> float:
 
 MuscleTrial = tuple[float, float, float, FrictionTrial | None]
 """(force N, stiffness -dF/dx N/m, friction N, friction trial or None without hysteresis)."""
+
+
+# --- the law, compiled (models.jit) -------------------------------------------------------
+class McKibbenRecord(NamedTuple):
+    """The McKibben muscle's parameters by name (``models.muscle``; built by
+    ``McKibbenMuscle.record``): gains N/Pa (g0, gm), the gain minimum's contraction xm m, the
+    exponent n, the rise gr N/(Pa m), the contact band (threshold pth Pa, width w Pa, offset
+    e0 Pa), the stiffnesses kbl, ks, kl N/m, the lock-up contraction xl m, whether the braid
+    has friction (hysteresis, 1 or 0) and its slip compliance ct m/N."""
+
+    g0: float
+    gm: float
+    xm: float
+    n: float
+    gr: float
+    pth: float
+    w: float
+    e0: float
+    kbl: float
+    ks: float
+    kl: float
+    xl: float
+    hysteresis: float
+    ct: float
+
+
+@jit.helper
+def softplus(z: float) -> float:
+    """log(1 + e^z), overflow-free (the contact band's smooth threshold, ``models.muscle``)."""
+    return (z if z > 0.0 else 0.0) + math.log1p(math.exp(-abs(z)))
+
+
+@jit.helper
+def effective_pressure(p: float, mp: McKibbenRecord) -> float:
+    """e(p) Pa of the module docstring for the gauge pressure p Pa (negative taken as 0)."""
+    w, pth = mp.w, mp.pth
+    p = p if p > 0.0 else 0.0
+    if w <= 0.0:
+        return p - pth if p > pth else 0.0
+    z = (p - pth) / w
+    e = w * softplus(z) - mp.e0
+    return e if e > 0.0 else 0.0
+
+
+@jit.helper
+def backbone(e: float, x: float, mp: McKibbenRecord) -> tuple[float, float]:
+    """(F_bb N, -dF_bb/dx N/m) at the effective pressure e Pa and contraction x m: g(x) e -
+    k_bl x, the stretch and lock-up stiffnesses past 0 and x_l (``models.muscle``)."""
+    g0, gm, xm, n, gr = mp.g0, mp.gm, mp.xm, mp.n, mp.gr
+    if x <= xm:
+        r = 1.0 - x / xm
+        rn = r ** (n - 1.0)
+        g = gm + (g0 - gm) * rn * r
+        dg = -(g0 - gm) * n * rn / xm
+    else:
+        g = gm + gr * (x - xm)
+        dg = gr
+    kbl = mp.kbl
+    f = g * e - kbl * x
+    k = -dg * e + kbl
+    if x < 0.0:
+        f -= mp.ks * x
+        k += mp.ks
+    elif x > mp.xl:
+        f -= mp.kl * (x - mp.xl)
+        k += mp.kl
+    return f, k
 
 
 @dataclasses.dataclass
@@ -182,14 +248,14 @@ class FrictionMuscle:
         p = self.p
         f_bb, k_bb = self.backbone_and_stiffness(pressure_pa, contraction_m)
         if not p.hysteresis:
-            f, k, ff, _ = compiled.friction_on_backbone(f_bb, k_bb, contraction_m, 0.0, 0.0, (),
+            f, k, ff, _ = friction_on_backbone(f_bb, k_bb, contraction_m, 0.0, 0.0, (),
                                                         (), (), (), [], [])
             return f, k, ff, None
         fr = self.friction
         zt = list(fr.z)
         st = [1] * len(zt)
         # -dF/dx through s: ds/dx = 1 - c_t K_bb while the braid is under tension
-        f, k, ff, k_stick = compiled.friction_on_backbone(
+        f, k, ff, k_stick = friction_on_backbone(
             f_bb, k_bb, contraction_m, 1.0, p.slip_compliance_m_per_n, fr.k, fr.f0, fr.mu,
             fr.z, zt, st)
         return f, k, ff, (ff, k_stick, tuple(zt), tuple(v == 1 for v in st))
@@ -243,7 +309,7 @@ class MuscleModel(FrictionMuscle):
         self._turns = self._thread_m * math.sin(th0) / (math.pi * self.p.nominal_diameter_m)
         self.lock_contraction_m = self.p.nominal_length_m - self._thread_m * LOCK_COS
         w, pth = self.p.threshold_width_pa, self.p.threshold_pressure_pa
-        self._e0 = w * _softplus(-pth / w) if w > 0.0 else 0.0
+        self._e0 = w * softplus(-pth / w) if w > 0.0 else 0.0
         self._e_memo = (math.nan, 0.0)   # (p Pa, e(p) Pa): a sub-step tries one pressure
         self.record = self._record()
 
@@ -252,7 +318,7 @@ class MuscleModel(FrictionMuscle):
         self.friction.reset(self.slip(contraction_m, pressure_pa))
 
     def _record(self) -> McKibbenRecord:
-        """The parameters by name as the kernels take them (``compiled.McKibbenRecord``)."""
+        """The parameters by name as the kernels take them (``McKibbenRecord``)."""
         p = self.p
         return McKibbenRecord(
             g0=p.gain_n_per_pa, gm=p.gain_min_n_per_pa, xm=p.gain_min_contraction_m,
@@ -263,7 +329,7 @@ class MuscleModel(FrictionMuscle):
             ct=p.slip_compliance_m_per_n)
 
     def arrays(self) -> tuple[Any, ...]:
-        """The muscle as the compiled core takes it (``models.compiled``): its parameters by
+        """The muscle as the compiled core takes it (``models.jit``): its parameters by
         name (``McKibbenRecord``), then the friction elements' stiffness, break force, growth,
         positions and sticking flags, shapes (n,)."""
         fr = self.friction
@@ -278,7 +344,7 @@ class MuscleModel(FrictionMuscle):
         if w <= 0.0:
             return (p - pth, 1.0) if p > pth else (0.0, 0.0)
         z = (p - pth) / w
-        e = w * _softplus(z) - self._e0
+        e = w * softplus(z) - self._e0
         return (e if e > 0.0 else 0.0), 1.0 / (1.0 + math.exp(-z)) if z > -700.0 else 0.0
 
     def gain(self, contraction_m: float) -> float:
@@ -299,7 +365,7 @@ class MuscleModel(FrictionMuscle):
     def backbone_and_stiffness(self, pressure_pa: float, contraction_m: float
                                ) -> tuple[float, float]:
         """(F_bb(p, x) N, -dF_bb/dx N/m): friction-free, before the clamp (may be negative);
-        the compiled core's own function (``compiled.backbone``), here interpreted."""
+        the compiled core's own function (``backbone``), here interpreted."""
         if self._e_memo[0] == pressure_pa:
             e = self._e_memo[1]
         else:

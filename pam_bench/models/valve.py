@@ -28,9 +28,9 @@ import math
 
 import numpy as np
 
-from pam_bench.models import compiled
+from pam_bench.models import jit
 from pam_bench.models.errors import ModelError
-from pam_bench.models.lti import ZohCache
+from pam_bench.models.lti import ZohCache, zoh_run
 from pam_bench.vocabulary.params import field
 
 __all__ = ['ValveParams', 'ValveModel', 'VolumeEvidence']
@@ -184,7 +184,7 @@ class ValveModel:
         key = (self.p.order, round(w, 9))
         s0, s1 = float(self.state[0]), float(self.state[1])
         p_max = self.p.pressure_max_pa
-        if compiled.wanted(len(steps_s)):
+        if jit.wanted(len(steps_s)):
             a, b = self.matrices(chamber_volume_m3)
             return self._samples_compiled(steps_s, target, a, b, key, s0, s1)
         if self.p.order == 1:                 # the entries of ``matrices``, as floats
@@ -210,7 +210,7 @@ class ValveModel:
                           b: np.ndarray, key: tuple[int, float], s0: float, s1: float
                           ) -> list[float]:
         """``samples`` on the compiled core: each run of equal sub-steps in one call of
-        ``compiled.zoh_run`` (the same operations, bit-equal)."""
+        ``models.lti.zoh_run`` (the same operations, bit-equal)."""
         n = len(steps_s)
         out = np.empty(n)
         i = 0
@@ -223,7 +223,7 @@ class ValveModel:
                 j += 1
             ad, bd = self._cache.get(key, a, b, d)
             a00, a01, a10, a11 = (float(v) for v in ad.ravel())
-            s0, s1 = compiled.zoh_run(s0, s1, a00, a01, a10, a11, float(bd[0, 0]) * target,
+            s0, s1 = zoh_run(s0, s1, a00, a01, a10, a11, float(bd[0, 0]) * target,
                                       float(bd[1, 0]) * target, j - i,
                                       self.p.pressure_max_pa, out, i)
             i = j

@@ -15,7 +15,7 @@ from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticStatus
 
-from pam_bench.models import compiled
+from pam_bench.models import jit
 from pam_bench.runtime.core import NodeCore, Output
 from pam_bench.runtime.intra import bus_publisher, bus_subscription
 from pam_bench.runtime.qos import DRIVER, SENSOR
@@ -44,12 +44,12 @@ class WallClock(NodeCore):
         """Tick ``on_wall_tick`` every ``period_s``: on an rclpy timer under any executor,
         until a lean loop takes the ticking over (``take_wall_ticks``).
 
-        The process stays on the reference physics (``models.compiled.use('python')``): a
+        The process stays on the reference physics (``models.jit.use('python')``): a
         late tick steps several periods at once, and the first call of many sub-steps would
         otherwise load numba in a thread mid-run, holding the interpreter for half a second
         or more (a measured topic goes stale). A wall-clock period has a few sub-steps, which
         the reference runs as fast."""
-        compiled.use('python')
+        jit.use('python')
         self.wall_period_s = period_s
         self.count_periods(period_s)
         self.wall_timer = self.create_timer(period_s, self.wall_tick)

@@ -8,7 +8,7 @@ import copy
 import numpy as np
 import pytest
 
-from pam_bench.models import compiled
+from pam_bench.models import jit
 from pam_bench.models.coupling import SETTLE_OFF, SettleParams, solve_substeps
 from pam_bench.models.loading_servo import LoadingServoModel, LoadingServoParams, LoadMode
 from pam_bench.models.muscle import MuscleModel
@@ -64,7 +64,7 @@ def test_a_held_span_is_bit_equal_on_both_cores(name: str) -> None:
     case = _dwell(mode, sp, u, dynamics=dyn)
     out = []
     for core in ('python', 'compiled'):
-        compiled.use(core)
+        jit.use(core)
         out.append(_solve(case, SettleParams()))
     f_py, x_py, held_py, ds_py = out[0]
     f_nb, x_nb, held_nb, ds_nb = out[1]
@@ -109,7 +109,7 @@ def test_the_servo_node_replay_reaches_the_same_drive_state() -> None:
     """The muscle node's solve (with held spans) and the servo node's replay of its samples
     leave the drive in the same state, bit for bit, on both cores."""
     for core in ('python', 'compiled'):
-        compiled.use(core)
+        jit.use(core)
         muscle, drive, steps, pressures = _dwell(LoadMode.POSITION, 0.04, 5.0)
         replayed = copy.deepcopy(drive)
         f = 0.0

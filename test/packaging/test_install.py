@@ -57,8 +57,8 @@ def test_pip_install_runs_the_demo_from_anywhere(tmp_path: pathlib.Path,
     _check_compiled_core([str(py), '-c', CORE], away, tmp_path / 'cache', str(venv))
 
 
-CORE = ('from pam_bench.models import compiled; compiled.use("compiled"); '
-        'print(compiled.__file__, compiled.cache_dir(), compiled.enabled())')
+CORE = ('from pam_bench.models import jit; jit.use("compiled"); '
+        'print(jit.__file__, jit.cache_dir(), jit.enabled())')
 """Loads the compiled core in the installed copy and says where it is and where its cache is."""
 
 

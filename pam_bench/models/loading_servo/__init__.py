@@ -1,4 +1,4 @@
-"""The 004 loading servo: parameters and modes, drive mechanics, holders, the sub-step law."""
+"""The 004 loading servo: parameters and modes, drive mechanics and its sub-step, holders, law."""
 
 from __future__ import annotations
 

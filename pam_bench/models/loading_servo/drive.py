@@ -57,15 +57,34 @@ from typing import Any
 
 import numpy as np
 
-from pam_bench.models import compiled
+from pam_bench.models import jit
 from pam_bench.models.errors import ModelError
 from pam_bench.models.loading_servo.params import LoadingServoParams, LoadMode
+from pam_bench.models.loading_servo.substep import (
+    CONTRACTION,
+    ENCODER,
+    FORCE,
+    INTEGRAL,
+    NO_PREP,
+    PHI,
+    SATURATED,
+    STATE_SIZE,
+    TORQUE,
+    DriveRecord,
+    Prep,
+    W,
+    drive_commit,
+    drive_contraction_and_compliance,
+    drive_play,
+    drive_prepare,
+    replay_drive,
+)
 
 __all__ = ['LoadingServoModel', 'ServoOutput', 'SubStep']
 
 
-SubStep = compiled.Prep
-"""The prepared sub-step (``compiled.Prep``): tau_+ = t0 + t1 F_+ and I_+ = i0 + i1 F_+
+SubStep = Prep
+"""The prepared sub-step (``Prep``): tau_+ = t0 + t1 F_+ and I_+ = i0 + i1 F_+
 (unclamped), the integral's limit and gain, the position loop's rate when it fixes one."""
 
 
@@ -95,10 +114,10 @@ def _slot(index: int, doc: str) -> Any:
 class LoadingServoModel:
     """Loading servo drive and belt mechanics as a sub-step law (module docstring).
 
-    The law is the compiled core's (``compiled.drive_prepare``, ``drive_end``,
+    The law is the compiled core's (``drive_prepare``, ``drive_end``,
     ``drive_contraction_and_compliance``, ``drive_commit``, the ideal holder of
     ``dynamics: false`` included), run here interpreted over the drive's parameters by name
-    (``record``) and its state (``state``: a list indexed by ``compiled.PHI`` ...).
+    (``record``) and its state (``state``: a list indexed by ``PHI`` ...).
     """
 
     def __init__(self, params: LoadingServoParams | None = None) -> None:
@@ -110,7 +129,7 @@ class LoadingServoModel:
         self.count_rad = 2.0 * math.pi / 2 ** p.encoder_bits_per_rev
         self.mode = LoadMode.OFF
         self.setpoint = 0.0
-        self.record = compiled.DriveRecord(
+        self.record = DriveRecord(
             r=self.r, j=p.inertia_kg_m2, c=p.damping_nm_s_per_rad, tau_max=self.tau_max,
             half_play=self.half_play, count_rad=self.count_rad,
             backlash_force_n=p.backlash_force_n, belt_stiffness=p.belt_stiffness_n_per_m,
@@ -122,22 +141,22 @@ class LoadingServoModel:
             dynamics=1.0 if p.dynamics else 0.0)
         # gear output angle rad, its rate rad/s, controller integral (N s or m s), muscle force
         # of the last sub-step N, its encoder reading rad, muscle end m, torque N m, saturated
-        self.state: list[float] = [0.0] * compiled.STATE_SIZE
-        self._prep = compiled.NO_PREP
+        self.state: list[float] = [0.0] * STATE_SIZE
+        self._prep = NO_PREP
 
     # --- the state by name --------------------------------------------------------------
-    phi = _slot(compiled.PHI, 'Gear output angle, rad.')
-    w = _slot(compiled.W, 'Gear output rate, rad/s.')
-    integral = _slot(compiled.INTEGRAL, 'Controller integral, N s or m s.')
-    force_n = _slot(compiled.FORCE, 'Muscle force of the last sub-step, N.')
-    encoder_rad = _slot(compiled.ENCODER, 'Encoder reading of the last sub-step, rad.')
-    contraction_m = _slot(compiled.CONTRACTION, 'Muscle end of the last sub-step, m.')
-    torque = _slot(compiled.TORQUE, 'Output torque, N m.')
+    phi = _slot(PHI, 'Gear output angle, rad.')
+    w = _slot(W, 'Gear output rate, rad/s.')
+    integral = _slot(INTEGRAL, 'Controller integral, N s or m s.')
+    force_n = _slot(FORCE, 'Muscle force of the last sub-step, N.')
+    encoder_rad = _slot(ENCODER, 'Encoder reading of the last sub-step, rad.')
+    contraction_m = _slot(CONTRACTION, 'Muscle end of the last sub-step, m.')
+    torque = _slot(TORQUE, 'Output torque, N m.')
 
     @property
     def saturated(self) -> bool:
         """Whether the torque was at its limit in the last sub-step."""
-        return self.state[compiled.SATURATED] != 0.0
+        return self.state[SATURATED] != 0.0
 
     # --- commands and state -------------------------------------------------------------
     def command(self, mode: LoadMode, setpoint: float) -> None:
@@ -171,12 +190,12 @@ class LoadingServoModel:
         if not (d > 0.0 and math.isfinite(d)):
             raise ModelError(f'loading servo sub-step {d!r} s is not finite and positive')
         if self.p.dynamics:
-            self._prep = compiled.drive_prepare(d, self.record, self.state, int(self.mode),
+            self._prep = drive_prepare(d, self.record, self.state, int(self.mode),
                                                 self.setpoint)
 
     def play(self, force_n: float) -> float:
         """beta(F): where the pulley sits inside the gear play, rad."""
-        return compiled.drive_play(force_n, self.record)
+        return drive_play(force_n, self.record)
 
     def quantised(self, angle_rad: float) -> float:
         """The angle rounded to the encoder count the position loop reads, rad."""
@@ -190,23 +209,23 @@ class LoadingServoModel:
     def contraction_and_compliance(self, force_n: float) -> tuple[float, float]:
         """(X(F) m, dX/dF m/N) of the prepared sub-step at ``force_n``: ``contraction`` and
         ``compliance`` in one evaluation (the coupled solve asks for both at every iterate)."""
-        return compiled.drive_contraction_and_compliance(
+        return drive_contraction_and_compliance(
             force_n, self.record, self.state, int(self.mode), self.setpoint, self._prep)
 
     def commit(self, force_n: float) -> None:
         """Keep the prepared sub-step with the muscle force ``force_n`` (N) at its end
         (``output`` then tells where it left the drive)."""
-        compiled.drive_commit(force_n, self.record, self.state, int(self.mode), self.setpoint,
+        drive_commit(force_n, self.record, self.state, int(self.mode), self.setpoint,
                               self._prep)
 
     def arrays(self) -> tuple[Any, np.ndarray]:
-        """The drive as the compiled core takes it (``models.compiled``): its parameters by
-        name (``DriveRecord``) and its state as an array (indexed by ``compiled.PHI`` ...),
+        """The drive as the compiled core takes it (``models.jit``): its parameters by
+        name (``DriveRecord``) and its state as an array (indexed by ``PHI`` ...),
         shape (``STATE_SIZE``,)."""
         return self.record, np.array(self.state, dtype=float)
 
     def set_state(self, ds: np.ndarray) -> None:
-        """Take the state a compiled solve or replay left (indexed by ``compiled.PHI`` ...)."""
+        """Take the state a compiled solve or replay left (indexed by ``PHI`` ...)."""
         self.state = [float(v) for v in ds]
 
     def output(self) -> ServoOutput:
@@ -225,13 +244,13 @@ class LoadingServoModel:
         if not all(map(math.isfinite, forces_n)):
             bad = next(f for f in forces_n if not math.isfinite(f))
             raise ModelError(f'muscle force {bad!r} is not finite')
-        if compiled.wanted(len(steps_s)):
+        if jit.wanted(len(steps_s)):
             steps = np.asarray(steps_s, dtype=float)
             if not (np.isfinite(steps).all() and (steps > 0.0).all()):
                 bad = steps[~(np.isfinite(steps) & (steps > 0.0))][0]
                 raise ModelError(f'loading servo sub-step {bad!r} s is not finite and positive')
             dp, ds = self.arrays()
-            compiled.replay_drive(steps, np.asarray(forces_n, dtype=float), dp, ds,
+            replay_drive(steps, np.asarray(forces_n, dtype=float), dp, ds,
                                   int(self.mode), float(self.setpoint))
             self.set_state(ds)
             return self.output()

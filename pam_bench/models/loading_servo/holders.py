@@ -1,7 +1,7 @@
 """Holders of the muscle end without drive mechanics: the same sub-step interface as the drive.
 
 The ideal holder that stands in for the drive when ``LoadingServoParams.dynamics`` is false is
-part of the drive's law (``compiled.drive_ideal_contraction``, ``drive_commit``):
+part of the drive's law (``drive.drive_ideal_contraction``, ``drive_commit``):
 
     position mode:   x = x* + F / k_b                         (held at the set value)
     force, off:      x = x_0 + C (F - F*),  F* = 0 when off    (a soft force source)
@@ -14,7 +14,7 @@ x is clamped to the belt travel, and the drive's angle, rate and torque follow t
 
 from __future__ import annotations
 
-from pam_bench.models.compiled import IDEAL_FORCE_COMPLIANCE_M_PER_N
+from pam_bench.models.loading_servo.substep import IDEAL_FORCE_COMPLIANCE_M_PER_N
 
 __all__ = ['IdealHold', 'IDEAL_FORCE_COMPLIANCE_M_PER_N']
 

@@ -13,7 +13,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from pam_bench.models import compiled
+from pam_bench.models import jit
 from pam_bench.models.coupling import SETTLE_OFF, SettleParams, solve_substeps, substep_grid
 from pam_bench.models.loading_servo import LoadingServoModel, LoadingServoParams, LoadMode
 from pam_bench.models.muscle import MuscleModel, MuscleParams
@@ -23,7 +23,7 @@ from pam_bench.models.valve import ValveModel, ValveParams
 def _both(fn):  # run fn() under each core on fresh copies; return (python, compiled)
     out = []
     for core in ('python', 'compiled'):
-        compiled.use(core)
+        jit.use(core)
         out.append(fn())
     return out
 
@@ -140,7 +140,7 @@ def test_a_whole_protocol_is_bit_equal() -> None:
 def test_a_non_finite_pressure_is_one_error_in_both() -> None:
     from pam_bench.models.errors import ModelError
     for core in ('python', 'compiled'):
-        compiled.use(core)
+        jit.use(core)
         with pytest.raises(ModelError, match='not finite'):
             solve_substeps(MuscleModel(), _drive(LoadMode.OFF, 0.0), [0.005, 0.005],
                            [1e5, float('nan')], 0.0)
@@ -150,21 +150,21 @@ def test_the_core_asked_for_is_known_before_it_loads(monkeypatch: pytest.MonkeyP
     """``core`` is what was asked, ``enabled`` whether it runs yet: before the kernels load,
     the reference runs, yet the core to restore after a switch is still 'compiled'."""
     import threading
-    compiled.use('compiled')
-    monkeypatch.setattr(compiled, '_READY', threading.Event())     # not loaded yet
-    assert not compiled.enabled()
-    assert compiled.core() == 'compiled'
+    jit.use('compiled')
+    monkeypatch.setattr(jit, '_READY', threading.Event())     # not loaded yet
+    assert not jit.enabled()
+    assert jit.core() == 'compiled'
     monkeypatch.undo()
-    compiled.use('python')
-    assert compiled.core() == 'python' and not compiled.enabled()
-    compiled.use('compiled')
-    assert compiled.core() == 'compiled' and compiled.enabled()
+    jit.use('python')
+    assert jit.core() == 'python' and not jit.enabled()
+    jit.use('compiled')
+    assert jit.core() == 'compiled' and jit.enabled()
 
 
 def test_the_cache_lives_where_the_install_can_write() -> None:
     import os
-    assert os.environ['NUMBA_CACHE_DIR'] == str(compiled.cache_dir())
-    assert compiled.warm_up() >= 0.0
+    assert os.environ['NUMBA_CACHE_DIR'] == str(jit.cache_dir())
+    assert jit.warm_up() >= 0.0
 
 
 @pytest.mark.parametrize('mode, sp', [(LoadMode.FORCE, 300.0), (LoadMode.POSITION, 0.05),
@@ -192,8 +192,8 @@ def test_the_kernels_interpreted_are_the_compiled_ones(name: str,
     muscle, drive = MuscleModel(params), _drive(mode, sp, x0)
     muscle.reset(x0, float(pressures[0]))
     py, nb = _both(lambda: _run(muscle, drive, pressures, settle=SettleParams()))
-    compiled.use('compiled')
-    monkeypatch.setattr(compiled, '_COMPILED', {})          # the same functions, interpreted
+    jit.use('compiled')
+    monkeypatch.setattr(jit, '_COMPILED', {})          # the same functions, interpreted
     interpreted = _run(muscle, drive, pressures, settle=SettleParams())
     for a, b, c in zip(py, nb, interpreted, strict=True):
         np.testing.assert_array_equal(np.asarray(a, dtype=object), np.asarray(c, dtype=object))
