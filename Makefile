@@ -9,7 +9,7 @@ export ROS_DOMAIN_ID ?= $(shell python3 -c 'import os; print(1 + os.getpid() % 1
 export OPENBLAS_NUM_THREADS := 1
 export OMP_NUM_THREADS := 1
 
-.PHONY: setup demo test check lint calibration inverse-model servo-compare clean
+.PHONY: setup demo test check lint bench calibration inverse-model servo-compare clean
 
 setup:
 	@bash tools/bootstrap.sh
@@ -19,21 +19,26 @@ demo: setup
 
 test:
 	@bash tools/bootstrap.sh --with-js
-	$(PY) -m ruff check pam_bench test
+	$(PY) -m ruff check pam_bench benchmarks test
 	$(PY) -m mypy
-	$(PY) -m vulture pam_bench test tools/vulture_allow.py --min-confidence 60
+	$(PY) -m vulture pam_bench benchmarks test tools/vulture_allow.py --min-confidence 60
 	$(PY) -m pytest -q -n 2 -m 'not wallclock' test
 	PAM_BENCH_TEST_DOMAIN_START=80 $(PY) -m pytest -q -p no:xdist -m wallclock test
 
 # the quick tier: every test that needs neither ROS nor a clock nor a fit (under a minute)
 check: setup
-	$(PY) -m ruff check pam_bench test
+	$(PY) -m ruff check pam_bench benchmarks test
 	$(PY) -m pytest -q -n 2 -m 'not ros and not wallclock and not slow' test
 
 lint: setup
-	$(PY) -m ruff check pam_bench test
+	$(PY) -m ruff check pam_bench benchmarks test
 	$(PY) -m mypy
-	$(PY) -m vulture pam_bench test tools/vulture_allow.py --min-confidence 60
+	$(PY) -m vulture pam_bench benchmarks test tools/vulture_allow.py --min-confidence 60
+
+# the benchmark studies -> BENCHMARKS.md and results/bench.json (hours; ARGS='--quick', '--only
+# layouts,profile', '--list': python -m benchmarks --help)
+bench: setup
+	$(PY) -m benchmarks $(ARGS)
 
 calibration: setup
 	$(VENV)/bin/pam-bench calibration --json

@@ -16,8 +16,8 @@ NODES = runpy.run_path(os.path.join(HERE, 'pam_bench', 'config', 'executables.py
 setup(
     name=PACKAGE,
     version='0.1.0',
-    packages=find_packages(exclude=['test', 'test.*']),
-    package_data={'pam_bench.benchmarks': ['methods.yaml']},
+    # the package only: the benchmark studies (benchmarks/) and the tests stay in the clone
+    packages=find_packages(include=['pam_bench', 'pam_bench.*']),
     data_files=[
         ('share/ament_index/resource_index/packages', [f'resource/{PACKAGE}']),
         (f'share/{PACKAGE}', ['package.xml']),

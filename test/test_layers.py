@@ -11,8 +11,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[1] / 'pam_bench'
 # lower rank = lower layer; a module may import its own folder and lower ranks only
 RANK = {'vocabulary': -1, 'models': 0, 'sim': 1, 'control': 1, 'cluster': 1, 'protocol': 2,
         'config': 3, 'buses': 3.5, 'bags': 3.8, 'analysis': 4, 'live': 5, 'runtime': 5.5,
-        'nodes': 6, 'twin': 6, 'verify': 7, 'fit': 7.5, 'bringup': 8, 'sweep': 9,
-        'benchmarks': 10, 'cli': 11}
+        'nodes': 6, 'twin': 6, 'verify': 7, 'fit': 7.5, 'bringup': 8, 'sweep': 9, 'cli': 11}
 NO_ROS = {'vocabulary', 'models', 'sim', 'control', 'cluster', 'protocol', 'config', 'buses',
           'bags', 'analysis', 'live', 'twin', 'verify', 'fit'}
 MODULES = sorted(p for p in ROOT.rglob('*.py'))
@@ -47,6 +46,7 @@ def test_no_import_from_a_layer_above(path: pathlib.Path) -> None:
         parts = name.split('.')
         if parts[0] == 'rclpy' or parts[0].startswith('rosgraph') or parts[0] == 'rcl_interfaces':
             assert room not in NO_ROS, f'{path.name} imports {name}'
+        assert parts[0] != 'benchmarks', f'{path.name} imports the studies ({name})'
         if parts[0] != 'pam_bench' or len(parts) < 2:
             continue
         other = parts[1]
@@ -115,3 +115,24 @@ def test_no_import_circle_between_modules() -> None:
     for n in sorted(graph):
         if n not in state:
             visit(n)
+
+
+STUDIES = pathlib.Path(__file__).resolve().parents[1] / 'benchmarks'
+
+
+@pytest.mark.parametrize('path', sorted(STUDIES.glob('*.py')), ids=lambda p: p.name)
+def test_the_studies_sit_above_the_package(path: pathlib.Path) -> None:
+    """The benchmark studies (top-level ``benchmarks/``, not in the wheel) import pam_bench and
+    each other, never a node's ROS client library directly."""
+    for name in _imports(path):
+        assert name.split('.')[0] not in ('rclpy', 'rosgraph_msgs'), f'{path.name}: {name}'
+
+
+def test_every_study_module_is_named_as_its_key() -> None:
+    """One name per study: ``benchmarks/KEY.py`` exports ``STUDY`` with that key."""
+    import importlib
+
+    from benchmarks.studies import STUDIES as ALL
+    for study in ALL:
+        module = importlib.import_module(f'benchmarks.{study.key}')
+        assert module.STUDY is study, study.key

@@ -1,4 +1,4 @@
-"""Verbs that measure: bench (BENCHMARKS.md), servo-compare, pingpong."""
+"""Verbs that measure: servo-compare, pingpong, and bench (a clone's benchmark studies)."""
 
 from __future__ import annotations
 
@@ -21,7 +21,8 @@ def register(sub: Any) -> None:
     p.add_argument('--json', action='store_true')
     p.set_defaults(func=_cmd_pingpong)
     p = sub.add_parser('servo-compare', help='every servo scene x controller -> metrics.json')
-    p.add_argument('--engine', choices=['twin', 'ros'], default='ros',
+    from pam_bench.vocabulary.run import ENGINES
+    p.add_argument('--engine', choices=ENGINES, default='ros',
                    help='ros: the nodes, composed (--processes: one process each); twin: the '
                    'same models without ROS (seconds)')
     p.add_argument('--out', type=out_path,
@@ -38,22 +39,15 @@ def register(sub: Any) -> None:
                    help='with --engine ros: every node in its own process (same bags, slower)')
     add_cluster_args(p)
     p.set_defaults(func=_cmd_servo_compare)
-    p = sub.add_parser('bench', help='benchmarks -> BENCHMARKS.md and bench.json')
-    p.add_argument('--quick', action='store_true', help='a few minutes: quick grids and scenes')
-    p.add_argument('--root', default='.', help='where to write the report (default: here)')
-    p.add_argument('--scene', action='append', help='scene to time (repeatable)')
-    p.add_argument('--only', action='append', metavar='STUDY[,STUDY]',
-                   help='run only these studies (--list names them) and keep the other figures '
-                   'of bench.json, each with the commit it was measured at')
-    p.add_argument('--list', action='store_true', help='list the studies and what each '
-                   'measures')
-    p.add_argument('--render', action='store_true', help='only render BENCHMARKS.md again from '
-                   'bench.json and docs/long_runs.md (no measurement)')
+    p = sub.add_parser('bench', help="the benchmark studies: runs a clone's `python -m "
+                       "benchmarks` with these options (--list, --only, --quick, --render)",
+                       add_help=False)
+    p.add_argument('options', nargs=argparse.REMAINDER)
     p.set_defaults(func=_cmd_bench)
 
 
 def _cmd_pingpong(args: argparse.Namespace) -> int:
-    from pam_bench.benchmarks.pingpong import pingpong_rate
+    from pam_bench.bringup.pingpong import pingpong_rate
     rate = pingpong_rate(args.count)
     print(json.dumps({'pingpong_round_trips_per_s': rate}) if args.json
           else f'rclpy ping-pong between two processes: {rate:.0f} round trips/s')
@@ -61,7 +55,7 @@ def _cmd_pingpong(args: argparse.Namespace) -> int:
 
 
 def _cmd_servo_compare(args: argparse.Namespace) -> int:
-    from pam_bench.benchmarks.servo_compare import compare_servo
+    from pam_bench.bringup.servo_compare import compare_servo
     from pam_bench.config.settings import CONTROLLERS
     from pam_bench.vocabulary.outputs import staged_output
     from pam_bench.vocabulary.params import hint
@@ -93,17 +87,14 @@ def _cmd_servo_compare(args: argparse.Namespace) -> int:
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
-    from pam_bench.benchmarks.suite import render_report, run_benchmarks
-    root = pathlib.Path(args.root)
-    if args.list:
-        from pam_bench.benchmarks.studies import STUDIES
-        for study in STUDIES:
-            print(f'{study.key:16s} {study.text}')
-        return 0
-    if args.render:
-        print(f'wrote {render_report(root)} from {root / "results" / "bench.json"}')
-        return 0
-    only = [s for part in args.only or [] for s in part.split(',') if s]
-    run_benchmarks(args.quick, root, args.scene or None, only or None)
-    print(f'wrote {root / "BENCHMARKS.md"} and {root / "results" / "bench.json"}')
-    return 0
+    """The studies are not in the installed package (``benchmarks/`` at a clone's top): run
+    them in the clone around the working folder."""
+    import subprocess
+    import sys
+    here = pathlib.Path.cwd().resolve()
+    for root in (here, *here.parents):
+        if (root / 'benchmarks' / 'studies.py').is_file():
+            return subprocess.run([sys.executable, '-m', 'benchmarks', *args.options],
+                                  cwd=root, check=False).returncode
+    raise UsageError('bench: the benchmark studies live in a clone of pam_bench (benchmarks/); '
+                     'run `make bench` there')

@@ -38,11 +38,11 @@ from pam_bench.config.errors import ConfigError
 from pam_bench.config.scene import load_scene
 from pam_bench.sweep.figures import check_figures
 from pam_bench.vocabulary.params import check_known, hint
+from pam_bench.vocabulary.run import ENGINES
 from pam_bench.vocabulary.yaml_io import read_yaml
 
 __all__ = ['Sweep', 'Job', 'load_sweep', 'FIGURE_ROOTS', 'ENGINES', 'SWEEP_KEYS']
 
-ENGINES = ('twin', 'ros')
 FIGURE_ROOTS = ('isometric', 'isotonic', 'isobaric', 'step_response', 'readings', 'servo',
                 'calibrate', 'run')
 """First words a figure may start with (module docstring)."""

@@ -11,7 +11,11 @@ import dataclasses
 import enum
 from typing import Any
 
-__all__ = ['Layout', 'RunOptions']
+__all__ = ['Layout', 'RunOptions', 'ENGINES']
+
+ENGINES = ('twin', 'ros')
+"""What runs a sweep's job or a servo comparison: the numpy twin (``pam_bench.twin``, no ROS)
+or the ROS nodes."""
 
 
 class Layout(enum.Enum):

@@ -6,7 +6,7 @@ import dataclasses
 
 import pytest
 
-from pam_bench.benchmarks.calibrate import DRAWN, edge_parameters
+from benchmarks.calibrate import DRAWN, edge_parameters
 from pam_bench.fit.calibrate_bags import FREE_BAGS
 from pam_bench.models.muscle import MuscleParams
 from pam_bench.models.valve import ValveParams
@@ -34,7 +34,7 @@ def test_every_drawn_parameter_reaches_an_end_once() -> None:
 def test_drawn_sets_are_muscles_the_model_takes() -> None:
     import numpy as np
 
-    from pam_bench.benchmarks.calibrate import draw_parameters, invalid
+    from benchmarks.calibrate import draw_parameters, invalid
     rng = np.random.default_rng(7)
     assert all(not invalid(*draw_parameters(rng)) for _ in range(30))
     bad = dataclasses.replace(MuscleParams(), bladder_stiffness_n_per_m=250.0,
@@ -45,8 +45,8 @@ def test_drawn_sets_are_muscles_the_model_takes() -> None:
 def test_a_failing_study_is_reported_and_the_rest_run(tmp_path, monkeypatch) -> None:
     import json
 
-    from pam_bench.benchmarks import suite
-    from pam_bench.benchmarks.study import Study
+    from benchmarks import suite
+    from benchmarks.study import Study
 
     def boom(quick, out, scenes):
         raise RuntimeError('drawn muscle refused')
@@ -62,8 +62,8 @@ def test_a_failing_study_is_reported_and_the_rest_run(tmp_path, monkeypatch) -> 
 
 
 def test_a_quick_run_leaves_out_a_study_marked_full_only(tmp_path, monkeypatch) -> None:
-    from pam_bench.benchmarks import suite
-    from pam_bench.benchmarks.study import Study
+    from benchmarks import suite
+    from benchmarks.study import Study
     studies = (Study('full', 'full run only', lambda q, o, s: {'full': {'x': 1}},
                      (('full', lambda r, root: []),), quick=False),
                Study('both', 'every run', lambda q, o, s: {'both': {'x': 2}},

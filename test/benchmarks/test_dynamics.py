@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from pam_bench.benchmarks.dynamics import identify, voltage_split
+from benchmarks.dynamics import identify, voltage_split
 from pam_bench.config.paths import config_dir
 from pam_bench.control.inverse import InverseModel, Poly
 from pam_bench.control.torque_servo import Signal, SignalKind

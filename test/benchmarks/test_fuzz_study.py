@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pam_bench.benchmarks.fuzz import parse_statistics
+from benchmarks.fuzz import parse_statistics
 
 OUT = """============================ Hypothesis Statistics =============================
 test/cli/test_fuzz.py::test_fuzzed_scenes_end_cleanly:

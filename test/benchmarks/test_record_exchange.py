@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from benchmarks.record_exchange import record_step
 from pam_bench.analysis.identify import fit_step
-from pam_bench.benchmarks.record_exchange import record_step
 
 
 @pytest.mark.parametrize(('x_m', 'u0', 'u1'), [(0.04, 1.0, 5.0), (0.08, 5.0, 1.0)])

@@ -9,9 +9,9 @@ import pathlib
 
 import pytest
 
-from pam_bench.benchmarks.report import key_results, render
-from pam_bench.benchmarks.studies import STUDIES, study
-from pam_bench.benchmarks.tables import LONG_RUNS, methods, table
+from benchmarks.report import key_results, render
+from benchmarks.studies import STUDIES, study
+from benchmarks.tables import LONG_RUNS, methods, table
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
 
@@ -81,8 +81,8 @@ def test_the_committed_report_renders(tmp_path: pathlib.Path) -> None:
 
 
 def test_an_unknown_study_names_the_nearest() -> None:
-    from pam_bench.benchmarks.errors import UsageError
-    from pam_bench.benchmarks.suite import run_benchmarks
+    from benchmarks.errors import UsageError
+    from benchmarks.suite import run_benchmarks
     with pytest.raises(UsageError, match="did you mean 'layouts'"):
         run_benchmarks(True, REPO, only=['layuots'])
     assert study('layouts').key == 'layouts'
@@ -92,7 +92,7 @@ def test_best_case_of_separate_processes_adds_the_no_work_floor_and_the_work() -
     """Without a delivery count, 1 / (1 / no-work rate + 1 / composed rate / cores): 7
     participants at 1000/s and a composed demo at 2000/s on 2 cores give 1 / (1 ms + 0.25 ms)
     = 800/s; with one, each delivery costs what one of the no-work lock-step does."""
-    from pam_bench.benchmarks.layouts import _best_case
+    from benchmarks.layouts import _best_case
 
     def row(layout: str, rate: float) -> dict[str, object]:
         return {'scene': 'demo', 'layout': layout, 'sim_s': 10.0, 'exchange_steps': 1000,

@@ -102,8 +102,8 @@ def test_bus_faults_are_detected_suspend_the_run_and_lose_no_reading(
     falls silent: each is its driver's diagnostic (STALE, a rejected reading, STALE with quick
     stop), each stops the topics it carries, and suspenders on the four inputs suspend the run
     vented until the device is back; every reading is taken."""
-    from pam_bench.benchmarks.buses import EVERY_INPUT
-    from pam_bench.benchmarks.faults import READINGS, SCENE
+    from benchmarks.buses import EVERY_INPUT
+    from benchmarks.faults import READINGS, SCENE
     path = tmp_path / 'bus_faults.yaml'
     text = SCENE.replace('[{{input: force, low: -50.0, high: 1000.0, stale_s: 0.2,\n    '
                          'resume_after_s: 0.3}}]', EVERY_INPUT)
@@ -131,7 +131,7 @@ def test_a_drive_fault_stops_the_run_vented_and_resume_takes_the_rest(
     """An EMCY: a fault diagnostic, the drive disabled and its state gone, so the sequencer
     aborts on the stale ``loading_servo/state`` with the valve vented and the drive off; a
     ``--resume`` through the buses takes the readings the bag lacks, none lost or repeated."""
-    from pam_bench.benchmarks.faults import READINGS, SCENE
+    from benchmarks.faults import READINGS, SCENE
     (tmp_path / 'first').mkdir()
     (tmp_path / 'again').mkdir()
     path = tmp_path / 'first' / 'drive.yaml'

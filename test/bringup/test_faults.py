@@ -11,8 +11,8 @@ from typing import Any
 
 import pytest
 
+from benchmarks.faults import CASES, READINGS, SCENE
 from pam_bench.bags.baginfo import bag_info
-from pam_bench.benchmarks.faults import CASES, READINGS, SCENE
 from pam_bench.bringup.runner import run_scene
 from pam_bench.config.scene import Scene, load_scene
 from pam_bench.vocabulary.run import Layout, RunOptions

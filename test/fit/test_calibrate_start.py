@@ -182,7 +182,7 @@ def test_a_fit_that_stopped_short_goes_on_to_recover_a_weak_friction() -> None:
     it, and the fit goes on until the friction is recovered within 5 % (it stopped 10.6 % off
     before, unflagged: BENCHMARKS.md, "Calibrating the bench to recordings, across the
     bounds")."""
-    from pam_bench.benchmarks import calibrate_bounds as cb
+    from benchmarks import calibrate_bounds as cb
     from pam_bench.config.protocols import load_protocols
     from pam_bench.fit.calibrate_bags import calibrate_bags, observations_from_twin
     from pam_bench.models.sensors import LoadCellParams

@@ -68,6 +68,9 @@ def test_the_wheel_alone_reads_repairs_and_extracts_a_bag(tmp_path: pathlib.Path
                     '--no-build-isolation', '--disable-pip-version-check', '-w', str(dist),
                     str(_clone(tmp_path / 'src'))], check=True, capture_output=True)
     wheel = next(dist.glob('pam_bench-*.whl'))
+    import zipfile
+    tops = {n.split('/')[0] for n in zipfile.ZipFile(wheel).namelist()}
+    assert not {t for t in tops if t in ('benchmarks', 'test', 'tools')}, tops  # the clone's
     venv = tmp_path / 'venv'
     _install(venv, wheel)
     bag = tmp_path / 'bag'

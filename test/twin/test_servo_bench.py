@@ -51,11 +51,11 @@ def test_metrics_find_the_reversals() -> None:
 
 
 @pytest.mark.slow
-def test_servo_compare_numpy_writes_metrics(tmp_path: pathlib.Path) -> None:
+def test_servo_compare_on_the_twin_writes_metrics(tmp_path: pathlib.Path) -> None:
     import json
 
-    from pam_bench.benchmarks.servo_compare import compare_servo
-    rows = compare_servo(tmp_path, 'numpy', ['force_verify_20mm'], duration_s=2.0)
+    from pam_bench.bringup.servo_compare import compare_servo
+    rows = compare_servo(tmp_path, 'twin', ['force_verify_20mm'], duration_s=2.0)
     assert [r['controller'] for r in rows] == [m.value for m in ServoMode]
     data = json.loads((tmp_path / 'metrics.json').read_text())
     assert {'scene', 'controller', 'rms_error', 'max_error', 'error_at_reversal',

@@ -19,7 +19,7 @@ def test_the_setup_holds_the_scenes_muscle_and_inverse_model() -> None:
 def test_the_numpy_engine_runs_the_scenes_muscle() -> None:
     """servo-compare's twin engine and the nodes agree on a scene that changes the muscle
     (it used to run the default muscle)."""
-    from pam_bench.benchmarks.servo_compare import one_run
+    from pam_bench.bringup.servo_compare import one_run
     from pam_bench.control.torque_servo import ServoMode
     from pam_bench.twin.servo_bench import tracking_metrics
     from pam_bench.vocabulary.run import Layout

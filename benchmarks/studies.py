@@ -1,0 +1,48 @@
+"""The one list of benchmark studies, in the order `make bench` runs and reports them."""
+
+from __future__ import annotations
+
+from benchmarks import (
+    buses,
+    calibrate,
+    calibrate_bounds,
+    calibrate_nodes,
+    calibration,
+    dynamics,
+    exchange_step,
+    faults,
+    fuzz,
+    layouts,
+    lockstep,
+    models,
+    profile,
+    record_exchange,
+    scenes,
+    servo_compare,
+    settle,
+    soak,
+    straight_fibre,
+    sweep_scaling,
+    wallclock,
+)
+from benchmarks.study import Study
+
+__all__ = ['STUDIES', 'study']
+
+STUDIES: tuple[Study, ...] = (
+    calibration.STUDY, lockstep.STUDY, layouts.STUDY, profile.STUDY, exchange_step.STUDY,
+    settle.STUDY, record_exchange.STUDY, scenes.STUDY, models.STUDY, wallclock.STUDY,
+    faults.STUDY, straight_fibre.STUDY, calibrate.STUDY, calibrate_bounds.STUDY,
+    calibrate_nodes.STUDY,
+    servo_compare.STUDY, soak.STUDY, sweep_scaling.STUDY, dynamics.STUDY, fuzz.STUDY,
+    buses.STUDY)
+"""Every study; ``python -m benchmarks --only KEY`` runs some."""
+
+
+def study(key: str) -> Study:
+    """The study called ``key``.
+
+    Raises:
+        KeyError: no such study.
+    """
+    return {s.key: s for s in STUDIES}[key]
