@@ -81,7 +81,7 @@ def identify(values: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
     mapping = inverse_model_of(data, step)
     if mapping is None:
         raise RuntimeError('the identification run holds no step records or isometric points')
-    return InverseModel.from_dict(mapping), step
+    return InverseModel.from_dict(mapping), dict(step)
 
 
 def fit_residuals(step: dict[str, Any], x_mm: float) -> dict[str, float]:

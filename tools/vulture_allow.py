@@ -43,3 +43,18 @@ _.server_info  # the test client keeps what the server said
 _.closed_by_server  # the test client keeps what the server said
 _.__qualname__  # the kernel's entry point named as the kernel (models.jit)
 pytest_collection_modifyitems  # pytest's hook
+polynomials  # a TypedDict key, read by its string (summary.json, metrics.json, --json)
+model_comparison_by_branch  # a TypedDict key, read by its string (summary.json, metrics.json, --json)
+model_comparison_length_m  # a TypedDict key, read by its string (summary.json, metrics.json, --json)
+timing_s  # a TypedDict key, read by its string (summary.json, metrics.json, --json)
+inverse_model  # a TypedDict key, read by its string (summary.json, metrics.json, --json)
+forward_model_rms_N  # a TypedDict key, read by its string (summary.json, metrics.json, --json)
+correlation  # a TypedDict key, read by its string (summary.json, metrics.json, --json)
+rms_before  # a TypedDict key, read by its string (summary.json, metrics.json, --json)
+law_zoo  # a TypedDict key, read by its string (summary.json, metrics.json, --json)
+start_from  # a TypedDict key, read by its string (summary.json, metrics.json, --json)
+rms_error  # a TypedDict key, read by its string (summary.json, metrics.json, --json)
+max_error  # a TypedDict key, read by its string (summary.json, metrics.json, --json)
+error_at_reversal  # a TypedDict key, read by its string (summary.json, metrics.json, --json)
+error_elsewhere  # a TypedDict key, read by its string (summary.json, metrics.json, --json)
+reversal_window_s  # a TypedDict key, read by its string (summary.json, metrics.json, --json)

@@ -22,19 +22,20 @@ import numpy as np
 
 from pam_bench.analysis.errors import ExtractError
 from pam_bench.analysis.extract import VERB
+from pam_bench.analysis.summary import Summary
 from pam_bench.vocabulary.outputs import staged_output
 
 __all__ = ['extract_one', 'extract_each', 'comparison_rows', 'drift_rows']
 
 
-def extract_one(job: tuple[str, str]) -> dict[str, Any]:
+def extract_one(job: tuple[str, str]) -> Summary:
     """One job: (bag folder, output folder) -> the bag's summary (``extract``)."""
     from pam_bench.analysis.extract import extract
     bag, out = job
     return extract([bag], out)
 
 
-def _date(summary: dict[str, Any], bag: str) -> str:
+def _date(summary: Summary, bag: str) -> str:
     runs = summary.get('runs') or []
     if runs and runs[0] and runs[0].get('start'):
         return str(runs[0]['start'])
@@ -47,7 +48,7 @@ def _date(summary: dict[str, Any], bag: str) -> str:
     return datetime.datetime.fromtimestamp(ns * 1e-9, datetime.UTC).isoformat()
 
 
-def _step_at(summary: dict[str, Any]) -> dict[float, dict[str, float]]:
+def _step_at(summary: Summary) -> dict[float, dict[str, float]]:
     """X (mm) -> b, c, d of the largest up step there."""
     by: dict[float, dict[str, Any]] = {}
     for f in summary.get('step_response', {}).get('fits', []):
@@ -58,7 +59,7 @@ def _step_at(summary: dict[str, Any]) -> dict[float, dict[str, float]]:
     return {x: {c: float(f[c]) for c in 'bcd'} for x, f in by.items()}
 
 
-def comparison_rows(bags: list[str], summaries: list[dict[str, Any] | None],
+def comparison_rows(bags: list[str], summaries: list[Summary | None],
                     errors: list[str]) -> list[dict[str, Any]]:
     """One row per bag (module docstring), sorted by recording date; a failed bag keeps its
     error and no figures."""
@@ -71,8 +72,9 @@ def comparison_rows(bags: list[str], summaries: list[dict[str, Any] | None],
             rows.append(row)
             continue
         row['date'] = _date(s, bag)
-        for kind, key in (('isometric', 'gain_N_per_V'), ('isotonic', 'gain_mm_per_V')):
-            g = s.get(kind, {}).get(key, {})
+        for kind, key, found in (('isometric', 'gain_N_per_V', s.get('isometric', {})),
+                                 ('isotonic', 'gain_mm_per_V', s.get('isotonic', {}))):
+            g = found.get(key, {})
             for ext in ('max', 'min'):
                 if ext in g:
                     row[f'{kind}.{key}.{ext}'] = g[ext]

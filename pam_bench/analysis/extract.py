@@ -24,11 +24,14 @@ from pam_bench.analysis.law_scores import score
 from pam_bench.analysis.report import report_markdown
 from pam_bench.analysis.smoothing import centred_polyfit
 from pam_bench.analysis.static import gain_summary, kind_of
+from pam_bench.analysis.summary import StepSummary, Summary
 from pam_bench.bags.baginfo import bag_info
 from pam_bench.bags.bagread import BagData, Points, StepRecord, read_bags
 from pam_bench.vocabulary.outputs import check_output, staged_output
 
-__all__ = ['extract', 'step_summary', 'coefficient_polynomials', 'inverse_model_of', 'VERB']
+__all__ = ['extract', 'step_summary', 'coefficient_polynomials', 'inverse_model_of', 'VERB',
+           'Summary', 'StepSummary']
+
 
 VERB = 'pam-bench extract'
 """Who writes an extraction folder (its output marker)."""
@@ -65,7 +68,7 @@ def _fit_records(records: list[StepRecord], client: Any = None) -> list[dict[str
     return out
 
 
-def step_summary(records: list[StepRecord], client: Any = None) -> dict[str, Any]:
+def step_summary(records: list[StepRecord], client: Any = None) -> StepSummary:
     """Fits of every step response and their polynomials over x (``coefficient_polynomials``);
     ``client``: the cluster the fits run on (default: a local one when there are many)."""
     fits = _fit_records(records, client)
@@ -117,7 +120,7 @@ def _largest(points: dict[str, Points], kind: str) -> Points | None:
     return max(found, key=len) if found else None
 
 
-def inverse_model_of(data: BagData, step: dict[str, Any] | None) -> dict[str, Any] | None:
+def inverse_model_of(data: BagData, step: StepSummary | None) -> dict[str, Any] | None:
     """The inverse_model.yaml mapping of ``data`` with its step summary ``step``
     (``inverse_export.inverse_model_dict`` over its largest isometric protocol), or None."""
     return inverse_model_dict(step, _largest(data.points, 'isometric'))
@@ -191,7 +194,7 @@ def _branch_comparison(points: dict[str, Points], nominal_length_m: float
     return out
 
 
-def _figures(tmp: pathlib.Path, data: BagData, summary: dict[str, Any],
+def _figures(tmp: pathlib.Path, data: BagData, summary: Summary,
              models: list[dict[str, Any]]) -> list[str]:
     names = []
     for kind in ('isobaric', 'isotonic', 'isometric'):
@@ -214,7 +217,7 @@ def _run_of(bag: str) -> dict[str, Any] | None:
 
 
 def extract(bags: list[str], out_dir: str, figures: bool = True, overwrite: bool = False
-            ) -> dict[str, Any]:
+            ) -> Summary:
     """Read the bags; write DIR/summary.json, DIR/report.md, DIR/inverse_model.yaml (when the
     bags hold step responses and isometric points), DIR/<protocol>.csv and the figures. DIR
     is new, or an extraction's own with ``overwrite``; it takes its place only once complete
@@ -228,7 +231,7 @@ def extract(bags: list[str], out_dir: str, figures: bool = True, overwrite: bool
     check_output(out_dir, VERB, overwrite, bags)
     t0 = time.perf_counter()
     data = read_bags(bags)
-    summary: dict[str, Any] = gain_summary(data.points)
+    summary = Summary(**gain_summary(data.points))
     t1 = time.perf_counter()
     if data.records:
         try:

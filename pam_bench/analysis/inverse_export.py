@@ -15,6 +15,7 @@ import numpy as np
 
 from pam_bench.analysis.smoothing import centred_polyfit
 from pam_bench.analysis.static import isometric_lines
+from pam_bench.analysis.summary import StepSummary
 from pam_bench.bags.bagread import Points
 
 __all__ = ['inverse_model_dict', 'smoothing_polynomial']
@@ -27,7 +28,7 @@ def smoothing_polynomial(x_m: np.ndarray, y: np.ndarray) -> dict[str, Any]:
             'x_half_range_m': p.x_half, 'rms_residual': p.rms_residual}
 
 
-def inverse_model_dict(step: dict[str, Any] | None, isometric: Points | None,
+def inverse_model_dict(step: StepSummary | None, isometric: Points | None,
                        u_max_v: float = 6.0) -> dict[str, Any] | None:
     """The inverse_model.yaml mapping, or None when either part cannot be built.
 

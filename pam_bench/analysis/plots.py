@@ -16,6 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from pam_bench.analysis.static import isometric_gains  # noqa: E402
+from pam_bench.analysis.summary import StepSummary  # noqa: E402
 from pam_bench.bags.bagread import Points  # noqa: E402
 
 __all__ = ['plot_family', 'plot_surfaces', 'plot_gains', 'plot_step_polynomials',
@@ -104,7 +105,7 @@ def plot_gains(p: Points, out: pathlib.Path) -> str:
     return name
 
 
-def plot_step_polynomials(step: dict[str, Any], out: pathlib.Path) -> str:
+def plot_step_polynomials(step: StepSummary, out: pathlib.Path) -> str:
     """b, c, d, F_a0 per fit over x with their polynomials."""
     fig, axes = plt.subplots(2, 2, figsize=(9, 6))
     for ax, key, unit in zip(axes.flat, ('b', 'c', 'd', 'F_a0'),

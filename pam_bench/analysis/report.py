@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from typing import Any
+from pam_bench.analysis.summary import Summary
 
 __all__ = ['report_markdown']
 
 
-def report_markdown(s: dict[str, Any]) -> str:
+def report_markdown(s: Summary) -> str:
     """The human report of an extraction: figures, gains, fits, model comparison."""
     lines = ['# Extracted characteristics', '']
     if 'isometric' in s:

@@ -12,14 +12,25 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 
 from pam_bench.bags.bagread import Points
 
 __all__ = ['kind_of', 'KINDS', 'isometric_gains', 'isometric_lines', 'midline_fit',
-           'isotonic_gains', 'isobaric_hysteresis', 'isobaric_stiffness', 'gain_summary']
+           'isotonic_gains', 'isobaric_hysteresis', 'isobaric_stiffness', 'gain_summary',
+           'GainSummary']
+
+
+class GainSummary(TypedDict, total=False):
+    """The static characteristics found, a key per protocol kind the bags hold (see
+    ``gain_summary``)."""
+
+    isometric: dict[str, Any]
+    isotonic: dict[str, Any]
+    isobaric: dict[str, Any]
+
 
 MIN_DX_M = 1e-6
 """A neighbouring pair of readings closer than this in contraction gives no stiffness (m)."""
@@ -159,9 +170,9 @@ def kind_of(p: Points) -> str | None:
     return None
 
 
-def gain_summary(points: dict[str, Points]) -> dict[str, Any]:
+def gain_summary(points: dict[str, Points]) -> GainSummary:
     """The static part of summary.json for whichever protocols are present (``kind_of``)."""
-    out: dict[str, Any] = {}
+    out = GainSummary()
     # when a kind appears more than once (full and quick grids), the largest protocol wins
     for name, p in sorted(points.items(), key=lambda kv: len(kv[1])):
         kind = kind_of(p)

@@ -15,17 +15,32 @@ import json
 import pathlib
 import tempfile
 import time
-from typing import Any
+from typing import Any, NotRequired
 
 import numpy as np
 
 from pam_bench.config.scene import Scene, load_scene, scene_names
 from pam_bench.control.torque_servo import ServoMode
-from pam_bench.twin.servo_bench import ServoRun, run_servo, tracking_metrics
+from pam_bench.twin.servo_bench import ServoRun, Tracking, run_servo, tracking_metrics
 from pam_bench.twin.servo_setup import scene_servo_setup, servo_run_of_bag
 from pam_bench.vocabulary.run import ENGINES, Layout
 
-__all__ = ['servo_scenes', 'compare_servo', 'one_run', 'forward_model_rms']
+__all__ = ['servo_scenes', 'compare_servo', 'one_run', 'forward_model_rms', 'ServoRow']
+
+
+class ServoRow(Tracking):
+    """One run of a comparison, as metrics.json holds it: the scene, the controller, the
+    engine, how it tracked (``Tracking``), its sim and wall seconds and their ratio, and, for a
+    single-muscle run with an inverse model, 004's forward model's RMS against the measured
+    force (N; absent otherwise)."""
+
+    scene: str
+    controller: str
+    engine: str
+    sim_s: float
+    wall_s: float
+    real_time_factor: float
+    forward_model_rms_N: NotRequired[float]
 
 
 def servo_scenes() -> list[str]:
@@ -55,7 +70,7 @@ def _ros_run(scene: Scene, controller: str, duration_s: float | None,
 def compare_servo(out_dir: pathlib.Path, engine: str = 'twin', scenes: list[str] | None = None,
                   duration_s: float | None = None, layout: Layout = Layout.COMPOSED,
                   cluster: dict[str, Any] | None = None,
-                  controllers: list[str] | None = None) -> list[dict[str, Any]]:
+                  controllers: list[str] | None = None) -> list[ServoRow]:
     """Run every scene x controller (the built-ins, then ``controllers``: plug-ins' names);
     write out_dir/metrics.json and one PNG per scene.
 
@@ -85,7 +100,7 @@ def compare_servo(out_dir: pathlib.Path, engine: str = 'twin', scenes: list[str]
                 results[r.item[1], r.item[2]] = r.value
             else:
                 print(f'{r.item[1]}: {r.item[2]}: error: {r.error}', flush=True)
-    rows: list[dict[str, Any]] = []
+    rows: list[ServoRow] = []
     for name in names:
         setup = scene_servo_setup(load_scene(name))
         runs = {}
@@ -94,10 +109,12 @@ def compare_servo(out_dir: pathlib.Path, engine: str = 'twin', scenes: list[str]
                 continue
             run, wall, sim = results[name, ctl]
             runs[ctl] = run
-            rows.append({'scene': name, 'controller': ctl, 'engine': label,
-                         **tracking_metrics(run), 'sim_s': sim, 'wall_s': wall,
-                         'real_time_factor': sim / wall if wall else 0.0,
-                         **forward_model_rms(run, setup)})
+            row = ServoRow(**tracking_metrics(run), scene=name, controller=ctl, engine=label,
+                           sim_s=sim, wall_s=wall, real_time_factor=sim / wall if wall else 0.0)
+            forward = forward_model_rms(run, setup)
+            if forward is not None:
+                row['forward_model_rms_N'] = forward
+            rows.append(row)
         if runs:
             _plot(name, runs, out_dir)
     (out_dir / 'metrics.json').write_text(json.dumps(rows, indent=2) + '\n', encoding='utf-8')
@@ -126,20 +143,20 @@ def one_run(engine: str, name: str, ctl: str, duration_s: float | None, tmp: str
 
 
 def forward_model_rms(run: ServoRun, setup: dict[str, Any], settle_s: float = 1.0
-                      ) -> dict[str, float]:
+                      ) -> float | None:
     """004's model check (issue 18): the identified forward model (004 Eq. 4) driven by the
     run's own voltage against the measured force, RMS after ``settle_s`` (N); single-muscle
-    runs with an inverse model only (empty otherwise)."""
+    runs with an inverse model only (None otherwise)."""
     inverse = setup.get('inverse')
     if setup.get('muscles') != 1 or inverse is None or len(run.t_s) < 3:
-        return {}
+        return None
     u = np.asarray(run.voltage_v, float).reshape(len(run.t_s), -1)[:, 0]
     f = np.asarray(run.force_n, float).reshape(len(run.t_s), -1)[:, 0]
     x = setup['params'].rest_contraction_m + setup['params'].pitch_diameter_m / 2 * setup[
         'angle_rad']
     model = inverse.forward_force(u, float(run.t_s[1] - run.t_s[0]), x, float(f[0]))
     keep = run.t_s >= settle_s
-    return {'forward_model_rms_N': float(np.sqrt(np.mean((model - f)[keep] ** 2)))}
+    return float(np.sqrt(np.mean((model - f)[keep] ** 2)))
 
 
 def _plot(name: str, runs: dict[str, ServoRun], out_dir: pathlib.Path) -> None:

@@ -7,7 +7,7 @@ import contextlib
 import json
 import pathlib
 import sys
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pam_bench.cli.cluster_args import add_cluster_args, cluster_of
 from pam_bench.cli.errors import UsageError
@@ -18,6 +18,9 @@ from pam_bench.vocabulary.outputs import (
     staged_output,
     write_output_file,
 )
+
+if TYPE_CHECKING:
+    from pam_bench.fit.calibrate_bags import Calibration
 
 __all__ = ['register']
 
@@ -165,7 +168,7 @@ def _calibrate_bags(args: argparse.Namespace) -> int:
     return 0 if verdict.converged else NOT_CONVERGED
 
 
-def _print_fit(res: dict[str, Any]) -> None:
+def _print_fit(res: Calibration) -> None:
     from pam_bench.fit.calibrate_bags import PATH_WIDTH_M
     print('started from (read off the data where it shows them):')
     for n, v in res['start'].items():

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -35,7 +35,33 @@ from pam_bench.models.muscle import MuscleParams
 from pam_bench.verify.figures_004 import figure_rows, measure_004
 from pam_bench.vocabulary.errors import ParameterError
 
-__all__ = ['fit_report', 'FREE', 'residuals_004', 'calibrate_004', 'fit_summary', 'covariance']
+__all__ = ['fit_report', 'FREE', 'residuals_004', 'calibrate_004', 'fit_summary', 'covariance',
+           'FitSummary', 'Calibration004']
+
+
+class FitSummary(TypedDict):
+    """A least-squares fit's parameters (``fit_summary``): their names in order, values and
+    standard errors by name (the parameters' units), the correlation matrix (names x names),
+    the names the data do not fix (flags) or that sit at a bound, one line per name."""
+
+    names: list[str]
+    values: dict[str, float]
+    stderr: dict[str, float]
+    correlation: list[list[float]]
+    flags: list[str]
+    at_bound: list[str]
+    report: dict[str, str]
+
+
+class Calibration004(FitSummary):
+    """``calibrate_004``'s result: the fit, the fitted muscle's values (``params``), 004's
+    figures at the optimum (``figure_rows``), the cost, evaluations and seconds taken."""
+
+    params: dict[str, Any]
+    figures: list[dict[str, Any]]
+    cost: float
+    evaluations: int
+    fit_s: float
 
 FREE: tuple[tuple[str, float, float], ...] = (
     ('gain_n_per_pa', 2.0e-3, 4.0e-3),
@@ -121,7 +147,7 @@ def covariance(jac: np.ndarray, s2: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def fit_summary(names: list[str], theta: np.ndarray, sol: Any, span: np.ndarray,
-                rel_flag: float) -> dict[str, Any]:
+                rel_flag: float) -> FitSummary:
     """Values, standard errors, correlations and flags of a ``least_squares`` solution found
     in coordinates z = (theta - lower) / span (module docstring). The covariance is taken in z,
     where the Jacobian's columns share one scale (``covariance``), and scaled back by span; a
@@ -135,14 +161,15 @@ def fit_summary(names: list[str], theta: np.ndarray, sol: Any, span: np.ndarray,
     flags = [n for n, v, e, b in zip(names, theta, stderr, at_bound, strict=True)
              if b or not np.isfinite(e) or e > rel_flag * abs(v)]
     bound_names = [n for n, b in zip(names, at_bound, strict=True) if b]
-    out = {'names': names, 'values': dict(zip(names, map(float, theta), strict=True)),
-           'stderr': dict(zip(names, map(float, stderr), strict=True)),
-           'correlation': corr.round(3).tolist(), 'flags': flags, 'at_bound': bound_names}
+    out = FitSummary(names=names, values=dict(zip(names, map(float, theta), strict=True)),
+                     stderr=dict(zip(names, map(float, stderr), strict=True)),
+                     correlation=corr.round(3).tolist(), flags=flags, at_bound=bound_names,
+                     report={})
     out['report'] = fit_report(out)
     return out
 
 
-def fit_report(summary: dict[str, Any], unfixed: str = 'not fixed by these recordings'
+def fit_report(summary: FitSummary, unfixed: str = 'not fixed by these recordings'
                ) -> dict[str, str]:
     """One line per parameter: its value with its standard error; a value at a bound of the
     fit says so instead, and one the data do not fix gives no standard error (an error of
@@ -159,7 +186,7 @@ def fit_report(summary: dict[str, Any], unfixed: str = 'not fixed by these recor
     return out
 
 
-def calibrate_004(base: MuscleParams | None = None, max_nfev: int = 60) -> dict[str, Any]:
+def calibrate_004(base: MuscleParams | None = None, max_nfev: int = 60) -> Calibration004:
     """Fit ``FREE`` to 004's figures from ``base`` (default: the bench's defaults).
 
     Returns:
@@ -192,5 +219,6 @@ def calibrate_004(base: MuscleParams | None = None, max_nfev: int = 60) -> dict[
     params: dict[str, Any] = {n: float(getattr(fitted, n))
                               for n in keep + ['gain_min_contraction_m']}
     params['friction_stiffness_n_per_m'] = list(fitted.friction_stiffness_n_per_m)
-    return {'params': params, **summary, 'figures': figure_rows(measure_004(muscle=fitted)),
-            'cost': float(sol.cost), 'evaluations': int(sol.nfev), 'fit_s': fit_s}
+    return Calibration004(**summary, params=params,
+                          figures=figure_rows(measure_004(muscle=fitted)), cost=float(sol.cost),
+                          evaluations=int(sol.nfev), fit_s=fit_s)

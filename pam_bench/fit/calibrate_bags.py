@@ -5,57 +5,30 @@ how, and how the residuals are scaled); the fit starts from values read off the 
 (``fit.calibrate_init``) and ends with a verdict against the noise
 (``fit.calibrate_verdict``).
 
-Residuals are scaled to the bench's tolerances (issue 18): forces in units of 1 % of the load
-cell's 2000 N range (20 N), contractions in 0.5 mm. ``scipy.optimize.least_squares`` (trust
-region reflective) fits the parameters of ``FREE_BAGS`` inside their bounds (the declared
-ranges narrowed for the physical reasons of ``BOUND_REASONS``), normalised to [0, 1].
-Standard errors and correlations come from the Jacobian at the optimum
-(``calibrate.fit_summary``, the prior's rows included); a parameter whose error exceeds 5 % of
-its value, or that sits at a bound, is flagged: the recordings do not fix it (e.g. the gain's
-rise past x_m when no reading goes beyond x_m). A weak prior keeps such a parameter near its
-starting value instead of letting the model's small errors carry it to a bound: one residual
-``PRIOR_WEIGHT`` (z - z_0) per parameter, so moving a parameter across its whole range costs as
-much as one reading one noise standard deviation off (the load cell's 0.2 N is 1 % of the 20 N
-force tolerance the residuals are scaled to): a Gaussian prior a range wide, next to the
-noise. A stronger one (a range for one reading a whole tolerance off, as before) pulled what
-the data fix only weakly, along a long curved valley, towards the start: drawn set 19 of the
-round-trip study ended 41 % off in g_m, held near a start read off a grid that stops short of
-x_m, at a chi-square 45 % above the true parameters' (BENCHMARKS.md, 'Calibrating the bench
-to recordings, across the bounds').
+- Residuals: forces in units of 1 % of the load cell's 2000 N range (20 N), contractions in
+  0.5 mm. ``scipy.optimize.least_squares`` (trust region reflective) fits the parameters of
+  ``FREE_BAGS`` inside their bounds (the declared ranges narrowed for the reasons of
+  ``BOUND_REASONS``), each normalised to z in [0, 1].
+- Prior: one residual ``PRIOR_WEIGHT`` (z - z_0) per parameter, so crossing a parameter's
+  whole range costs as much as one reading one noise deviation off (0.2 N against the 20 N
+  scale): it keeps what the data do not fix near its start and leaves what they fix alone.
+- Errors and flags: standard errors and correlations from the Jacobian at the optimum
+  (``calibrate.fit_summary``, the prior's rows included). A parameter is flagged (the
+  recordings do not fix it) when its error exceeds 5 % of its value, when it sits at a bound,
+  when the data alone leave it a variance above ``UNFIXED_SHARE`` of its interval squared
+  ([(J^T J + delta I)^-1]_ii in z, delta = ``DATA_ONLY``), or when its data-only correlation
+  with a flagged parameter reaches ``JOINT_CORRELATION``.
+- Settling: when the Gauss-Newton step from the fit's end would still move a parameter by more
+  than ``SETTLED_STEP`` of its value, the fit goes on for a few evaluations without the early
+  stop, its Jacobian by central differences (``SETTLE_JAC``; ``_settled``). Jacobian steps are
+  ``DIFF_STEP`` of each interval; a trial past the muscle's stability rule stops a fit
+  (``RISE_MARGIN``).
+- Left out: a reading at held load whose friction loop at the starting parameters is wider than
+  ``PATH_WIDTH_M`` in contraction (no replay places it: its transient decides it); they are
+  listed.
 
-A parameter is flagged too when the data barely move it: when the data alone, read at the
-tolerances, leave it a variance above ``UNFIXED_SHARE`` of its fit interval squared (J the
-data's Jacobian in z, [(J^T J + delta I)^-1]_ii > ``UNFIXED_SHARE``, delta tiny:
-``DATA_ONLY``). There the cost's valley is long and curved (the gain curve's g_m, x_m and n on
-a grid that stops short of x_m: 0.24 to 0.89, the braid friction's scale: about 0.1), and the
-standard error, a straight line's reading of it, is far too small; a threshold band the grid
-crosses in steps of 0.2 V reads about 0.012, just past it, and is recovered within 1.3 %
-(test/fit/test_calibrate_start.py): the flag errs on the side of saying less. And a
-parameter the data fix only jointly with a flagged one (the gain curve's exponent when the
-grid stops short of x_m) is not fixed by the recordings either: a parameter whose data-only
-correlation with a flagged one reaches ``JOINT_CORRELATION`` is flagged too (the
-near-degenerate directions the replay's small differences keep from being exactly
-degenerate).
-
-A fit that ends near the noise level may have stopped short of its optimum on a shallow valley
-(a weak braid friction moves the readings little): when the Gauss-Newton step from its end
-would still move a parameter by more than ``SETTLED_STEP`` of its value, the fit goes on
-without the early stop for a few evaluations (``_settled``), its Jacobian read by central
-differences (``SETTLE_JAC``): in a narrow curved valley (the gain at the lower end of its
-interval, a thousand times steeper than the threshold band) forward differences at
-``DIFF_STEP`` read a slope that pointed out of the valley, and the fit stayed at five times the
-true parameters' cost, although the cost falls all the way along the straight line to them.
-The Jacobian is read with steps of ``DIFF_STEP`` of each interval: the replay is rough below
-that, and a finer step read the roughness as the slope and stopped fits inside the curved
-valleys above. A refused model (a trial past the muscle's stability rule) stops a fit too:
-``RISE_MARGIN``.
-
-Readings no replay can place are left out of the fit and listed: a reading at
-held load whose friction loop, at the starting parameters, is wider than ``PATH_WIDTH_M`` in
-contraction (the muscle settled at that load and voltage from 100 N above against 100 N
-below). There the muscle is so compliant (the gain near its minimum at x_m, a light load) that
-small differences in the transient (the dwell, the settling's sub-step, a drive that is not
-004's) move the reading by millimetres.
+Why each of these is as it is (the drawn sets that moved the prior, the flags, the central
+differences and the step): docs/long_runs.md, 'Calibrate: how the fit's rules were chosen'.
 """
 
 from __future__ import annotations
@@ -69,7 +42,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares
 
-from pam_bench.fit.calibrate import fit_report, fit_summary
+from pam_bench.fit.calibrate import FitSummary, fit_report, fit_summary
 from pam_bench.fit.calibrate_init import initial_values, law_start
 from pam_bench.fit.calibrate_replay import (
     CONTRACTION_SCALE_M,
@@ -99,7 +72,37 @@ __all__ = ['FREE_BAGS', 'BOUND_REASONS', 'Observations', 'Bench', 'observations_
            'observations_from_twin', 'predict', 'calibrate_bags', 'overlay_of',
            'FORCE_SCALE_N', 'CONTRACTION_SCALE_M', 'PATH_WIDTH_M', 'path_sensitive',
            'calibrate_bag', 'run_start', 'Mapper', 'reached', 'coarse', 'free_of_law',
-           'rms_by_kind', 'bench_of_scene', 'bench_of_settings']
+           'rms_by_kind', 'bench_of_scene', 'bench_of_settings', 'Calibration']
+
+
+class Calibration(FitSummary):
+    """``calibrate_bags``' result (``--json`` prints it without the two parameter objects):
+    the fit (``FitSummary``, held parameters appended and flagged), the fitted bench
+    (``valve``, ``muscle``, ``laws``: the law's settings or None), RMS per protocol kind
+    before and after (N or mm), the verdict (``Verdict.as_dict``), the noise levels, every
+    law's static RMS on the isometric readings best first (N), the law fitted (None: the
+    bench's McKibben), the start values and what each was read from, the held values and
+    why, the starts tried and how many reached the best, the readings left out (kind, u V,
+    held value), the cost, evaluations and seconds taken."""
+
+    valve: ValveParams
+    muscle: MuscleParams
+    laws: Any
+    rms_before: dict[str, float]
+    rms_after: dict[str, float]
+    verdict: dict[str, Any]
+    noise: dict[str, float]
+    law_zoo: dict[str, float]
+    law: str | None
+    start: dict[str, float]
+    start_from: dict[str, str]
+    held: dict[str, str]
+    starts: dict[str, int]
+    left_out: list[Any]
+    cost: float
+    evaluations: int
+    fit_s: float
+
 
 PRIOR_WEIGHT = 0.01             # a range costs one reading a noise deviation off (docstring)
 UNFIXED_SHARE = 0.01            # data-only variance in z at the tolerances that flags
@@ -460,7 +463,7 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
                    max_nfev: int = 60, only: Sequence[str] | None = None,
                    replay: str = 'stepped', workers: Mapper | None = None,
                    start: str = 'data', starts: int = 8, map_starts: Mapper | None = None,
-                   law: str | None = None) -> dict[str, Any]:
+                   law: str | None = None) -> Calibration:
     """Fit ``FREE_BAGS`` (or the names in ``only``) to the observations and say whether the fit
     found the muscle (``fit.calibrate_verdict``).
 
@@ -475,13 +478,7 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
     and the valve's loop are fitted (``free_of_law``), the law's start from its static fit to
     the isometric readings.
 
-    Returns the fitted bench (``valve``, ``muscle``, ``laws``), ``values``, ``stderr``,
-    ``correlation``, ``flags``, ``rms_before`` / ``rms_after`` per protocol kind,
-    ``verdict`` (``Verdict.as_dict``), ``noise``, ``law_zoo`` (every law's static RMS on the
-    isometric readings, best first), ``start`` (name -> initial value) and ``start_from``
-    (name -> what it was read from), ``held`` (name -> value: what no reading shows),
-    ``starts`` (tried, reaching the best), ``left_out`` (the readings ``path_sensitive``
-    leaves out: kind, u V, held value), ``cost``, ``evaluations`` and ``fit_s``. ``workers``:
+    Returns a ``Calibration`` (its docstring names every field). ``workers``:
     a map-like callable the finite-difference Jacobian's columns are evaluated through
     (scipy's ``least_squares(workers=...)``; ``cluster.layer.map_on`` puts them on the
     cluster).
@@ -591,14 +588,14 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
                          f'{zoo[best_law]:.3g} N against {zoo.get(mine_law, math.inf):.3g} N '
                          f'for {mine_law})')
     verd = verdict(rms_after, noise, hints)
-    return {**summary, 'valve': fitted.valve, 'muscle': fitted.muscle, 'laws': fitted.laws,
-            'rms_before': rms_of(obs, pred0, left_out), 'rms_after': rms_after,
-            'verdict': verd.as_dict(), 'noise': noise, 'law_zoo': zoo, 'law': law,
-            'start': {n: float(initial[n]) for n in names}, 'start_from': why,
-            'held': {n: f'{held[n]:.6g}: {unseen[n]}' for n in held},
-            'starts': {'tried': best_of[1], 'at_best': best_of[0]},
-            'left_out': [obs.readings[i][:3] for i in left_out], 'cost': float(sol.cost),
-            'evaluations': evaluations, 'fit_s': time.perf_counter() - t0}
+    return Calibration(
+        **summary, valve=fitted.valve, muscle=fitted.muscle, laws=fitted.laws,
+        rms_before=rms_of(obs, pred0, left_out), rms_after=rms_after, verdict=verd.as_dict(),
+        noise=noise, law_zoo=zoo, law=law, start={n: float(initial[n]) for n in names},
+        start_from=why, held={n: f'{held[n]:.6g}: {unseen[n]}' for n in held},
+        starts={'tried': best_of[1], 'at_best': best_of[0]},
+        left_out=[obs.readings[i][:3] for i in left_out], cost=float(sol.cost),
+        evaluations=evaluations, fit_s=time.perf_counter() - t0)
 
 
 def bench_of_scene(scene: str | None
@@ -632,7 +629,7 @@ def bench_of_settings(st: dict[str, Any], what: str
 
 
 def calibrate_bag(job: tuple[str, int, str, str, int, str | None, str | None]
-                  ) -> dict[str, Any]:
+                  ) -> Calibration:
     """One job of ``pam-bench calibrate --each``: (bag folder, largest number of
     evaluations, replay, start, starts, law, scene) -> ``calibrate_bags``' result for that
     bag alone (its starts run one after the other in the job).

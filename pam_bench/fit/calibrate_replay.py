@@ -8,21 +8,15 @@ one bench, so the friction follows the recorded path, in one of two ways (``repl
 - 'stepped' (the default): the time-stepped bench (``twin.bench``, 004's drive) for 004's
   3 s dwell per reading, the first ``TRANSIENT_S`` at the bench's sub-step and the slow
   settling of the drive's integral action at ``SETTLE_SUB_STEP_S`` (the sub-step law is
-  implicit, so the longer step stays stable; at 20 ms, though, a weak muscle near x_m
-  settled off where the bench's own 5 ms sub-step leaves it: isobaric readings 0.016 mm RMS
-  off at the true parameters against the encoder's 0.001 mm, 0.004 at 5 ms, for a fifth
-  more time per replay). The drive's force loop, speed limit, inertia
+  implicit, so the longer step stays stable). The drive's force loop, speed limit, inertia
   and gear play decide where inside its friction loop a muscle stops after a new set value,
   and the position loop's transient shakes the friction at the first pressure of an isometric
   series. The step records follow on the same bench (004's campaign runs the step responses
   last): each settles at its start voltage and held x for the dwell, then the valve steps and
   the bench is compared at every ``RECORD_STRIDE``-th sample period, run in sub-steps of the
   record's own sample period (as the bench records one), shorter where the valve's loop asks
-  (omega_n h at most ``RECORD_OMEGA_H``; ``record_sub_step_s``). A single 10 ms sub-step at
-  120 rad/s left a bias in the records, 0.26 N RMS against the noise's 0.20 N at the true
-  parameters, that pulled a fit's threshold band 16 % off; sub-steps of omega_n h = 1 still
-  left 0.24 N at 68 rad/s, and the fit paid for it with a gain rise 9 % off (0.233 N and
-  0.5 % at the sample period);
+  (omega_n h at most ``RECORD_OMEGA_H``; ``record_sub_step_s``). How the two sub-steps were
+  chosen: docs/long_runs.md, 'Calibrate: how the fit's rules were chosen';
 - 'static': the quasi-static bench (``twin.quasistatic``) with the valve's overshoot turning
   points, the muscle end following the belt stretch at each; an ideal drive; each step
   record from its own settled start, the valve's pressure loop integrated exactly (ZOH)

@@ -19,7 +19,7 @@ work-precision benchmark.
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 
@@ -41,7 +41,20 @@ from pam_bench.models.muscle import MuscleModel, MuscleParams
 from pam_bench.models.sensors import EncoderModel, LoadCellModel, LoadCellParams
 from pam_bench.models.valve import ValveModel, ValveParams
 
-__all__ = ['ServoRun', 'run_servo', 'reversals', 'tracking_metrics']
+__all__ = ['ServoRun', 'run_servo', 'reversals', 'tracking_metrics', 'Tracking']
+
+
+class Tracking(TypedDict):
+    """How well a servo run tracked (``tracking_metrics``): RMS and largest error, the
+    largest near a reversal and elsewhere (the run's unit, ``unit``: 'N m' or 'N'), and the
+    window after a reversal that counts as near it, s."""
+
+    rms_error: float
+    max_error: float
+    error_at_reversal: float
+    error_elsewhere: float
+    reversal_window_s: float
+    unit: str
 
 
 @dataclasses.dataclass
@@ -140,7 +153,7 @@ def reversals(run: ServoRun, settle_s: float = 0.0) -> np.ndarray:
 
 
 def tracking_metrics(run: ServoRun, settle_s: float = 1.0, window_s: float | None = None
-                     ) -> dict[str, Any]:
+                     ) -> Tracking:
     """RMS and max |set point - measured| after ``settle_s``; the largest error in the window
     that follows a reversal of the set point's derivative (or a jump of a square wave) and the
     largest elsewhere, in the run's unit. The window runs from 0.05 s before each reversal to
@@ -155,8 +168,8 @@ def tracking_metrics(run: ServoRun, settle_s: float = 1.0, window_s: float | Non
     near = np.zeros_like(t, dtype=bool)
     for m in marks:
         near |= (t >= m - 0.05) & (t <= m + window_s)
-    return {'rms_error': float(np.sqrt(np.mean(e ** 2))) if len(e) else float('nan'),
-            'max_error': float(e.max()) if len(e) else float('nan'),
-            'error_at_reversal': float(e[near].max()) if near.any() else float('nan'),
-            'error_elsewhere': float(e[~near].max()) if (~near).any() else float('nan'),
-            'reversal_window_s': window_s, 'unit': run.unit}
+    return Tracking(rms_error=float(np.sqrt(np.mean(e ** 2))) if len(e) else float('nan'),
+                    max_error=float(e.max()) if len(e) else float('nan'),
+                    error_at_reversal=float(e[near].max()) if near.any() else float('nan'),
+                    error_elsewhere=float(e[~near].max()) if (~near).any() else float('nan'),
+                    reversal_window_s=window_s, unit=run.unit)

@@ -38,6 +38,7 @@ import numpy as np
 from pam_bench.analysis.extract import coefficient_polynomials
 from pam_bench.analysis.identify import fit_step
 from pam_bench.analysis.static import gain_summary
+from pam_bench.analysis.summary import Summary
 from pam_bench.bags.bagread import Points
 from pam_bench.config.protocols import protocol_schedule
 from pam_bench.config.scene import load_scene
@@ -129,7 +130,7 @@ def _reference(scene_name: str) -> tuple[dict[str, Any], list[dict[str, Any]]]:
                        r.voltage_v - (r.pre_voltage_v or 0.0))
         fits.append({**_step_head(r), 'b': fit.b, 'c': fit.c, 'd': fit.d, 'F_a0_N': fit.f_a0_n,
                      'rms_error_N': fit.rms_error_n, 'delay_samples': fit.delay_samples})
-    return gain_summary(_points(rows)), fits
+    return dict(gain_summary(_points(rows))), fits
 
 
 def truth_summary(scene_name: str, reference: bool = True) -> dict[str, Any]:
@@ -138,7 +139,8 @@ def truth_summary(scene_name: str, reference: bool = True) -> dict[str, Any]:
     readings = scene_schedule(scene_name)
     backbone = QuasiStaticBench(m.valve, _without_friction(m.muscle), m.servo,
                                 straight_fibre=_without_friction(m.straight_fibre))
-    summary = gain_summary(_points([(r, backbone.settle(r)) for r in readings]))
+    summary: dict[str, Any] = dict(gain_summary(_points([(r, backbone.settle(r))
+                                                          for r in readings])))
     summary.pop('isobaric', None)
     with_friction = QuasiStaticBench(m.valve, m.muscle, m.servo,
                                      straight_fibre=m.straight_fibre)
@@ -180,7 +182,7 @@ def _rel(measured: float, true: float) -> float:
     return (measured - true) / true if true else float('inf')
 
 
-def compare(truth: dict[str, Any], summary: dict[str, Any]) -> dict[str, Any]:
+def compare(truth: dict[str, Any], summary: Summary) -> dict[str, Any]:
     """Relative errors (measured - truth) / truth of an extraction against the truth, per
     quantity both hold: isometric gain per series, isotonic gain max and min, step-response
     b, c, d per record; against the parameter figures and, where the truth holds them, the
