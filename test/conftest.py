@@ -7,6 +7,7 @@ import itertools
 import os
 import pathlib
 from collections.abc import Iterator
+from typing import Any
 
 import pytest
 
@@ -91,6 +92,21 @@ def core_restored() -> Iterator[None]:
     yield
     if jit.core() != before:
         jit.use(before)
+
+
+@pytest.fixture
+def make_harness(ros_domain: int) -> Iterator[Any]:
+    """``make_harness(make_node)``: a ``test.nodes.harness.Harness`` (a tester node beside the
+    node ``make_node(context)`` in a fresh context), closed after the test."""
+    from test.nodes.harness import Harness
+    made: list[Harness] = []
+
+    def make(make_node: Any) -> Harness:
+        made.append(Harness(make_node))
+        return made[-1]
+    yield make
+    for h in reversed(made):
+        h.close()
 
 
 @pytest.fixture(scope='session')

@@ -20,18 +20,15 @@ MS = 10_000_000
 
 
 @pytest.fixture
-def valve(ros_domain: int):
-    h = Harness(lambda ctx: ValveSim('valve_1', context=ctx, parameter_overrides=[
+def valve(make_harness: Any) -> Any:
+    h = make_harness(lambda ctx: ValveSim('valve_1', context=ctx, parameter_overrides=[
         Parameter('valve.order', value=0)]))
-    try:
-        h.publisher(ValveCommand, 'valve_1/command')
-        h.publisher(MuscleState, 'sim/muscle_1/state')
-        h.listen(FluidPressure, 'valve_1/pressure')
-        h.start()
-        h.send('sim/muscle_1/state', MuscleState(volume=1.1e-4), 0)   # published at t_0
-        yield h
-    finally:
-        h.close()
+    h.publisher(ValveCommand, 'valve_1/command')
+    h.publisher(MuscleState, 'sim/muscle_1/state')
+    h.listen(FluidPressure, 'valve_1/pressure')
+    h.start()
+    h.send('sim/muscle_1/state', MuscleState(volume=1.1e-4), 0)   # published at t_0
+    yield h
 
 
 def stamped(h: Harness, topic: str, t_ns: int) -> Any:

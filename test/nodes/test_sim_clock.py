@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import collections
+from typing import Any
 
 import numpy as np
 import pytest
@@ -35,7 +36,7 @@ def test_rate_is_zero_before_wall_time_passes() -> None:
 
 
 @pytest.mark.wallclock
-def test_an_unacknowledged_tick_is_published_again_and_again(ros_domain: int) -> None:
+def test_an_unacknowledged_tick_is_published_again_and_again(make_harness: Any) -> None:
     """A tick nobody acknowledges goes out again every nudge_s (0.1 s here) until the stall
     timeout, not once: under load a reader can match later than the first nudge, and the
     outputs a participant sends again with it would be lost as the first ones were."""
@@ -49,26 +50,22 @@ def test_an_unacknowledged_tick_is_published_again_and_again(ros_domain: int) ->
     from pam_bench.nodes.sim_clock import SimClock
     from pam_bench.runtime.base import RELIABLE
     from pam_bench.runtime.messages import ns_of, time_of
-    from test.nodes.harness import Harness
 
-    h = Harness(lambda ctx: SimClock(context=ctx, lean=False, parameter_overrides=[
+    h = make_harness(lambda ctx: SimClock(context=ctx, lean=False, parameter_overrides=[
         Parameter('participants', value=['/p']), Parameter('nudge_s', value=0.1),
         Parameter('grace_s', value=0.0), Parameter('exchange_step_s', value=0.01),
         Parameter('stall_timeout_s', value=20.0)]))
-    try:
-        ticks: list[int] = []
-        h.tester.create_subscription(Clock, '/clock', lambda m: ticks.append(ns_of(m.clock)),
-                                     RELIABLE)
-        ack_pub = h.tester.create_publisher(StepAck, '/sim/ack', RELIABLE)
-        h.add_node()
-        h.spin_until(lambda: 0 in ticks)
-        msg = StepAck(node='/p')
-        msg.header.stamp = time_of(0)
-        h.spin_until(lambda: (ack_pub.publish(msg), 10_000_000 in ticks)[1])
-        end = time.monotonic() + 1.5
-        while time.monotonic() < end:
-            h.executor.spin_once(timeout_sec=0.02)
-        assert rclpy.ok(context=h.context)
-        assert ticks.count(10_000_000) >= 4, ticks      # once, then a nudge per 0.25 s timer
-    finally:
-        h.close()
+    ticks: list[int] = []
+    h.tester.create_subscription(Clock, '/clock', lambda m: ticks.append(ns_of(m.clock)),
+                                 RELIABLE)
+    ack_pub = h.tester.create_publisher(StepAck, '/sim/ack', RELIABLE)
+    h.add_node()
+    h.spin_until(lambda: 0 in ticks)
+    msg = StepAck(node='/p')
+    msg.header.stamp = time_of(0)
+    h.spin_until(lambda: (ack_pub.publish(msg), 10_000_000 in ticks)[1])
+    end = time.monotonic() + 1.5
+    while time.monotonic() < end:
+        h.executor.spin_once(timeout_sec=0.02)
+    assert rclpy.ok(context=h.context)
+    assert ticks.count(10_000_000) >= 4, ticks      # once, then a nudge per 0.25 s timer

@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import pathlib
 import time
+from typing import Any
 
 import numpy as np
 import pytest
@@ -40,21 +41,18 @@ def test_short_servo_scene_tracks_the_torque(tmp_path: pathlib.Path, ros_domain:
 
 
 @pytest.fixture
-def harness(ros_domain: int):
-    h = Harness(lambda ctx: TorqueServoNode('torque_servo', context=ctx, parameter_overrides=[
+def harness(make_harness: Any) -> Any:
+    h = make_harness(lambda ctx: TorqueServoNode('torque_servo', context=ctx, parameter_overrides=[
         Parameter('lockstep', value=False), Parameter('controller', value='pid'),
         Parameter('control_period_s', value=0.005), Parameter('stale_timeout_s', value=0.25)]))
-    try:
-        for i in (1, 2):
-            h.publisher(WrenchStamped, f'load_cell_{i}/force')
-            h.listen(ValveCommand, f'valve_{i}/command')
-        h.publisher(JointState, 'encoder/joint_state')
-        h.publisher(TorqueSetpoint, 'torque_servo/setpoint')
-        h.listen(TorqueServoState, 'torque_servo/state')
-        h.add_node()
-        yield h
-    finally:
-        h.close()
+    for i in (1, 2):
+        h.publisher(WrenchStamped, f'load_cell_{i}/force')
+        h.listen(ValveCommand, f'valve_{i}/command')
+    h.publisher(JointState, 'encoder/joint_state')
+    h.publisher(TorqueSetpoint, 'torque_servo/setpoint')
+    h.listen(TorqueServoState, 'torque_servo/state')
+    h.add_node()
+    yield h
 
 
 def feed(h: Harness, seconds: float, forces: tuple[float, float] | None = (300.0, 300.0),

@@ -79,129 +79,108 @@ def _count_steps(node: Any) -> list[int]:
 
 
 def test_a_managed_valve_steps_only_when_active_and_vents_when_deactivated(
-        context: rclpy.Context) -> None:
+        context: rclpy.Context, own: Any) -> None:
     node = _valve(context, managed=True)
     steps = _count_steps(node)
-    m = Manager(context, node)
-    try:
-        assert m.state() == 'unconfigured'
-        m.ticks(20)
-        assert not steps and node.lifecycle_state == 'unconfigured'  # waits for its manager
-        assert m.set(Transition.TRANSITION_CONFIGURE) and m.state() == 'inactive'
-        m.ticks(20)
-        assert not steps
-        assert m.set(Transition.TRANSITION_ACTIVATE) and m.state() == 'active'
-        m.ticks(20)
-        assert len(steps) == 20
-        node.voltage_v = 6.0                      # as a command and a muscle would leave it
-        node.model.reset(3.0e5)
-        assert m.set(Transition.TRANSITION_DEACTIVATE) and m.state() == 'inactive'
-        assert node.voltage_v == 0.0 and node.model.state[0] == 0.0   # vented at once
-        m.ticks(20)
-        assert len(steps) == 20                   # no stepping while inactive
-        assert m.set(Transition.TRANSITION_ACTIVATE)
-        m.ticks(5)
-        assert len(steps) == 25
-    finally:
-        m.close()
+    m = own(Manager(context, node))
+    assert m.state() == 'unconfigured'
+    m.ticks(20)
+    assert not steps and node.lifecycle_state == 'unconfigured'  # waits for its manager
+    assert m.set(Transition.TRANSITION_CONFIGURE) and m.state() == 'inactive'
+    m.ticks(20)
+    assert not steps
+    assert m.set(Transition.TRANSITION_ACTIVATE) and m.state() == 'active'
+    m.ticks(20)
+    assert len(steps) == 20
+    node.voltage_v = 6.0                      # as a command and a muscle would leave it
+    node.model.reset(3.0e5)
+    assert m.set(Transition.TRANSITION_DEACTIVATE) and m.state() == 'inactive'
+    assert node.voltage_v == 0.0 and node.model.state[0] == 0.0   # vented at once
+    m.ticks(20)
+    assert len(steps) == 20                   # no stepping while inactive
+    assert m.set(Transition.TRANSITION_ACTIVATE)
+    m.ticks(5)
+    assert len(steps) == 25
 
 
 def test_a_node_started_by_hand_activates_itself_at_its_first_tick(
-        context: rclpy.Context) -> None:
+        context: rclpy.Context, own: Any) -> None:
     node = _valve(context, managed=False)
     steps = _count_steps(node)
-    m = Manager(context, node)
-    try:
-        assert m.state() == 'unconfigured'
-        m.ticks(3)
-        assert len(steps) == 3 and m.state() == 'active'
-    finally:
-        m.close()
+    m = own(Manager(context, node))
+    assert m.state() == 'unconfigured'
+    m.ticks(3)
+    assert len(steps) == 3 and m.state() == 'active'
 
 
-def test_in_lockstep_a_device_is_not_managed(context: rclpy.Context) -> None:
-    node = ValveSim('valve_1', context=context)
-    try:
-        assert not node.managed and node.lifecycle_state == 'active' and node.may_step()
-        assert not [s for s in node.services if 'change_state' in s.srv_name]
-    finally:
-        node.destroy_node()
+def test_in_lockstep_a_device_is_not_managed(context: rclpy.Context, own: Any) -> None:
+    node = own(ValveSim('valve_1', context=context))
+    assert not node.managed and node.lifecycle_state == 'active' and node.may_step()
+    assert not [s for s in node.services if 'change_state' in s.srv_name]
 
 
-def test_a_deactivated_servo_vents_both_valves(context: rclpy.Context) -> None:
+def test_a_deactivated_servo_vents_both_valves(context: rclpy.Context, own: Any) -> None:
     node = TorqueServoNode('torque_servo', context=context, parameter_overrides=[
         *WALL, Parameter('controller', value='pid'), Parameter('managed', value=True)])
-    m = Manager(context, node)
+    m = own(Manager(context, node))
     got: dict[int, list[ValveCommand]] = {1: [], 2: []}
     for ch in (1, 2):
         m.me.create_subscription(ValveCommand, f'/valve_{ch}/command', got[ch].append, 10)
-    try:
-        assert m.set(Transition.TRANSITION_CONFIGURE)
-        assert m.set(Transition.TRANSITION_ACTIVATE)
-        assert m.set(Transition.TRANSITION_DEACTIVATE)
-        end = time.monotonic() + 5.0
-        while not (got[1] and got[2]) and time.monotonic() < end:
-            m.executor.spin_once(timeout_sec=0.01)
-        assert got[1] and got[2]
-        assert got[1][-1].voltage == got[2][-1].voltage == 0.0
-    finally:
-        m.close()
+    assert m.set(Transition.TRANSITION_CONFIGURE)
+    assert m.set(Transition.TRANSITION_ACTIVATE)
+    assert m.set(Transition.TRANSITION_DEACTIVATE)
+    end = time.monotonic() + 5.0
+    while not (got[1] and got[2]) and time.monotonic() < end:
+        m.executor.spin_once(timeout_sec=0.01)
+    assert got[1] and got[2]
+    assert got[1][-1].voltage == got[2][-1].voltage == 0.0
 
 
 def test_a_drive_that_cannot_be_reached_fails_its_configure_with_the_reason(
-        context: rclpy.Context) -> None:
+        context: rclpy.Context, own: Any) -> None:
     node = ServoCanopenNode('servo_canopen', context=context, parameter_overrides=[
         Parameter('managed', value=True),
         Parameter('can_channel', value='pamnone0')])     # no such CAN interface here
     node.take_wall_ticks()
-    m = Manager(context, node)
-    try:
-        assert not m.set(Transition.TRANSITION_CONFIGURE)
-        assert m.state() == 'unconfigured'
-        why = node.diagnostics.concerns['lifecycle']
-        assert why.level == b'\x02' and why.message.startswith('configure failed:'), why
-        m.ticks(5)
-        assert node.lifecycle_state == 'unconfigured' and node.exit_code is None
-    finally:
-        m.close()
+    m = own(Manager(context, node))
+    assert not m.set(Transition.TRANSITION_CONFIGURE)
+    assert m.state() == 'unconfigured'
+    why = node.diagnostics.concerns['lifecycle']
+    assert why.level == b'\x02' and why.message.startswith('configure failed:'), why
+    m.ticks(5)
+    assert node.lifecycle_state == 'unconfigured' and node.exit_code is None
 
 
 def test_started_by_hand_a_drive_that_cannot_be_reached_ends_its_process(
-        context: rclpy.Context) -> None:
-    node = ServoCanopenNode('servo_canopen', context=context, parameter_overrides=[
-        Parameter('can_channel', value='pamnone0')])
+        context: rclpy.Context, own: Any) -> None:
+    node = own(ServoCanopenNode('servo_canopen', context=context, parameter_overrides=[
+        Parameter('can_channel', value='pamnone0')]))
     node.take_wall_ticks()
-    try:
-        node.wall_tick()
-        assert node.exit_code == 2 and node.lifecycle_state == 'unconfigured'
-        assert node.diagnostics.concerns['lifecycle'].message.startswith('configure failed:')
-    finally:
-        node.destroy_node()
+    node.wall_tick()
+    assert node.exit_code == 2 and node.lifecycle_state == 'unconfigured'
+    assert node.diagnostics.concerns['lifecycle'].message.startswith('configure failed:')
 
 
 def test_a_managed_servo_counts_its_startup_timeout_from_its_activation(
-        context: rclpy.Context) -> None:
+        context: rclpy.Context, own: Any) -> None:
     """The startup gate sits on the lifecycle: however long the manager takes, the servo's
     ``startup_timeout_s`` for its inputs starts when it is activated."""
     node = TorqueServoNode('torque_servo', context=context, parameter_overrides=[
         *WALL, Parameter('controller', value='pid'), Parameter('managed', value=True),
         Parameter('startup_timeout_s', value=0.2)])
     node.take_wall_ticks()
-    m = Manager(context, node)
-    try:
-        end = time.monotonic() + 0.5                  # unconfigured for longer than 0.2 s
-        while time.monotonic() < end:
-            m.ticks(5)
-        assert node.exit_code is None
-        assert m.set(Transition.TRANSITION_CONFIGURE) and m.set(Transition.TRANSITION_ACTIVATE)
-        m.ticks(2)
-        assert node.exit_code is None                 # just activated: still within 0.2 s
-        end = time.monotonic() + 0.5
-        while time.monotonic() < end and node.exit_code is None:
-            m.ticks(5)
-        assert node.exit_code == 3                    # no inputs for 0.2 s once active
-    finally:
-        m.close()
+    m = own(Manager(context, node))
+    end = time.monotonic() + 0.5                  # unconfigured for longer than 0.2 s
+    while time.monotonic() < end:
+        m.ticks(5)
+    assert node.exit_code is None
+    assert m.set(Transition.TRANSITION_CONFIGURE) and m.set(Transition.TRANSITION_ACTIVATE)
+    m.ticks(2)
+    assert node.exit_code is None                 # just activated: still within 0.2 s
+    end = time.monotonic() + 0.5
+    while time.monotonic() < end and node.exit_code is None:
+        m.ticks(5)
+    assert node.exit_code == 3                    # no inputs for 0.2 s once active
 
 
 def _recorded_valve(ctx: rclpy.Context) -> ValveSim:
@@ -212,44 +191,36 @@ def _recorded_valve(ctx: rclpy.Context) -> ValveSim:
 
 
 def test_a_managed_node_configures_once_a_recorder_that_just_came_hears_it(
-        context: rclpy.Context) -> None:
+        context: rclpy.Context, context_with: Any, own: Any) -> None:
     """The recorder's participant appears just before the manager calls: without the wait,
     the 'configured' diagnostic goes out before the recorder is matched and is lost."""
     from diagnostic_msgs.msg import DiagnosticArray
     node = _recorded_valve(context)
-    m = Manager(context, node)
-    rec_ctx = rclpy.Context()
-    rclpy.init(context=rec_ctx)                   # another participant, as a process is
+    m = own(Manager(context, node))
+    rec_ctx = context_with([])                    # another participant, as a process is
     heard: list[str] = []
-    try:
-        assert m.state() == 'unconfigured'
-        recorder = rclpy.create_node('recorder', context=rec_ctx)
-        recorder.create_subscription(DiagnosticArray, '/diagnostics', lambda a: heard.extend(
-            s.message for s in a.status if s.name.endswith(': lifecycle')), 10)
-        assert m.set(Transition.TRANSITION_CONFIGURE)
-        rec_exec = SingleThreadedExecutor(context=rec_ctx)
-        rec_exec.add_node(recorder)
-        end = time.monotonic() + 5.0
-        while not heard and time.monotonic() < end:
-            rec_exec.spin_once(timeout_sec=0.01)
-        assert heard[:1] == ['configured']
-        assert 'recorder' not in node.diagnostics.concerns      # no warning: it was heard
-    finally:
-        m.close()
-        rclpy.try_shutdown(context=rec_ctx)
+    assert m.state() == 'unconfigured'
+    recorder = own(rclpy.create_node('recorder', context=rec_ctx))
+    recorder.create_subscription(DiagnosticArray, '/diagnostics', lambda a: heard.extend(
+        s.message for s in a.status if s.name.endswith(': lifecycle')), 10)
+    assert m.set(Transition.TRANSITION_CONFIGURE)
+    rec_exec = SingleThreadedExecutor(context=rec_ctx)
+    rec_exec.add_node(recorder)
+    end = time.monotonic() + 5.0
+    while not heard and time.monotonic() < end:
+        rec_exec.spin_once(timeout_sec=0.01)
+    assert heard[:1] == ['configured']
+    assert 'recorder' not in node.diagnostics.concerns      # no warning: it was heard
 
 
 def test_a_managed_node_with_no_recorder_configures_after_its_wait_and_says_so(
-        context: rclpy.Context, monkeypatch: pytest.MonkeyPatch) -> None:
+        context: rclpy.Context, own: Any, monkeypatch: pytest.MonkeyPatch) -> None:
     from pam_bench.runtime import lifecycle
     monkeypatch.setattr(lifecycle, 'RECORDER_WAIT_S', 0.2)
     node = _recorded_valve(context)
-    m = Manager(context, node)
-    try:
-        t0 = time.monotonic()
-        assert m.set(Transition.TRANSITION_CONFIGURE) and m.state() == 'inactive'
-        assert time.monotonic() - t0 >= 0.2
-        warn = node.diagnostics.concerns['recorder']
-        assert warn.level == b'\x01' and warn.message.startswith('no recorder on /diagnostics')
-    finally:
-        m.close()
+    m = own(Manager(context, node))
+    t0 = time.monotonic()
+    assert m.set(Transition.TRANSITION_CONFIGURE) and m.state() == 'inactive'
+    assert time.monotonic() - t0 >= 0.2
+    warn = node.diagnostics.concerns['recorder']
+    assert warn.level == b'\x01' and warn.message.startswith('no recorder on /diagnostics')

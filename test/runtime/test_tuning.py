@@ -31,38 +31,33 @@ def _servo(ctx: rclpy.Context, **values: Any) -> TorqueServoNode:
     ('servo.pitch_diameter_m', 0.05), ('inverse_model_file', '/tmp/x.yaml'),
     ('joint_name', 'knee'),
 ])
-def test_structural_parameters_are_read_only(context: rclpy.Context, name: str,
+def test_structural_parameters_are_read_only(context: rclpy.Context, own: Any, name: str,
                                              value: Any) -> None:
-    node = _servo(context)
-    try:
-        before = node.get_parameter(name).value
-        result = node.set_parameters([Parameter(name, value=value)])[0]
-        assert not result.successful and 'read-only' in result.reason
-        assert node.get_parameter(name).value == before
-        assert node.describe_parameter(name).read_only
-    finally:
-        node.destroy_node()
+    node = own(_servo(context))
+    before = node.get_parameter(name).value
+    result = node.set_parameters([Parameter(name, value=value)])[0]
+    assert not result.successful and 'read-only' in result.reason
+    assert node.get_parameter(name).value == before
+    assert node.describe_parameter(name).read_only
 
 
-def test_servo_gains_and_set_point_change_at_the_next_step(context: rclpy.Context) -> None:
-    node = _servo(context)
-    try:
-        pid = node.ctl.pids[0]
-        pid.integral = 2.0                       # as after a while of control
-        i_term = pid.ki * pid.integral
-        result = node.set_parameters([Parameter('servo.kp_v_per_n', value=0.01),
-                                      Parameter('servo.ki_v_per_n_s', value=0.4),
-                                      Parameter('amplitude', value=3.0),
-                                      Parameter('signal', value='square')])
-        assert all(r.successful for r in result)
-        assert pid.kp == 0.004 and node.signal.amplitude == 5.0       # not before the step
-        node.apply_tuning()                                             # the safe point
-        assert pid.kp == 0.01 and pid.ki == 0.4
-        assert pid.ki * pid.integral == pytest.approx(i_term, rel=1e-12)   # bumpless
-        assert node.signal.amplitude == 3.0 and node.signal.kind.value == 'square'
-        assert node.settings.servo.kp_v_per_n == 0.01
-    finally:
-        node.destroy_node()
+def test_servo_gains_and_set_point_change_at_the_next_step(context: rclpy.Context,
+                                                           own: Any) -> None:
+    node = own(_servo(context))
+    pid = node.ctl.pids[0]
+    pid.integral = 2.0                       # as after a while of control
+    i_term = pid.ki * pid.integral
+    result = node.set_parameters([Parameter('servo.kp_v_per_n', value=0.01),
+                                  Parameter('servo.ki_v_per_n_s', value=0.4),
+                                  Parameter('amplitude', value=3.0),
+                                  Parameter('signal', value='square')])
+    assert all(r.successful for r in result)
+    assert pid.kp == 0.004 and node.signal.amplitude == 5.0       # not before the step
+    node.apply_tuning()                                             # the safe point
+    assert pid.kp == 0.01 and pid.ki == 0.4
+    assert pid.ki * pid.integral == pytest.approx(i_term, rel=1e-12)   # bumpless
+    assert node.signal.amplitude == 3.0 and node.signal.kind.value == 'square'
+    assert node.settings.servo.kp_v_per_n == 0.01
 
 
 @pytest.mark.parametrize('name, value, words', [
@@ -70,45 +65,39 @@ def test_servo_gains_and_set_point_change_at_the_next_step(context: rclpy.Contex
     ('signal', 'triangle', 'signal'),                   # not one of the choices
     ('stale_timeout_s', 0.0, 'stale_timeout_s'),
 ])
-def test_a_bad_tunable_value_is_refused_with_a_reason(context: rclpy.Context, name: str,
-                                                      value: Any, words: str) -> None:
-    node = _servo(context)
-    try:
-        before = node.get_parameter(name).value
-        result = node.set_parameters([Parameter(name, value=value)])[0]
-        assert not result.successful and words in result.reason
-        node.apply_tuning()
-        assert node.get_parameter(name).value == before
-    finally:
-        node.destroy_node()
+def test_a_bad_tunable_value_is_refused_with_a_reason(context: rclpy.Context, own: Any,
+                                                      name: str, value: Any, words: str) -> None:
+    node = own(_servo(context))
+    before = node.get_parameter(name).value
+    result = node.set_parameters([Parameter(name, value=value)])[0]
+    assert not result.successful and words in result.reason
+    node.apply_tuning()
+    assert node.get_parameter(name).value == before
 
 
-def test_sequencer_suspenders_and_periods(context: rclpy.Context) -> None:
-    node = SequencerNode('sequencer', context=context, parameter_overrides=[
-        *WALL, Parameter('autostart', value=False)])
-    try:
-        bad = node.set_parameters([Parameter('suspenders_yaml', value='[{input: speed}]')])[0]
-        assert not bad.successful and 'speed' in bad.reason
-        good = node.set_parameters([
-            Parameter('suspenders_yaml', value='[{input: force, low: -10.0, high: 900.0}]'),
-            Parameter('stale_timeout_s', value=2.0), Parameter('status_period_s', value=0.25),
-            Parameter('diagnostics_period_s', value=0.5)])
-        assert all(r.successful for r in good)
-        node.apply_tuning()
-        assert node.runner.settings.stale_timeout_s == 2.0
-        assert node.runner.settings.status_period_s == 0.25
-        assert node.runner.bands == {'force': (-10.0, 900.0)}
-        assert node.diagnostics.period_ns == 500_000_000
-        ro = node.set_parameters([Parameter('channel', value=2)])[0]
-        assert not ro.successful and node.channel == 1
-    finally:
-        node.destroy_node()
+def test_sequencer_suspenders_and_periods(context: rclpy.Context, own: Any) -> None:
+    node = own(SequencerNode('sequencer', context=context, parameter_overrides=[
+        *WALL, Parameter('autostart', value=False)]))
+    bad = node.set_parameters([Parameter('suspenders_yaml', value='[{input: speed}]')])[0]
+    assert not bad.successful and 'speed' in bad.reason
+    good = node.set_parameters([
+        Parameter('suspenders_yaml', value='[{input: force, low: -10.0, high: 900.0}]'),
+        Parameter('stale_timeout_s', value=2.0), Parameter('status_period_s', value=0.25),
+        Parameter('diagnostics_period_s', value=0.5)])
+    assert all(r.successful for r in good)
+    node.apply_tuning()
+    assert node.runner.settings.stale_timeout_s == 2.0
+    assert node.runner.settings.status_period_s == 0.25
+    assert node.runner.bands == {'force': (-10.0, 900.0)}
+    assert node.diagnostics.period_ns == 500_000_000
+    ro = node.set_parameters([Parameter('channel', value=2)])[0]
+    assert not ro.successful and node.channel == 1
 
 
-def test_a_change_through_the_parameter_service(context: rclpy.Context) -> None:
+def test_a_change_through_the_parameter_service(context: rclpy.Context, own: Any) -> None:
     """As `ros2 param set` does it: the set_parameters service of a wall-clock node."""
-    node = _servo(context)
-    client_node = rclpy.create_node('tuner', context=context)
+    node = own(_servo(context))
+    client_node = own(rclpy.create_node('tuner', context=context))
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
     executor.add_node(client_node)
@@ -126,8 +115,6 @@ def test_a_change_through_the_parameter_service(context: rclpy.Context) -> None:
         assert node.signal.offset == 1.5 and node.muscles == 2
     finally:
         executor.shutdown()
-        client_node.destroy_node()
-        node.destroy_node()
 
 
 def _params_file(tmp_path: pathlib.Path, text: str) -> list[str]:
@@ -136,36 +123,24 @@ def _params_file(tmp_path: pathlib.Path, text: str) -> list[str]:
     return ['--ros-args', '--params-file', str(path)]
 
 
-def test_a_wildcard_section_key_is_warned_about_not_refused(context: rclpy.Context,
+def test_a_wildcard_section_key_is_warned_about_not_refused(context_with: Any, own: Any,
                                                            tmp_path: pathlib.Path) -> None:
     args = _params_file(tmp_path, '/**:\n  ros__parameters:\n    rate_hz: 500.0\n'
                         '/**/sequencer:\n  ros__parameters:\n    lockstep: false\n'
                         '    autostart: false\n')
-    ctx = rclpy.Context()
-    rclpy.init(args=args, context=ctx)
-    node = SequencerNode('sequencer', context=ctx)
-    try:
-        assert node.lockstep is False                 # its own /**/sequencer section applies
-        reject_undeclared(node, args=args)            # rate_hz: a device's, ignored here
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown(context=ctx)
+    node = own(SequencerNode('sequencer', context=context_with(args)))
+    assert node.lockstep is False                 # its own /**/sequencer section applies
+    reject_undeclared(node, args=args)            # rate_hz: a device's, ignored here
 
 
-def test_a_misspelt_key_of_the_own_section_is_refused(context: rclpy.Context,
+def test_a_misspelt_key_of_the_own_section_is_refused(context_with: Any, own: Any,
                                                      tmp_path: pathlib.Path) -> None:
     args = _params_file(tmp_path, '/**:\n  ros__parameters:\n    rate_hz: 500.0\n'
                         'sequencer:\n  ros__parameters:\n    lockstep: false\n'
                         '    autostart: false\n    stale_timout_s: 1.0\n')
-    ctx = rclpy.Context()
-    rclpy.init(args=args, context=ctx)
-    node = SequencerNode('sequencer', context=ctx)
-    try:
-        with pytest.raises(ParameterError, match='stale_timout_s'):
-            reject_undeclared(node, args=args)
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown(context=ctx)
+    node = own(SequencerNode('sequencer', context=context_with(args)))
+    with pytest.raises(ParameterError, match='stale_timout_s'):
+        reject_undeclared(node, args=args)
 
 
 def test_a_bare_node_says_once_that_it_waits_for_the_clock(ros_domain: int) -> None:
