@@ -18,8 +18,11 @@ against lock-step, and the host's stall floor beside it.
    (suspended and resumed by itself, or aborted vented), how long it was held, and, after an
    abort, a ``--resume`` through the buses that takes the readings the bag lacks.
 
-The torque servo (two muscles) is not run through the buses: the emulated bench is the
-single-muscle one (``twin.buses``).
+6. **The torque servo through the buses**: ``servo_sin_t`` with ``--wallclock --buses``
+   (two valves and two load cells on the DAQ, the drive holding the pulley on CAN) against
+   the scene's twin (the lock-step reference): the torque RMS of each, the servo's control
+   period (p99, late share) and the drivers' rates, with the host's stall floor probed
+   beside it as in 4.
 """
 
 from __future__ import annotations
@@ -157,6 +160,47 @@ def _through_buses(quick: bool) -> dict[str, Any]:
         return out
 
 
+def _servo_through_buses(quick: bool) -> dict[str, Any]:
+    import dataclasses
+    import json
+
+    from pam_bench.bringup.runner import run_scene
+    from pam_bench.config.scene import load_scene
+    from pam_bench.twin.servo_bench import run_servo, tracking_metrics
+    from pam_bench.twin.servo_setup import scene_servo_setup, servo_run_of_bag
+    from pam_bench.vocabulary.run import Layout, RunOptions
+    scene = load_scene('servo_sin_t')
+    if quick:
+        scene = dataclasses.replace(scene, duration_s=3.0)
+    s = scene_servo_setup(scene)
+    twin = tracking_metrics(run_servo(
+        scene.settings()['torque_servo'].controller, s['signal'], scene.duration_s,
+        s['angle_rad'], scene.exchange_step_s, s['inverse'], s['muscles'], s['params'],
+        s['valve'], s['muscle'], plugins=s['plugins']))
+    with tempfile.TemporaryDirectory(prefix='pam_bench_servo_buses_') as tmp:
+        probe = subprocess.Popen([sys.executable, '-c', 'import json, sys; from '
+                                  'benchmarks.buses import probe_wakeups; '
+                                  'print(json.dumps(probe_wakeups(float(sys.argv[1]))))',
+                                  str(scene.duration_s + 6.0)],
+                                 stdout=subprocess.PIPE, text=True,
+                                 env=dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path)))
+        bus = run_scene(scene, f'{tmp}/bus', RunOptions(quiet=True, layout=Layout.WALL_CLOCK,
+                                                        buses='daq_generic'))
+        floor = json.loads(probe.communicate(timeout=300)[0] or '{}')
+        out: dict[str, Any] = {'scene': scene.name, 'duration_s': scene.duration_s,
+                               'bus_code': bus.code, 'floor': floor,
+                               'twin_rms_nm': twin['rms_error']}
+        if bus.code == 0:
+            out['bus_rms_nm'] = tracking_metrics(servo_run_of_bag(
+                pathlib.Path(tmp) / 'bus', 2))['rms_error']
+        for name in ('torque_servo', 'daq_modbus', 'servo_canopen'):
+            per = (bus.stats.get(name) or {}).get('periods')
+            if per:
+                out[name] = {'p99_ms': per['p99_s'] * 1e3, 'late_share': per['late_share'],
+                             'rate_hz': 1.0 / per['mean_s'], 'max_ms': per['max_s'] * 1e3}
+        return out
+
+
 BUS_FAULTS = {
     # kind: fault entry (times from the protocol's start; readings at 3.0, 4.5, 6.0, 7.5 s)
     'modbus_down': '{kind: modbus_down, target: daq_modbus, at_s: 4.0, duration_s: 0.6}',
@@ -228,10 +272,11 @@ def _bus_faults() -> dict[str, Any]:
 
 
 def measure(quick: bool, out: pathlib.Path, scenes: list[str] | None) -> dict[str, Any]:
-    """The five measurements (module docstring)."""
+    """The six measurements (module docstring)."""
     return {'buses': {'modbus': _modbus(3.0 if quick else 10.0),
                       'can': _can(500 if quick else 5000),
                       'run': _through_buses(quick),
+                      'servo': _servo_through_buses(quick),
                       'faults': _bus_faults()}}
 
 
@@ -266,6 +311,19 @@ def section(r: dict[str, Any], root: pathlib.Path) -> list[str]:
                      f"{f['p99_ms']:.3f} ms late", f"{f['max_ms']:.1f} ms late",
                      f"{f['over_1ms_share'] * 100:.2f} % over 1 ms"))
     lines += table(['loop during the run', 'rate', 'period p99', 'period max', 'late'], rows)
+    sv = b.get('servo')
+    if sv:
+        lines += ['', _servo_line(sv), '']
+        rows = [(n, f"{sv[n]['rate_hz']:.0f} Hz", f"{sv[n]['p99_ms']:.3f} ms",
+                 f"{sv[n]['max_ms']:.1f} ms", f"{sv[n]['late_share'] * 100:.2f} %")
+                for n in ('torque_servo', 'daq_modbus', 'servo_canopen') if n in sv]
+        f = sv.get('floor') or {}
+        if f:
+            rows.append(('host floor (1 ms sleeps, own process)', f"{f['wakeups']} wake-ups",
+                         f"{f['p99_ms']:.3f} ms late", f"{f['max_ms']:.1f} ms late",
+                         f"{f['over_1ms_share'] * 100:.2f} % over 1 ms"))
+        lines += table(['loop during the servo run', 'rate', 'period p99', 'period max',
+                        'late'], rows)
     faults = b.get('faults')
     if faults:
         lines += ['', 'Each bus fault in the short isometric series of "Injected faults" (4 '
@@ -286,6 +344,15 @@ def section(r: dict[str, Any], root: pathlib.Path) -> list[str]:
     return lines
 
 
+def _servo_line(sv: dict[str, Any]) -> str:
+    if 'bus_rms_nm' not in sv:
+        return f"{sv['scene']} through the buses: exit {sv['bus_code']}."
+    return (f"{sv['scene']} ({sv['duration_s']:.0f} s) with `--wallclock --buses`: torque RMS "
+            f"{sv['bus_rms_nm']:.3f} N m against {sv['twin_rms_nm']:.3f} N m for the scene's "
+            f"twin (the lock-step reference), a difference of "
+            f"{abs(sv['bus_rms_nm'] - sv['twin_rms_nm']):.3f} N m (bound 0.1 N m).")
+
+
 def results(r: dict[str, Any]) -> list[Row]:
     """The run through the buses against lock-step, and the Modbus rate."""
     b = r.get('buses')
@@ -299,6 +366,12 @@ def results(r: dict[str, Any]) -> list[Row]:
         rows.append((f"{run['scene']} through the buses vs lock-step (seed 3)",
                      '<= 10 N, 0.2 mm', f"{run['max_force_n']:.2f} N, "
                      f"{run['max_contraction_m'] * 1e3:.3f} mm", commit_of(r, 'buses')))
+    sv = b.get('servo') or {}
+    if 'bus_rms_nm' in sv:
+        rows.append((f"{sv['scene']} through the buses: torque RMS against its twin",
+                     '<= 0.1 N m', f"{abs(sv['bus_rms_nm'] - sv['twin_rms_nm']):.3f} N m "
+                     f"({sv['bus_rms_nm']:.3f} against {sv['twin_rms_nm']:.3f})",
+                     commit_of(r, 'buses')))
     return rows
 
 

@@ -3,7 +3,10 @@
 The simulated devices are served by one process, ``twin.serve_buses`` (a Modbus TCP DAQ on
 127.0.0.1 and a CiA 402 drive on the CAN hub), and the two drivers (``daq_modbus``,
 ``servo_canopen``) take their place on the ROS graph, each in its own process as on a real
-bench: the sequencer, the servo and the recorder run unchanged.
+bench: the sequencer, the servo and the recorder run unchanged. A scene of the torque servo's
+pair (``loading_servo.muscles: 2``) puts both valves and both load cells on the DAQ, and the
+driver holds the pulley at the scene's angle from the start (its ``initial_mode`` position,
+as the simulated drive holds it).
 """
 
 from __future__ import annotations
@@ -35,14 +38,22 @@ def bus_settings(settings: dict[str, Any], register_map: str, stats_dir: str
     from pam_bench.buses.register_map import load_register_map
     from pam_bench.cluster.loopback import free_port
     from pam_bench.config.settings import DaqModbusSettings, ServoCanopenSettings
-    missing = [n for n in ('valve_1', 'muscle_1', 'load_cell_1', 'encoder', 'loading_servo')
-               if n not in settings]
+    from pam_bench.twin.serve_buses import PAIR
+    needed = ['valve_1', 'muscle_1', 'load_cell_1', 'encoder', 'loading_servo']
+    pair = 'loading_servo' in settings and settings['loading_servo'].muscles == 2
+    if pair:
+        needed += PAIR
+    missing = [n for n in needed if n not in settings]
     if missing:
-        raise LayoutError(f'--buses serves the single-muscle bench: the scene lacks '
-                          f'{", ".join(missing)}')
+        raise LayoutError(f"--buses serves the single-muscle bench or the torque servo's "
+                          f'pair: the scene lacks {", ".join(missing)}')
     load_register_map(register_map)            # a bad map: one line before anything starts
     ports = (free_port(), free_port())
-    servo = settings['loading_servo'].servo
+    drive = settings['loading_servo']
+    servo = drive.servo
+    mode, setpoint = drive.initial_mode, drive.initial_setpoint
+    if pair and mode == 0:      # the pair's pulley held where the scene holds it (ideal there)
+        mode, setpoint = 2, drive.hold_angle_rad * servo.pitch_diameter_m / 2.0
     out = dict(settings)
     out['daq_modbus'] = DaqModbusSettings(
         port=ports[0], register_map=register_map,
@@ -51,6 +62,7 @@ def bus_settings(settings: dict[str, Any], register_map: str, stats_dir: str
     out['servo_canopen'] = ServoCanopenSettings(
         can_interface='socketcand', can_port=ports[1],
         stats_file=os.path.join(stats_dir, 'servo_canopen.json'),
+        initial_mode=mode, initial_setpoint=setpoint,
         drive=DriveScale(servo.pitch_diameter_m, servo.gear_ratio, servo.rated_torque_nm,
                          servo.encoder_bits_per_rev))
     return out, ports

@@ -29,7 +29,7 @@ __all__ = ['NodeSettings', 'DeviceSettings', 'ControllerSettings', 'ClockSetting
            'ValveSettings', 'MuscleSettings', 'LoadCellSettings', 'EncoderSettings',
            'LoadingServoSettings', 'SequencerSettings', 'TorqueServoSettings',
            'RecorderSettings', 'LiveViewSettings', 'LIVE_FULL_RATE_TOPICS', 'ManagedSettings',
-           'RecordedSettings']
+           'RecordedSettings', 'InitialLoadSettings']
 
 
 @dataclasses.dataclass
@@ -149,7 +149,18 @@ class EncoderSettings(DeviceSettings):
 
 
 @dataclasses.dataclass
-class LoadingServoSettings(DeviceSettings):
+class InitialLoadSettings:
+    """The load a drive holds from t_0 until its first command (scenes without a sequencer:
+    the torque servo's, whose drive holds the pulley): the simulated loading servo's and the
+    CANopen driver's."""
+
+    initial_mode: int = field(0, '-', 'LoadCommand mode held until the first command: 0 off, '
+                              '1 force, 2 position', 0, 2)
+    initial_setpoint: float = field(0.0, '', 'set value of initial_mode (N or m)', -10.0, 1e4)
+
+
+@dataclasses.dataclass
+class LoadingServoSettings(DeviceSettings, InitialLoadSettings):
     """loading_servo_sim."""
 
     channel: int = field(1, '-', 'muscle channel on the belt', 1, 2)
@@ -161,9 +172,6 @@ class LoadingServoSettings(DeviceSettings):
                                   -1.0472, 1.0472)
     rest_contraction_m: float = field(0.04, 'm', 'contraction x0 of both muscles at theta = 0 '
                                       '(two muscles)', 0.0, 0.15)
-    initial_mode: int = field(0, '-', 'LoadCommand mode held until the first command: 0 off, '
-                              '1 force, 2 position', 0, 2)
-    initial_setpoint: float = field(0.0, '', 'set value of initial_mode (N or m)', -10.0, 1e4)
     servo: LoadingServoParams = section(LoadingServoParams, 'the loading drive '
                                         '(models.loading_servo)')
 
@@ -315,7 +323,7 @@ class DaqModbusSettings(DriverSettings):
 
 
 @dataclasses.dataclass
-class ServoCanopenSettings(DriverSettings):
+class ServoCanopenSettings(DriverSettings, InitialLoadSettings):
     """servo_canopen: the loading servo's CiA 402 drive on CAN (``buses.canopen_drive``)."""
 
     can_interface: str = field('socketcan', '-', "python-can interface: socketcan (a lab's "

@@ -5,7 +5,8 @@ NMT), then every ``1 / rate_hz`` s sends RPDO 1 (controlword and set value) and 
 drive's actuals as ``loading_servo/state`` (joint ``motor``: motor-side angle, torque), as
 the simulated loading servo does. Input ``loading_servo/command`` (LoadCommand): off, a muscle
 tension (N) or a contraction (m); a command that is not finite, of an unknown mode or out of
-range is rejected and the last valid one kept (``docs/drivers.md``).
+range is rejected and the last valid one kept (``docs/drivers.md``); until the first,
+``initial_mode`` and ``initial_setpoint`` (the torque servo's drive holds the pulley from t_0).
 
 Watching, on ``/diagnostics`` (concern ``drive``): the power state; an EMCY is an ERROR and
 the drive is left disabled until ``loading_servo/reset`` (std_srvs/Trigger); no heartbeat for
@@ -58,6 +59,7 @@ class ServoCanopenNode(BenchNode):
         self.drive = CanopenDrive(bus_config(s.can_interface, s.can_channel, s.can_port),
                                   s.node_id, s.eds_file or eds_path(), s.drive, s.heartbeat_ms,
                                   s.heartbeat_timeout_s)
+        self.drive.command(LoadMode(s.initial_mode), s.initial_setpoint)
         self._state: State | None = None
         self._stale = False
         self.state_pub = self.create_step_publisher(JointState, topics.LOAD_STATE)

@@ -69,8 +69,11 @@ def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
 
     The loop sleeps in the wait set until the next deadline or message; a message is handled
     at once. A tick that ends late keeps the phase (the next deadline is one period after the
-    missed one); a loop more than a period behind starts again from now, dropping the ticks it
-    missed, as a driver's control loop does. ``poll`` (services, a bus refresh) runs every
+    missed one); a loop more than a period behind starts again from the end of its tick,
+    dropping the ticks it missed, as a driver's control loop does, and the messages that came
+    meanwhile are served before the next tick (a tick longer than the period, a Modbus round
+    trip on a loaded machine, once starved the subscriptions: commands reached the driver in
+    bursts seconds apart). ``poll`` (services, a bus refresh) runs every
     ``poll_period_s``. Returns when ``should_stop()`` is true after a tick. SIGINT and SIGTERM
     end the loop between ticks, never inside one (a tick cut between its publishes would leave
     a device's outputs half sent), and then raise KeyboardInterrupt. rclpy's timer against
@@ -104,8 +107,9 @@ def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
                 if should_stop is not None and should_stop():
                     return
                 deadline += period
-                if deadline <= now:
-                    deadline = now + period
+                after = time.monotonic_ns()
+                if deadline <= after:       # more than a period behind: again from now, so
+                    deadline = after + period    # the messages are served before the next tick
                 continue
             if poll is not None and now >= next_poll:
                 poll()

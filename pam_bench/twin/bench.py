@@ -38,8 +38,6 @@ from pam_bench.protocol.sequencer import COMMAND_STEP_S
 
 __all__ = ['BenchState', 'SingleMuscleBench']
 
-
-
 @dataclasses.dataclass
 class BenchState:
     """Signals after one exchange: SI units."""
@@ -87,9 +85,17 @@ class SingleMuscleBench:
         self._pending: tuple[LoadMode, float] | None = None
         self.samples: list[tuple[float, float]] = []   # (t s, measured N) of the last step
 
-    def command_valve(self, voltage_v: float) -> None:
-        """Hold ``voltage_v`` from now on."""
-        self.u = voltage_v
+    def command_valve(self, voltage_v: float, channel: int = 1) -> None:
+        """Hold ``voltage_v`` on the valve from now on (``channel``: a bench of one muscle has
+        valve 1 only; another channel's command has no valve to reach)."""
+        if channel == 1:
+            self.u = voltage_v
+
+    def signals(self) -> dict[str, float]:
+        """What a DAQ measures, by register-map signal: gauge pressure Pa, force N, angle
+        rad."""
+        return {'valve_1.pressure': self.p, 'load_cell_1.force': self.f_meas,
+                'encoder.angle': self.th_meas}
 
     def command_load(self, mode: LoadMode, setpoint: float, now: bool = False) -> None:
         """Loading servo mode and set value (N or m): acts after the next exchange, as a

@@ -1,14 +1,16 @@
 """The simulated bench behind real protocols: a Modbus TCP DAQ and a CiA 402 drive on CAN.
 
-``EmulatedBench`` steps the single-muscle bench of the twin (``twin.bench.SingleMuscleBench``,
-the physics the device nodes run, tested against them) on the wall clock at ``rate_hz`` and
-serves it as a lab's hardware would be:
+``EmulatedBench`` steps a bench of the twin (the single-muscle ``twin.bench.SingleMuscleBench``
+or the torque servo's pair, ``twin.pair_bench.PairBench``: the physics the device nodes run,
+tested against them) on the wall clock at ``rate_hz`` and serves it as a lab's hardware would
+be:
 
 - a **Modbus TCP server** on 127.0.0.1 (``twin.modbus_server``: the exceptions and access
   rules of the Modbus Application Protocol and of the device's map) with the registers of a
-  register map (``buses.register_map``): the measured force, pulley angle and absolute valve
-  pressure in its input registers, refreshed every tick; the valve voltage read from its
-  holding registers every tick (a value the map refuses vents the valve); with no write for
+  register map (``buses.register_map``): the measured forces, pulley angle and absolute valve
+  pressures in its input registers, refreshed every tick (a signal the bench lacks reads as
+  no force, atmospheric pressure); each valve voltage read from its holding registers every
+  tick (a value the map refuses vents that valve); with no write for
   the map's ``watchdog_s`` the DAQ's own watchdog sets its outputs to 0 V, as remote I/O
   couplers do when their master goes quiet, and a device without one (a LabJack T7's TDAC)
   keeps its output where it was;
@@ -29,7 +31,7 @@ import math
 import struct
 import threading
 import time
-from typing import Any
+from typing import Any, Protocol
 
 from pam_bench.buses.cia402 import (
     DriveScale,
@@ -37,10 +39,28 @@ from pam_bench.buses.cia402 import (
 )
 from pam_bench.buses.register_map import RegisterMap
 from pam_bench.models.constants import ATMOSPHERE_PA
-from pam_bench.twin.bench import SingleMuscleBench
 from pam_bench.twin.cia402_drive import EmulatedDrive
 
-__all__ = ['EmulatedBench']
+__all__ = ['EmulatedBench', 'ServedBench']
+
+
+class ServedBench(Protocol):
+    """What the buses serve: a bench of the twin with its drive (``servo``: ``phi`` rad,
+    ``torque`` N m)."""
+
+    servo: Any
+
+    def command_valve(self, voltage_v: float, channel: int = 1) -> None:
+        """Hold a valve's voltage, V."""
+
+    def command_load(self, mode: Any, setpoint: float, now: bool = False) -> None:
+        """The drive's mode and set value."""
+
+    def step(self, h_s: float) -> Any:
+        """One exchange of ``h_s`` s."""
+
+    def signals(self) -> dict[str, float]:
+        """The measured signals by register-map name (gauge Pa, N, rad)."""
 
 MAX_STEP_S = 0.005
 """Longest step the bench takes at once after the loop was late (a longer lag is dropped:
@@ -61,7 +81,7 @@ class EmulatedBench:
         rate_hz: the bench's tick rate on the wall clock.
     """
 
-    def __init__(self, bench: SingleMuscleBench, register_map: RegisterMap, modbus_port: int,
+    def __init__(self, bench: ServedBench, register_map: RegisterMap, modbus_port: int,
                  can: dict[str, Any], node_id: int = 5, scale: DriveScale | None = None,
                  rate_hz: float = 1000.0) -> None:
         self.bench = bench
@@ -79,7 +99,7 @@ class EmulatedBench:
         self._corrupt: dict[str, tuple[list[int], float]] = {}
         self.ticks = 0
         self.drive = EmulatedDrive(bench, self._lock, can, node_id, self.scale)
-        self.valve_voltage_v = 0.0
+        self.voltages_v: dict[str, float] = {c.signal: 0.0 for c in register_map.outputs}
         self.watchdog_s = register_map.watchdog_s    # the device's own (0: it has none)
         self._written: float | None = None      # last write of the holding registers
 
@@ -183,10 +203,7 @@ class EmulatedBench:
     # --- the bench ------------------------------------------------------------------------
     def _publish_inputs(self) -> None:
         """The bench's measured signals into the input registers (corrupted ones as told)."""
-        b = self.bench
-        values = {'valve_1.pressure': b.p + ATMOSPHERE_PA, 'load_cell_1.force': b.f_meas,
-                  'encoder.angle': b.th_meas, 'valve_2.pressure': ATMOSPHERE_PA,
-                  'load_cell_2.force': 0.0}
+        values = self.bench.signals()
         now = time.monotonic()
         words: dict[tuple[str, int], int] = {}
         for c in self.map.inputs:
@@ -194,31 +211,37 @@ class EmulatedBench:
             if bad is not None and now < bad[1]:
                 ws = bad[0]
             else:
-                v = values[c.signal]
+                v = values.get(c.signal, 0.0)
+                if c.signal.endswith('.pressure'):
+                    v += ATMOSPHERE_PA                 # the transducer reads absolute
                 ws = self.map.encode(c, min(max(v, c.low), c.high))
             for k, w in enumerate(ws):
                 words[(c.register, c.address + k)] = w
         with self._lock:
             self.words.update(words)
 
+    @property
+    def valve_voltage_v(self) -> float:
+        """Valve 1's voltage as the DAQ drives it now, V."""
+        return self.voltages_v.get('valve_1.voltage', 0.0)
+
     def _read_outputs(self) -> None:
-        c = self.map.channel('valve_1.voltage')
-        if c is None:
-            return
-        with self._lock:
-            ws = [self.words.get(('holding', c.address + k), 0) for k in range(c.count)]
-        u = self.map.decode(c, ws)
-        if not math.isfinite(u):
-            u = 0.0                                   # a command the map refuses: vent
+        """Each valve's voltage from its holding registers (the watchdog's 0 V after a quiet
+        master, when the device has one)."""
         written = self._written
-        if self.watchdog_s and written is not None and \
-                time.monotonic() - written > self.watchdog_s:
-            u = 0.0               # the DAQ's own watchdog: no write for a while, outputs safe
+        quiet = bool(self.watchdog_s and written is not None and
+                     time.monotonic() - written > self.watchdog_s)
+        for c in self.map.outputs:
             with self._lock:
-                for k in range(c.count):
-                    self.words[('holding', c.address + k)] = 0
-        self.valve_voltage_v = u
-        self.bench.command_valve(u)
+                if quiet:        # the DAQ's own watchdog: no write for a while, outputs safe
+                    for k in range(c.count):
+                        self.words[('holding', c.address + k)] = 0
+                ws = [self.words.get(('holding', c.address + k), 0) for k in range(c.count)]
+            u = self.map.decode(c, ws)
+            if not math.isfinite(u):
+                u = 0.0                               # a command the map refuses: vent
+            self.voltages_v[c.signal] = u
+            self.bench.command_valve(u, int(c.signal.split('.')[0].rpartition('_')[2]))
 
     def _run(self) -> None:
         """Tick the bench on the wall clock: outputs in, one step, inputs and TPDO out."""

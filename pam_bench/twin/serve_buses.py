@@ -1,8 +1,9 @@
 """``python -m pam_bench.twin.serve_buses``: the simulated bench of a scene behind its buses, until
 SIGINT or SIGTERM (``pam-bench emulate --buses`` and ``run --wallclock --buses`` start it).
 
-It builds the single-muscle bench from the scene's device settings (a params file as the
-bring-up writes it), starts the CAN hub on 127.0.0.1 (``buses.can_hub``) and the
+It builds the scene's bench from its device settings (a params file as the bring-up writes
+it): the single-muscle bench, or with ``loading_servo.muscles: 2`` the torque servo's pair
+(``twin.pair_bench``), and starts the CAN hub on 127.0.0.1 (``buses.can_hub``) and the
 ``EmulatedBench`` on it and on a Modbus TCP port, prints one line ``buses: modbus
 127.0.0.1:PORT, can socketcand 127.0.0.1:PORT, map NAME`` once both serve, and ticks the bench.
 A bad register map, a port in use: one line, exit code 2.
@@ -25,9 +26,27 @@ READY = 'buses:'
 """How the ready line starts."""
 
 
+PAIR = ('valve_2', 'muscle_2', 'load_cell_2')
+"""The devices a scene adds for the second muscle of the torque servo's pair."""
+
+
 def bench_of(settings: dict[str, Any]) -> Any:
-    """The twin's single-muscle bench with a scene's device settings (node -> settings)."""
+    """The twin's bench with a scene's device settings (node -> settings): the torque
+    servo's pair when the loading servo holds two muscles, else the single-muscle bench."""
+    from pam_bench.models.bench_muscle import make_muscle
     from pam_bench.twin.bench import SingleMuscleBench
+    from pam_bench.twin.pair_bench import PairBench
+    drive = settings['loading_servo']
+    if drive.muscles == 2:
+        ms = [settings[f'muscle_{i}'] for i in (1, 2)]
+        built = [make_muscle(m.muscle, m.straight_fibre, getattr(m, 'laws', None)) for m in ms]
+        return PairBench(
+            (settings['valve_1'].valve, settings['valve_2'].valve), (built[0], built[1]),
+            (settings['load_cell_1'].load_cell, settings['load_cell_2'].load_cell),
+            settings['encoder'].encoder, drive.servo, drive.hold_angle_rad,
+            drive.rest_contraction_m, (settings['load_cell_1'].seed,
+                                       settings['load_cell_2'].seed),
+            settings['valve_1'].sub_step_s, ms[0].settle)
     valve, muscle = settings['valve_1'], settings['muscle_1']
     cell = settings['load_cell_1']
     return SingleMuscleBench(valve=valve.valve, muscle=muscle.muscle, load_cell=cell.load_cell,
@@ -99,8 +118,9 @@ def main(argv: list[str] | None = None) -> None:
     hub = emu = None
     try:
         params = read_yaml(pathlib.Path(args.params_file))
-        wanted = ('valve_1', 'muscle_1', 'load_cell_1', 'encoder', 'loading_servo')
         by_node = {node_of_key(k): v for k, v in params.items()}
+        wanted = ('valve_1', 'muscle_1', 'load_cell_1', 'encoder', 'loading_servo',
+                  *(n for n in PAIR if n in by_node))
         settings = settings_of_params_file({n: by_node.get(n, {}) for n in wanted})
         rmap = load_register_map(args.map)
         servo = settings['loading_servo'].servo

@@ -160,3 +160,27 @@ def test_a_drive_fault_stops_the_run_vented_and_resume_takes_the_rest(
     rest = [(p.series, p.step) for p in bag_messages(tmp_path / 'rest', '/protocol/point')]
     assert len(set(rest)) == len(rest) and not first & set(rest)
     assert len(first) + len(rest) == READINGS
+
+
+def test_the_torque_servo_runs_through_the_buses_as_in_lock_step(tmp_path: pathlib.Path,
+                                                                 ros_domain: int) -> None:
+    """servo_sin_t with its two valves and two load cells on the DAQ and the drive holding the
+    pulley on CAN: the torque it tracks within 0.1 N m RMS of the same scene's twin (the
+    lock-step nodes' reference, bit-equal to them: test/twin)."""
+    import dataclasses
+
+    from pam_bench.twin.servo_bench import run_servo, tracking_metrics
+    from pam_bench.twin.servo_setup import scene_servo_setup, servo_run_of_bag
+    scene = dataclasses.replace(load_scene('servo_sin_t'), duration_s=3.0)
+    res = run_scene(scene, str(tmp_path / 'bus'),
+                    RunOptions(layout=Layout.WALL_CLOCK, quiet=True, buses='daq_generic'))
+    assert res.code == 0, res.summary
+    bus = tracking_metrics(servo_run_of_bag(tmp_path / 'bus', 2))
+    s = scene_servo_setup(scene)
+    twin = tracking_metrics(run_servo(
+        scene.settings()['torque_servo'].controller, s['signal'], scene.duration_s, s['angle_rad'],
+        scene.exchange_step_s, s['inverse'], s['muscles'], s['params'], s['valve'],
+        s['muscle'], plugins=s['plugins']))
+    assert abs(bus['rms_error'] - twin['rms_error']) <= 0.1, (bus, twin)
+    drive = bag_messages(tmp_path / 'bus', '/loading_servo/state')       # the drive holds
+    assert drive and all(abs(m.position[0]) < 1e-3 for m in drive[-10:])

@@ -1,0 +1,50 @@
+"""The spin loops of a node's process (``runtime.process``)."""
+
+from __future__ import annotations
+
+import threading
+import time
+from typing import Any
+
+import rclpy
+from std_msgs.msg import Float64
+
+from pam_bench.runtime.base import RELIABLE
+from pam_bench.runtime.process import deadline_spin
+
+
+def test_a_tick_longer_than_its_period_still_lets_the_messages_in(
+        context: rclpy.Context, context_with: Any, own: Any) -> None:
+    """A driver whose bus round trip outlasts its period (a Modbus request on a loaded
+    machine) ticks as fast as it can and still takes every command soon after it is sent; the
+    loop once ticked back to back and the commands came in bursts seconds apart."""
+    node = own(rclpy.create_node('driver', context=context))
+    got: list[tuple[float, float]] = []           # (sent, received) monotonic s
+    node.create_subscription(Float64, 'command', lambda m: got.append((m.data,
+                                                                        time.monotonic())),
+                             RELIABLE)
+    sender = own(rclpy.create_node('sender', context=context_with([])))
+    pub = sender.create_publisher(Float64, 'command', RELIABLE)
+    ticks: list[float] = []
+    end = time.monotonic() + 1.5
+
+    def tick() -> None:                 # 3 ms of work for a 1 ms period
+        ticks.append(time.monotonic())
+        time.sleep(0.003)
+
+    def send() -> None:
+        while pub.get_subscription_count() == 0 and time.monotonic() < end:
+            time.sleep(0.01)
+        while time.monotonic() < end - 0.3:
+            pub.publish(Float64(data=time.monotonic()))
+            time.sleep(0.002)
+    thread = threading.Thread(target=send)
+    thread.start()
+    try:
+        deadline_spin([node], tick, 0.001, should_stop=lambda: time.monotonic() > end)
+    finally:
+        thread.join()
+    assert len(got) > 100, len(got)
+    delays = [received - sent for sent, received in got]
+    assert max(delays) < 0.25, max(delays)         # taken between ticks, never in bursts
+    assert len(ticks) > 50                          # and it still ticks as fast as it can
