@@ -25,7 +25,8 @@ from pam_bench.twin.servo_bench import ServoRun, Tracking, run_servo, tracking_m
 from pam_bench.twin.servo_setup import scene_servo_setup, servo_run_of_bag
 from pam_bench.vocabulary.run import ENGINES, Layout
 
-__all__ = ['servo_scenes', 'compare_servo', 'one_run', 'forward_model_rms', 'ServoRow']
+__all__ = ['servo_scenes', 'scene_with', 'Sets', 'compare_servo', 'one_run', 'forward_model_rms',
+           'ServoRow']
 
 
 class ServoRow(Tracking):
@@ -46,6 +47,22 @@ class ServoRow(Tracking):
 def servo_scenes() -> list[str]:
     """Scenes that run the torque servo node."""
     return [n for n in scene_names() if 'torque_servo' in load_scene(n).nodes]
+
+
+Sets = tuple[tuple[str, Any], ...]
+"""Settings set over each scene by path (``--set PATH=VALUE``), values parsed."""
+
+
+def scene_with(name: str, sets: Sets = ()) -> Scene:
+    """The scene ``name`` with ``sets`` applied (``Scene.set``).
+
+    Raises:
+        ConfigError: an unknown setting or a bad value (named).
+    """
+    scene = load_scene(name)
+    for path, value in sets:
+        scene.set(path, value)
+    return scene
 
 
 def _ros_run(scene: Scene, controller: str, duration_s: float | None,
@@ -70,14 +87,15 @@ def _ros_run(scene: Scene, controller: str, duration_s: float | None,
 def compare_servo(out_dir: pathlib.Path, engine: str = 'twin', scenes: list[str] | None = None,
                   duration_s: float | None = None, layout: Layout = Layout.COMPOSED,
                   cluster: dict[str, Any] | None = None,
-                  controllers: list[str] | None = None) -> list[ServoRow]:
+                  controllers: list[str] | None = None, sets: Sets = ()) -> list[ServoRow]:
     """Run every scene x controller (the built-ins, then ``controllers``: plug-ins' names);
     write out_dir/metrics.json and one PNG per scene.
 
     ``engine``: 'twin' (the numpy twin) or 'ros' (the nodes; composed in one process with
     ``Layout.COMPOSED``, which gives the same bags faster). The runs are jobs of the execution
     layer (``cluster.layer``; ``cluster``: ``connect``'s keywords), each ROS run on its worker's
-    own domain. A run that fails is reported and left out of the metrics; the others complete.
+    own domain. ``sets``: settings set over every scene, as ``run --set`` does. A run that
+    fails is reported and left out of the metrics; the others complete.
 
     Raises:
         ValueError: an engine other than 'twin' or 'ros'.
@@ -93,7 +111,7 @@ def compare_servo(out_dir: pathlib.Path, engine: str = 'twin', scenes: list[str]
     tasks = [(name, ctl) for name in names for ctl in ctls]
     results: dict[tuple[str, str], tuple[ServoRun, float, float]] = {}
     with tempfile.TemporaryDirectory(prefix='pam_bench_servo_') as tmp:
-        jobs = [(engine, name, ctl, duration_s, tmp, layout) for name, ctl in tasks]
+        jobs = [(engine, name, ctl, duration_s, tmp, layout, sets) for name, ctl in tasks]
         for r in run_jobs(_one_job, jobs, label=f'servo-compare ({label})',
                           ros=engine == 'ros', **(cluster or {})):
             if r.ok:
@@ -102,7 +120,7 @@ def compare_servo(out_dir: pathlib.Path, engine: str = 'twin', scenes: list[str]
                 print(f'{r.item[1]}: {r.item[2]}: error: {r.error}', flush=True)
     rows: list[ServoRow] = []
     for name in names:
-        setup = scene_servo_setup(load_scene(name))
+        setup = scene_servo_setup(scene_with(name, sets))
         runs = {}
         for ctl in ctls:
             if (name, ctl) not in results:
@@ -121,16 +139,16 @@ def compare_servo(out_dir: pathlib.Path, engine: str = 'twin', scenes: list[str]
     return rows
 
 
-def _one_job(job: tuple[str, str, str, float | None, str, Layout]
+def _one_job(job: tuple[str, str, str, float | None, str, Layout, Sets]
              ) -> tuple[ServoRun, float, float]:
-    engine, name, ctl, duration_s, tmp, layout = job
-    return one_run(engine, name, ctl, duration_s, tmp, layout)
+    engine, name, ctl, duration_s, tmp, layout, sets = job
+    return one_run(engine, name, ctl, duration_s, tmp, layout, sets)
 
 
 def one_run(engine: str, name: str, ctl: str, duration_s: float | None, tmp: str,
-            layout: Layout) -> tuple[ServoRun, float, float]:
-    """One scene with one controller: (its run, wall s, sim s)."""
-    scene = load_scene(name)
+            layout: Layout, sets: Sets = ()) -> tuple[ServoRun, float, float]:
+    """One scene (``sets`` applied) with one controller: (its run, wall s, sim s)."""
+    scene = scene_with(name, sets)
     t0 = time.perf_counter()
     if engine == 'ros':
         return _ros_run(scene, ctl, duration_s, pathlib.Path(tmp), layout)

@@ -33,6 +33,9 @@ def register(sub: Any) -> None:
     p.add_argument('--scene', action='append', help='servo scene (repeatable; default all)')
     p.add_argument('--controller', action='append', metavar='NAME', help='a controller '
                    'plug-in to rank beside the built-ins (repeatable; pam-bench plugins)')
+    p.add_argument('--set', action='append', default=[], metavar='PATH=VALUE',
+                   help='set one setting by its path over every scene, as run --set does, '
+                   'e.g. torque_servo.plugins.NAME.FIELD=1.5 (repeatable)')
     p.add_argument('--duration', type=number(0, 86_400, 's', True),
                    help='sim time per run, s (default: the scene)')
     p.add_argument('--processes', action='store_true',
@@ -64,13 +67,19 @@ def _cmd_servo_compare(args: argparse.Namespace) -> int:
             near = hint(name, CONTROLLERS)
             raise UsageError(f'--controller {name!r}: not a controller here ({near}; '
                              'pam-bench plugins lists the installed ones)')
+    from pam_bench.bringup.servo_compare import servo_scenes
+    from pam_bench.cli.run import load_with_sets, parse_value
+    for name in args.scene or servo_scenes():      # every scene and --set checked first
+        load_with_sets(name, args.set)
+    sets = tuple((p.strip(), parse_value(v)) for p, _, v in
+                 (item.partition('=') for item in args.set))
     out = pathlib.Path(args.out)
     cluster = cluster_of(args)
     with staged_output(out, 'pam-bench servo-compare', args.overwrite) as tmp:
         from pam_bench.vocabulary.run import Layout
         rows = compare_servo(tmp, args.engine, args.scene or None, args.duration,
                              Layout.PROCESSES if args.processes else Layout.COMPOSED, cluster,
-                             args.controller)
+                             args.controller, sets)
     rows = sorted(rows, key=lambda r: (r['scene'], r['rms_error']))   # ranked per scene
     print(f"{'scene':26s} {'controller':20s} {'RMS':>8s} {'max':>8s} {'at reversal':>12s}")
     for r in rows:

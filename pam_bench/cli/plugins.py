@@ -20,6 +20,7 @@ def register(sub: Any) -> None:
 def _cmd_plugins(args: argparse.Namespace) -> int:
     from pam_bench.control.plugins import GROUP as CONTROLLERS
     from pam_bench.control.plugins import unusable as controller_problem
+    from pam_bench.models.laws.base import law_function
     from pam_bench.models.laws.zoo import GROUP as LAWS
     from pam_bench.models.laws.zoo import unusable as law_problem
     from pam_bench.vocabulary.plugins import discover
@@ -28,8 +29,12 @@ def _cmd_plugins(args: argparse.Namespace) -> int:
                                (CONTROLLERS, 'controller', controller_problem)):
         for p in discover(group):
             why = check(p)
+            status = f'not usable: {why}' if why else 'ok'
+            if not why and group == LAWS:           # compiled like the built-ins, or not
+                slow = law_function(p.obj)[1]
+                status = f'ok, runs interpreted: {slow}' if slow else 'ok, compiled'
             rows.append({'kind': kind, 'name': p.name, 'package': p.package,
-                         'status': f'not usable: {why}' if why else 'ok'})
+                         'status': status})
     if args.json:
         print(json.dumps(rows, indent=2))
     elif not rows:

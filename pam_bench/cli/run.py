@@ -376,6 +376,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
               f'{args.resume} lacks)')
     print(f'scene {scene.name}: {scene.description}\n  exchange step {scene.exchange_step_s} s, '
           f'nodes {", ".join(scene.nodes)}, bag {out}', flush=True)
+    from pam_bench.config.scene import law_notes
+    for note in law_notes(scene.settings()):
+        print(f'  {note}', flush=True)
     try:
         layout = (Layout.WALL_CLOCK if args.wallclock else Layout.PROCESSES if args.processes
                   else Layout.COMPOSED)

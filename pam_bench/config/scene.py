@@ -48,7 +48,7 @@ from pam_bench.vocabulary.params import (
 from pam_bench.vocabulary.yaml_io import parse_yaml, read_text, read_yaml
 
 __all__ = ['Scene', 'load_scene', 'scene_names', 'SCENE_KEYS', 'apply_overlay', 'bench_overlay',
-           'params_file', 'settings_of_params_file']
+           'params_file', 'settings_of_params_file', 'law_notes', 'DEFAULT_LAW']
 
 
 def scene_names() -> list[str]:
@@ -310,6 +310,26 @@ def _parse_scene(path: pathlib.Path, data: dict[str, Any], text: str) -> Scene:
     return scene
 
 
+DEFAULT_LAW = 'bench_mckibben'
+"""``muscle.law``'s default: a scene that names another law must hold it (``kind: law``)."""
+
+
+def law_notes(settings: dict[str, Any]) -> list[str]:
+    """One line per force law a muscle of the run holds that runs interpreted, and why
+    (``models.laws.base.law_function``): said once at the start of a run."""
+    from pam_bench.models.laws.base import law_function
+    from pam_bench.models.laws.zoo import force_law
+    laws = sorted({st.muscle.law for name, st in settings.items()
+                   if name.startswith('muscle_') and st.muscle.kind == 'law'})
+    notes = []
+    for name in laws:
+        why = law_function(force_law(name))[1]
+        if why:
+            notes.append(f'force law {name} runs interpreted, several times slower than a '
+                         f'compiled one: {why} (docs/plugins.md, "What makes a law compile")')
+    return notes
+
+
 def _check_inputs(scene: str, settings: dict[str, Any]) -> None:
     """What the settings name besides plain values, read now rather than by a node once the
     run has started: the sequencer's suspender rules, the torque servo's inverse model file, the
@@ -332,8 +352,15 @@ def _check_inputs(scene: str, settings: dict[str, Any]) -> None:
         if servo is not None and servo.inverse_model_file:
             InverseModel.load(servo.inverse_model_file)
         for name, st in settings.items():
-            if name.startswith('muscle_') and st.muscle.kind == 'law':
+            if not name.startswith('muscle_'):
+                continue
+            if st.muscle.kind == 'law':
                 force_law(st.muscle.law)
+            elif st.muscle.law != DEFAULT_LAW:     # a law named is held only with kind law
+                raise ParameterError(
+                    f'{name}.muscle.law {st.muscle.law!r} names a force law, but '
+                    f'{name}.muscle.kind is {st.muscle.kind!r}: set {name}.muscle.kind=law '
+                    'as well (or leave muscle.law out)')
     except (ParameterError, InputError, ModelError) as exc:
         raise ConfigError(f'scene {scene}: {exc}') from None
 

@@ -57,6 +57,7 @@ from pam_bench.models.bench_muscle import BenchMuscle
 from pam_bench.models.errors import ModelError
 from pam_bench.models.friction import friction_on_backbone
 from pam_bench.models.jit import Array, Slots, Values
+from pam_bench.models.law_muscle import LawMuscle
 from pam_bench.models.loading_servo.drive import LoadingServoModel
 from pam_bench.models.loading_servo.substep import (
     CONTRACTION,
@@ -77,16 +78,17 @@ __all__ = ['Holder', 'SettleParams', 'SubStepResult', 'solve_substep', 'solve_su
 # --- the coupled solve, compiled (models.jit) ---------------------------------------------
 FORCE_TOLERANCE_N = 1.0e-7
 MAX_ITERATIONS = 60
-OK, BAD_POSITION = 0, 1
-"""How a compiled solve ended: every sub-step solved, or the drive left its travel."""
+OK, BAD_POSITION, BAD_FORCE = 0, 1, 2
+"""How a compiled solve ended: every sub-step solved, the drive left its travel, or the
+muscle's force is not finite."""
 
 
 @jit.helper
-def _muscle_trial(e: float, x: float, mp: McKibbenRecord, fk: Array, ff0: Array, fmu: Array,
-                  z: Array, zt: Array, st: Array) -> tuple[float, float, float]:
-    """(F, -dF/dx, friction) of the McKibben muscle at (e(p), x); the friction elements'
+def mckibben_trial(p: float, x: float, mp: McKibbenRecord, fk: Array, ff0: Array, fmu: Array,
+                   z: Array, zt: Array, st: Array) -> tuple[float, float, float]:
+    """(F, -dF/dx, friction) of the McKibben muscle at (p, x); the friction elements'
     trial state into zt, st."""
-    f_bb, k_bb = backbone(e, x, mp)
+    f_bb, k_bb = backbone(effective_pressure(p, mp), x, mp)
     f, k, ff, _ = friction_on_backbone(f_bb, k_bb, x, mp.hysteresis, mp.ct, fk, ff0, fmu, z,
                                        zt, st)
     return f, k, ff
@@ -119,16 +121,19 @@ def suffix_extremes(values: Values, hi: Slots, lo: Slots) -> None:
         lo[j] = lo[j] if lo[j] < lo[j + 1] else lo[j + 1]
 
 
-def _solve_mckibben(steps: Array, pressures: Array, f: float, mp: McKibbenRecord, fk: Array,
-                    ff0: Array, fmu: Array, z: Array, st: Array, dp: DriveRecord, ds: Array,
-                    mode: int, sp: float, out_f: Array, out_x: Array, tol: Array
-                    ) -> tuple[float, float, int, int, int]:
-    """Every sub-step of an exchange (``models.coupling.solve_substeps``) for a McKibben muscle
-    on the loading drive. ``z``, ``st`` (friction) and ``ds`` (drive) are updated in place;
-    forces and contractions go to ``out_f``, ``out_x``. ``tol``: the settle tolerances (force
-    N, contraction m, pressure Pa; negative: never settle), shape (3,). Returns (stiffness
-    -dF/dx N/m and friction N at the end, Newton iterations, status: ``OK`` or
-    ``BAD_POSITION``, sub-steps held)."""
+@jit.helper
+def solve_muscle(trial: Any, tp: Any, hysteresis: float, steps: Array, pressures: Array,
+                 f: float, fk: Array, ff0: Array, fmu: Array, z: Array, st: Array,
+                 dp: DriveRecord, ds: Array, mode: int, sp: float, out_f: Array, out_x: Array,
+                 tol: Array) -> tuple[float, float, int, int, int]:
+    """Every sub-step of an exchange (``models.coupling.solve_substeps``) for a muscle on the
+    loading drive, the muscle being ``trial(p, x, tp, fk, ff0, fmu, z, zt, st) -> (F N,
+    -dF/dx N/m, friction N)`` (``mckibben_trial``; a force law's: ``models.law_kernel``) with
+    its parameters ``tp``. ``z``, ``st`` (friction, kept when ``hysteresis``) and ``ds``
+    (drive) are updated in place; forces and contractions go to ``out_f``, ``out_x``. ``tol``:
+    the settle tolerances (force N, contraction m, pressure Pa; negative: never settle),
+    shape (3,). Returns (stiffness -dF/dx N/m and friction N at the end, Newton iterations,
+    status: ``OK``, ``BAD_POSITION`` or ``BAD_FORCE``, sub-steps held)."""
     n_el = fk.shape[0]
     n = steps.shape[0]
     zt = z.copy()
@@ -147,7 +152,6 @@ def _solve_mckibben(steps: Array, pressures: Array, f: float, mp: McKibbenRecord
     for idx in range(n):
         d = steps[idx]
         p = pressures[idx]
-        e = effective_pressure(p, mp)
         if dp.dynamics != 0.0:
             prep = drive_prepare(d, dp, ds, mode, sp)
         lo, hi = 0.0, math.inf
@@ -158,7 +162,9 @@ def _solve_mckibben(steps: Array, pressures: Array, f: float, mp: McKibbenRecord
             x, dxdf = drive_contraction_and_compliance(f, dp, ds, mode, sp, prep)
             if not math.isfinite(x):
                 return k_last, ff_last, iters, BAD_POSITION, 0
-            tf, tk, tff = _muscle_trial(e, x, mp, fk, ff0, fmu, z, zt, stt)
+            tf, tk, tff = trial(p, x, tp, fk, ff0, fmu, z, zt, stt)
+            if not math.isfinite(tf):
+                return k_last, ff_last, iters, BAD_FORCE, 0
             if f == 0.0:
                 f_hi = tf
             g = tf - f
@@ -171,7 +177,7 @@ def _solve_mckibben(steps: Array, pressures: Array, f: float, mp: McKibbenRecord
                 break
             it += 1
             f = newton_next(f, g, tk, dxdf, lo, hi, f_hi)
-        if mp.hysteresis != 0.0:
+        if hysteresis != 0.0:
             for i in range(n_el):
                 z[i] = zt[i]
                 st[i] = stt[i]
@@ -200,6 +206,15 @@ def _solve_mckibben(steps: Array, pressures: Array, f: float, mp: McKibbenRecord
                 ds[i] = saved[i]
             next_try = idx + 1 + left // 2
     return k_last, ff_last, iters, OK, 0
+
+
+def _solve_mckibben(steps: Array, pressures: Array, f: float, mp: McKibbenRecord, fk: Array,
+                    ff0: Array, fmu: Array, z: Array, st: Array, dp: DriveRecord, ds: Array,
+                    mode: int, sp: float, out_f: Array, out_x: Array, tol: Array
+                    ) -> tuple[float, float, int, int, int]:
+    """``solve_muscle`` for a McKibben muscle (``mckibben_trial``, its record ``mp``)."""
+    return solve_muscle(mckibben_trial, mp, mp.hysteresis, steps, pressures, f, fk, ff0, fmu,
+                        z, st, dp, ds, mode, sp, out_f, out_x, tol)
 
 
 def _solve_example() -> tuple[Any, ...]:
@@ -334,9 +349,15 @@ def solve_substeps(muscle: BenchMuscle, holder: Holder, steps_s: list[float],
     """
     if len(steps_s) != len(pressures_pa) or not len(steps_s):
         raise ModelError(f'{len(pressures_pa)} pressures for {len(steps_s)} sub-steps')
-    if type(muscle) is MuscleModel and type(holder) is LoadingServoModel and \
-            jit.wanted(len(steps_s)):
-        return _solve_compiled(muscle, holder, steps_s, pressures_pa, force_n, settle)
+    if type(holder) is LoadingServoModel and jit.wanted(len(steps_s)):
+        if type(muscle) is MuscleModel:
+            return _solve_compiled(muscle, holder, steps_s, pressures_pa, force_n, settle,
+                                   solve_mckibben)
+        if type(muscle) is LawMuscle:
+            kernel = muscle.kernel()
+            if kernel is not None:
+                return _solve_compiled(muscle, holder, steps_s, pressures_pa, force_n, settle,
+                                       kernel)
     forces: list[float] = []
     xs: list[float] = []
     k = ff = 0.0
@@ -379,9 +400,11 @@ def _suffix_extremes(values: list[float]) -> tuple[list[float], list[float]]:
     return hi, lo
 
 
-def _solve_compiled(muscle: MuscleModel, drive: LoadingServoModel, steps_s: Any,
-                    pressures_pa: Any, force_n: float, settle: SettleParams) -> SubStepResult:
-    """``solve_substeps`` on the compiled core (``models.jit``): bit-equal results, the
+def _solve_compiled(muscle: MuscleModel | LawMuscle, drive: LoadingServoModel, steps_s: Any,
+                    pressures_pa: Any, force_n: float, settle: SettleParams,
+                    kernel: Any) -> SubStepResult:
+    """``solve_substeps`` on the compiled core (``models.jit``; ``kernel``: the muscle's
+    compiled solve): the reference's results (bit-equal for the McKibben muscle), the
     muscle's friction and the drive's state kept as the reference keeps them."""
     steps = np.asarray(steps_s, dtype=float)
     pressures = np.asarray(pressures_pa, dtype=float)
@@ -397,9 +420,11 @@ def _solve_compiled(muscle: MuscleModel, drive: LoadingServoModel, steps_s: Any,
     out_f, out_x = np.empty(n), np.empty(n)
     tol = (np.array([settle.force_n, settle.contraction_m, settle.pressure_pa])
            if settle.enabled else _NO_SETTLE)
-    k, ff, iters, status, held = solve_mckibben(
+    k, ff, iters, status, held = kernel(
         steps, pressures, float(force_n), mp, fk, ff0, fmu, z, st, dp, ds, int(drive.mode),
         float(drive.setpoint), out_f, out_x, tol)
+    if status == BAD_FORCE:
+        raise ModelError(f'the muscle force is not finite at p = {pressures[-1]!r} Pa')
     if status != OK:
         raise ModelError('holder position is not finite')
     muscle.friction.set_state(z, st)

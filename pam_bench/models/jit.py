@@ -29,6 +29,7 @@ cache goes to ``NUMBA_CACHE_DIR`` when set, else to ``$XDG_CACHE_HOME/pam_bench/
 from __future__ import annotations
 
 import importlib
+import importlib.util
 import os
 import pathlib
 import threading
@@ -51,7 +52,7 @@ else:
 
 __all__ = ['available', 'enabled', 'core', 'wanted', 'LOAD_AT', 'use', 'start_loading',
            'cache_dir', 'helper', 'kernel', 'warm_up', 'Array', 'Values', 'Slots',
-           'KERNEL_MODULES']
+           'KERNEL_MODULES', 'compile_function', 'sources_key']
 
 F = TypeVar('F', bound=Callable[..., Any])
 
@@ -190,7 +191,7 @@ def _load() -> None:
             from numba.extending import register_jitable
             for module in KERNEL_MODULES:            # every kernel and helper registered
                 importlib.import_module(module)
-            setattr(numba.config, 'CACHE_DIR', os.environ['NUMBA_CACHE_DIR'])  # noqa: B010
+            _use_cache(numba)
             for fn in _HELPERS:
                 register_jitable(fn)
             compiled: dict[str, Callable[..., Any]] = {
@@ -201,6 +202,25 @@ def _load() -> None:
             return
         _COMPILED.update(compiled)
         _READY.set()
+
+
+def sources_key() -> str:
+    """A digest of the kernels' source files: numba checks only the file of the function it
+    caches, and a kernel compiles in helpers of the other modules, so each version of the
+    sources gets a cache folder of its own (``cache_dir() / sources_key()``)."""
+    import hashlib
+    digest = hashlib.sha1(usedforsecurity=False)
+    for module in KERNEL_MODULES:
+        spec = importlib.util.find_spec(module)
+        if spec is not None and spec.origin:
+            digest.update(pathlib.Path(spec.origin).read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def _use_cache(numba: Any) -> None:
+    """Point numba's cache at this version of the kernels' sources (``sources_key``)."""
+    where = pathlib.Path(os.environ['NUMBA_CACHE_DIR']) / sources_key()
+    setattr(numba.config, 'CACHE_DIR', str(where))  # noqa: B010
 
 
 def _run_each(compiled: dict[str, Callable[..., Any]]) -> None:
@@ -220,3 +240,72 @@ def warm_up() -> float:
     if _FAILED:
         raise RuntimeError(f'the compiled core does not load: {_FAILED[0]}')
     return time.perf_counter() - t0
+
+
+_FUNCTIONS: dict[Callable[..., Any], tuple[Callable[..., Any] | None, str]] = {}
+
+
+def compile_function(fn: Callable[..., Any], example: tuple[Any, ...]
+                     ) -> tuple[Callable[..., Any] | None, str]:
+    """``fn`` compiled by numba in nopython mode (cached in ``cache_dir`` when its module is a
+    file), called once with ``example``; (None, why) when it is not: the reference core is
+    asked for, numba does not load, or it cannot type ``fn`` (numba's reason). The plain
+    Python functions ``fn`` calls (its module's helpers, a function of another module it
+    names) are compiled into it (``register_jitable``; they stay what they are for Python).
+    Memoised per function: a lab's plug-in law is compiled once per process.
+    """
+    if fn in _FUNCTIONS:
+        return _FUNCTIONS[fn]
+    if not _WANTED:
+        out: tuple[Callable[..., Any] | None, str] = (None, 'the reference core runs '
+                                                     '(PAM_BENCH_CORE=python)')
+    else:
+        try:
+            import numba
+            _use_cache(numba)
+            _callees_jitable(fn, set())
+            try:
+                compiled = numba.njit(cache=True)(fn)
+                compiled(*example)
+            except Exception:  # noqa: BLE001 - not cacheable (no file): compiled, uncached
+                compiled = numba.njit(fn)
+                compiled(*example)
+            out = (compiled, '')
+        except Exception as exc:  # noqa: BLE001 - runs interpreted, and says why
+            out = (None, f'numba cannot compile it: {_reason(exc)}')
+    _FUNCTIONS[fn] = out
+    return out
+
+
+def _callees_jitable(fn: Callable[..., Any], seen: set[int]) -> None:
+    """Register with numba every plain Python function ``fn`` names (a global of its module,
+    or an attribute of a module it names), and theirs in turn."""
+    import types
+
+    from numba.extending import register_jitable
+    code = getattr(fn, '__code__', None)
+    if code is None or id(fn) in seen:
+        return
+    seen.add(id(fn))
+    names = set(code.co_names)
+    for name in names:
+        obj = fn.__globals__.get(name)
+        found = [obj] if isinstance(obj, types.FunctionType) else []
+        if isinstance(obj, types.ModuleType):
+            found = [getattr(obj, n) for n in names
+                     if isinstance(getattr(obj, n, None), types.FunctionType)]
+        for callee in found:
+            if getattr(callee, '__module__', '').startswith(('numpy', 'numba')):
+                continue
+            _callees_jitable(callee, seen)
+            register_jitable(callee)
+
+
+def _reason(exc: Exception) -> str:
+    """Numba's reason in one line: its first specific line ('No implementation ...',
+    'Untyped global name ...'), else the first."""
+    lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+    specific = [line for line in lines if not line.startswith(('Failed in', '- Resolution',
+                                                                 'During:', 'File '))]
+    return f'{type(exc).__name__}: {(specific or lines or [""])[0]}'[:300]
+

@@ -5,7 +5,9 @@ pressure p Pa, contraction x m, nominal length l_n m, ``models.laws.base``), and
 adds what every bench muscle shares (``models.muscle.FrictionMuscle``): the braid's
 Maxwell-slip friction on s = x + c_t F_bb^+ (004 section 2.2, ``models.friction``) and the
 clamp F >= 0 (a muscle never pushes). The stiffness -dF_bb/dx is the law's central
-difference over +-``DX_M``; the chamber volume is the McKibben braid's (001 Eq. 1-2,
+difference over +-``DX_M``. The law runs compiled by numba when it compiles and gives its
+own forces (``laws.base.law_function``), else as written (``interpreted_why`` says why); the
+chamber volume is the McKibben braid's (001 Eq. 1-2,
 ``MuscleModel.volume``) from the muscle's geometry, which the valve's loop asks for. The
 friction parameters and the geometry are the muscle's (``muscle.*``), the law's parameters
 its own (``laws.LAW.*``).
@@ -20,7 +22,7 @@ import numpy as np
 
 from pam_bench.models.errors import ModelError
 from pam_bench.models.friction import MaxwellSlip
-from pam_bench.models.laws.base import ForceLaw
+from pam_bench.models.laws.base import ForceLaw, law_function
 from pam_bench.models.muscle import FrictionMuscle, MuscleModel, MuscleParams
 
 __all__ = ['LawMuscle', 'DX_M']
@@ -45,13 +47,14 @@ class LawMuscle(FrictionMuscle):
                                     self.p.friction_break_force_ratio)
         self._l0 = self.p.nominal_length_m
         self._offsets = np.array([0.0, -DX_M, DX_M])
+        self._law, self.interpreted_why = law_function(law)
 
     def backbone_and_stiffness(self, pressure_pa: float, contraction_m: float
                                ) -> tuple[float, float]:
         """(F_bb N, -dF_bb/dx N/m) of the law (module docstring): the law evaluated once at
         x and x -+ ``DX_M``."""
         x = contraction_m + self._offsets
-        f = self.law.law(self.theta, np.full(3, pressure_pa), x, self._l0)
+        f = self._law(self.theta, np.full(3, pressure_pa), x, self._l0)
         f0, fm, fp = float(f[0]), float(f[1]), float(f[2])
         if not (math.isfinite(f0) and math.isfinite(fm) and math.isfinite(fp)):
             raise ModelError(f'force law {self.law.name} gives {f0!r} at p = {pressure_pa!r} '
@@ -62,6 +65,21 @@ class LawMuscle(FrictionMuscle):
         """Friction relaxed at the given state."""
         tension = max(self.backbone(pressure_pa, contraction_m), 0.0)
         self.friction.reset(contraction_m + self.p.slip_compliance_m_per_n * tension)
+
+    def arrays(self) -> tuple[Any, ...]:
+        """The muscle as its compiled solve takes it (``law_kernel``): (theta, l0 m,
+        hysteresis 0/1, c_t m/N), then the friction elements' stiffness, break force, growth,
+        positions and sticking flags, shapes (n,)."""
+        fr = self.friction
+        return ((self.theta, float(self._l0), 1.0 if self.p.hysteresis else 0.0,
+                 float(self.p.slip_compliance_m_per_n)), np.array(fr.k), np.array(fr.f0),
+                np.array(fr.mu), np.array(fr.z), np.array(fr.sticking, dtype=np.uint8))
+
+    def kernel(self) -> Any:
+        """The compiled solve of this law's exchanges (``models.law_kernel``), or None: the
+        interpreted loop runs them."""
+        from pam_bench.models.law_kernel import law_kernel
+        return law_kernel(self.law, DX_M)[0]
 
     def volume(self, contraction_m: float) -> float:
         """The McKibben braid's chamber volume at x, m^3."""

@@ -45,3 +45,20 @@ def test_two_composed_workers_run_on_their_own_domains(tmp_path: pathlib.Path,
     for r, t in zip(rows, twin, strict=True):
         assert r['sim_s'] == pytest.approx(1.5)
         assert r['rms_error'] == pytest.approx(t['rms_error'], abs=0.01)
+
+
+def test_sets_reach_every_run_and_a_bad_one_is_one_line(tmp_path: pathlib.Path) -> None:
+    """``servo-compare --set`` as ``run --set``: the value reaches the scene each run builds,
+    and an unknown setting ends the command before any run."""
+    import subprocess
+    import sys
+
+    from pam_bench.bringup.servo_compare import scene_with
+    scene = scene_with('servo_sin_t', (('torque_servo.servo.kp_v_per_n', 0.02),))
+    assert scene.settings()['torque_servo'].servo.kp_v_per_n == 0.02
+    bad = subprocess.run([sys.executable, '-m', 'pam_bench.cli', 'servo-compare', '--engine',
+                          'twin', '--scene', 'servo_sin_t', '--set',
+                          'torque_servo.servo.kp_vv=0.02', '--out', str(tmp_path / 'out')],
+                         capture_output=True, text=True, timeout=120)
+    assert bad.returncode == 2 and "unknown setting 'torque_servo.servo.kp_vv'" in bad.stderr
+    assert len(bad.stderr.strip().splitlines()) == 1 and not (tmp_path / 'out').exists()

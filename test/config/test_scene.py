@@ -133,3 +133,18 @@ def test_a_bad_path_is_one_line_naming_the_nearest(path: str, value: object,
     assert '\n' not in str(info.value)
     for w in words:
         assert w in str(info.value), str(info.value)
+
+
+def test_a_law_named_without_kind_law_is_refused_in_one_line() -> None:
+    """Naming a force law while the muscle stays the bench's McKibben used to run the default
+    bench silently."""
+
+    scene = load_scene('demo')
+    with pytest.raises(ConfigError, match=r"muscle_1\.muscle\.law 'tondu_lopez' names a force "
+                       r"law, but muscle_1\.muscle\.kind is 'mckibben'"):
+        scene.set('muscle_1.muscle.law', 'tondu_lopez')
+        scene.settings()
+    scene = load_scene('demo')
+    scene.set('muscle_1.muscle.kind', 'law')
+    scene.set('muscle_1.muscle.law', 'tondu_lopez')
+    assert scene.settings()['muscle_1'].muscle.law == 'tondu_lopez'

@@ -44,7 +44,7 @@ def test_plugins_lists_the_law_and_the_controller(site: pathlib.Path) -> None:
     assert out.returncode == 0, out.stderr
     lines = out.stdout.splitlines()
     assert any(ln.split()[:4] == ['muscle', 'law', 'hunt_graber_quinn', 'pam-bench-example']
-               and ln.endswith('ok') for ln in lines), out.stdout
+               and ln.endswith('ok, compiled') for ln in lines), out.stdout
     assert any(ln.split()[:3] == ['controller', 'sliding_mode', 'pam-bench-example']
                and ln.endswith('ok') for ln in lines), out.stdout
 

@@ -24,7 +24,7 @@ import numpy as np
 
 from pam_bench.vocabulary.params import field, param_infos
 
-__all__ = ['ForceLaw', 'LawFunction']
+__all__ = ['ForceLaw', 'LawFunction', 'law_function', 'CHECK_RTOL']
 
 LawFunction = Callable[[np.ndarray, np.ndarray, np.ndarray, float], np.ndarray]
 """law(theta, p Pa, x m, l0 m) -> F N."""
@@ -109,3 +109,35 @@ def _made_settings(law: ForceLaw) -> type:
     setattr(sys.modules[__name__], qual, cls)
     _MADE[law.name] = cls
     return cls
+
+
+CHECK_RTOL = 1.0e-9
+"""A compiled law must give the interpreted one's forces within this share (and 1e-9 N)."""
+
+
+def law_function(law: ForceLaw) -> tuple[LawFunction, str]:
+    """The function the bench evaluates ``law`` with, and '' or why it runs interpreted.
+
+    A law written in numpy arithmetic over arrays (``docs/plugins.md``, 'What makes a law
+    compile') is compiled by numba (``models.jit.compile_function``) and checked against
+    itself interpreted on a grid of pressures (0 to 0.6 MPa) and contractions (-1 to 30 % of
+    l0) at its start parameters: its forces must agree within ``CHECK_RTOL``. A law numba
+    cannot type, or whose compiled forces differ, runs as written.
+    """
+    from pam_bench.models import jit
+    theta = np.array(law.start, dtype=float)
+    l0 = 0.35
+    p = np.repeat(np.array([0.0, 1.0e5, 3.0e5, 6.0e5]), 4)
+    x = np.tile(np.array([-0.01, 0.0, 0.1, 0.3]) * l0, 4)
+    fast, why = jit.compile_function(law.law, (theta, p.copy(), x.copy(), l0))
+    if fast is None:
+        return law.law, why
+    try:
+        want = np.asarray(law.law(theta, p.copy(), x.copy(), l0), dtype=float)
+        got = np.asarray(fast(theta, p.copy(), x.copy(), l0), dtype=float)
+    except Exception as exc:  # noqa: BLE001 - the law's own failure: it runs as written
+        return law.law, f'its check failed: {type(exc).__name__}: {exc}'[:300]
+    if want.shape != got.shape or not np.allclose(got, want, rtol=CHECK_RTOL, atol=1e-9,
+                                                  equal_nan=True):
+        return law.law, 'compiled, it gives other forces than as written (not used)'
+    return fast, ''
