@@ -134,6 +134,7 @@ def _calibrate_bags(args: argparse.Namespace) -> int:
     from pam_bench.fit.calibrate_bags import (
         bench_of_scene,
         calibrate_bags,
+        check_observations,
         observations_from_bags,
         overlay_of,
     )
@@ -144,6 +145,9 @@ def _calibrate_bags(args: argparse.Namespace) -> int:
         check_output_file(args.out, VERB, args.overwrite, args.bags)
     data = read_bags(args.bags)
     obs = observations_from_bags(data)
+    check_observations(obs)
+    if obs.left_aside:
+        print('left aside: ' + '; '.join(obs.left_aside))
     print(f'fitting the muscle and valve to {len(obs.readings)} readings and '
           f'{len(obs.records)} step records (the Jacobian on the cluster) ...', flush=True)
     with connect(**cluster_of(args)) as client:

@@ -72,7 +72,8 @@ __all__ = ['FREE_BAGS', 'BOUND_REASONS', 'Observations', 'Bench', 'observations_
            'observations_from_twin', 'predict', 'calibrate_bags', 'overlay_of',
            'FORCE_SCALE_N', 'CONTRACTION_SCALE_M', 'PATH_WIDTH_M', 'path_sensitive',
            'calibrate_bag', 'run_start', 'Mapper', 'reached', 'coarse', 'free_of_law',
-           'rms_by_kind', 'bench_of_scene', 'bench_of_settings', 'Calibration']
+           'rms_by_kind', 'bench_of_scene', 'bench_of_settings', 'Calibration',
+           'check_observations']
 
 
 class Calibration(FitSummary):
@@ -487,8 +488,7 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
         ModelError: the observations hold nothing to fit, or the law has no bounds.
         ParameterError: an unknown law (named, with the nearest).
     """
-    if not obs.readings and not obs.records:
-        raise ModelError('the bags hold no static readings and no step records to fit')
+    check_observations(obs)
     t0 = time.perf_counter()
     base = Bench(valve or ValveParams(), muscle or MuscleParams(), servo)
     why: dict[str, str] = {}
@@ -596,6 +596,21 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
         starts={'tried': best_of[1], 'at_best': best_of[0]},
         left_out=[obs.readings[i][:3] for i in left_out], cost=float(sol.cost),
         evaluations=evaluations, fit_s=time.perf_counter() - t0)
+
+
+def check_observations(obs: Observations) -> None:
+    """Refuse observations that hold nothing to fit, naming what the bags hold instead.
+
+    Raises:
+        ModelError: no readings the replay places and no step records (one line).
+    """
+    if obs.readings or obs.records:
+        return
+    aside = '; '.join(obs.left_aside)
+    raise ModelError('the bags hold no readings calibrate replays and no step records'
+                     + (f' ({aside}): record a protocol that settles at each reading, '
+                        'isometric_quick, isotonic_quick or campaign_quick, and calibrate its '
+                        'bag' if aside else ''))
 
 
 def bench_of_scene(scene: str | None

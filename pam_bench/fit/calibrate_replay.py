@@ -90,15 +90,30 @@ class Observations:
 
     readings: list[tuple[str, float, float, float]]
     records: list[tuple[float, float, float, float, np.ndarray]]
+    left_aside: tuple[str, ...] = ()
+    """Protocols of the bags whose readings no replay places, each with why (one line)."""
 
 
 def observations_from_bags(data: BagData) -> Observations:
-    """The static readings and step records of bags read by ``bags.bagread``."""
+    """The static readings and step records of bags read by ``bags.bagread``: every protocol
+    whose readings hold a contraction or a force while the voltage moves, or sweep the load at
+    a held voltage, whatever its name (``analysis.static.kind_of``). A protocol of kind
+    ``ramp`` (the README demo's) is set aside and named in ``left_aside``: its readings are
+    taken while the voltage moves, the replay settles each reading at its voltage."""
+    from pam_bench.analysis.static import kind_of
+    from pam_bench.config.protocols import load_protocols
+    table = load_protocols()
     rows = []
+    aside = []
     for name, p in data.points.items():
-        kind = next((k for k in ('isometric', 'isotonic', 'isobaric') if name.startswith(k)),
-                    None)
+        kind = kind_of(p)
+        if (table.get(name) or {}).get('kind') == 'ramp':
+            aside.append(f'{name} ({len(p)} readings): a ramp, its readings taken while the '
+                         'voltage moves')
+            continue
         if kind is None:
+            aside.append(f'{name} ({len(p)} readings): neither the contraction nor the force '
+                         'held while the voltage moves, nor the load swept at a held voltage')
             continue
         for i in range(len(p)):
             if kind == 'isometric':
@@ -112,7 +127,8 @@ def observations_from_bags(data: BagData) -> Observations:
     rows.sort(key=lambda r: r[0])
     recs = [(r.contraction_m, r.voltage_initial_v, r.voltage_final_v, r.sample_period_s,
              np.asarray(r.force_n, float)) for r in data.records]
-    return Observations([(k, float(u), float(h), float(v)) for _, k, u, h, v in rows], recs)
+    return Observations([(k, float(u), float(h), float(v)) for _, k, u, h, v in rows], recs,
+                        tuple(aside))
 
 
 def observations_from_twin(points: Sequence[Any], records: Sequence[Any]) -> Observations:

@@ -118,6 +118,22 @@ def test_calibrate_without_readable_bags_is_one_line(tmp_path: pathlib.Path,
     assert err.startswith('error:') and err.count('\n') == 1
 
 
+def test_the_demos_readings_are_named_and_the_protocol_to_record_said(
+        demo_bag: pathlib.Path, capsys: pytest.CaptureFixture) -> None:
+    """The demo's 24 readings are a ramp's (taken while the voltage moves): calibrate names
+    them and the protocols that would do, in one line, before it starts."""
+    from pam_bench.bags.bagread import read_bags
+    from pam_bench.cli import main
+    from pam_bench.fit.calibrate_bags import observations_from_bags
+    obs = observations_from_bags(read_bags([demo_bag]))
+    assert obs.readings == [] and obs.left_aside == (
+        'demo (24 readings): a ramp, its readings taken while the voltage moves',)
+    assert main(['calibrate', str(demo_bag)]) == 2
+    captured = capsys.readouterr()
+    assert captured.err.count('\n') == 1 and 'demo (24 readings): a ramp' in captured.err
+    assert 'isometric_quick' in captured.err and 'fitting' not in captured.out
+
+
 @pytest.mark.parametrize('replay, isotonic_mm', [('stepped', 0.15), ('static', 0.6)])
 def test_replay_of_a_twin_run_at_its_true_parameters(replay: str, isotonic_mm: float) -> None:
     """The readings of a protocol run of the time-stepped twin, replayed with the same
