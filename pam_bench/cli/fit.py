@@ -84,7 +84,8 @@ def register(sub: Any) -> None:
     p.add_argument('--scene', metavar='SCENE', help='bags: the bench they were recorded on (a '
                    "scene's name or file, e.g. one that gives the muscle's size): every value "
                    "the fit does not free comes from its muscle, valve and drive (default: "
-                   "the bench's defaults)")
+                   "the settings the first bag's run description holds, else the bench's "
+                   "defaults)")
     p.add_argument('--json', action='store_true')
     add_cluster_args(p)
     p.set_defaults(func=_cmd_calibrate)
@@ -132,6 +133,7 @@ def _calibrate_bags(args: argparse.Namespace) -> int:
     from pam_bench.bags.bagread import read_bags
     from pam_bench.cluster.layer import connect, map_on
     from pam_bench.fit.calibrate_bags import (
+        bench_of_bags,
         bench_of_scene,
         calibrate_bags,
         check_observations,
@@ -139,6 +141,8 @@ def _calibrate_bags(args: argparse.Namespace) -> int:
         overlay_of,
     )
     base = bench_of_scene(args.scene)         # a bad scene: one line before anything
+    if args.scene is None:
+        base = bench_of_bags(args.bags[:1])   # the muscle and valve the bag was made with
     if args.each:
         return _calibrate_each(args)
     if args.out:

@@ -72,7 +72,7 @@ __all__ = ['FREE_BAGS', 'BOUND_REASONS', 'Observations', 'Bench', 'observations_
            'observations_from_twin', 'predict', 'calibrate_bags', 'overlay_of',
            'FORCE_SCALE_N', 'CONTRACTION_SCALE_M', 'PATH_WIDTH_M', 'path_sensitive',
            'calibrate_bag', 'run_start', 'Mapper', 'reached', 'coarse', 'free_of_law',
-           'rms_by_kind', 'bench_of_scene', 'bench_of_settings', 'Calibration',
+           'rms_by_kind', 'bench_of_scene', 'bench_of_settings', 'bench_of_bags', 'Calibration',
            'check_observations']
 
 
@@ -628,6 +628,30 @@ def bench_of_scene(scene: str | None
     return bench_of_settings(load_scene(scene).settings(), f'scene {scene}')
 
 
+def bench_of_bags(bags: Sequence[str]
+                  ) -> tuple[ValveParams | None, MuscleParams | None, LoadingServoParams | None]:
+    """(valve, muscle, drive) the first bag's run description declares (the settings it was
+    recorded with: the muscle's size and chamber, its segments, the valve, the drive), the
+    bench every value the fit does not free is held at; (None, None, None), the bench's
+    defaults, for bags without one (a hand-started recorder's, another recorder's).
+
+    Raises:
+        ConfigError: a run description whose settings do not hold a single-muscle bench.
+    """
+    from pam_bench.bags.baginfo import run_of_bag
+    from pam_bench.bags.errors import BagError
+    from pam_bench.config.scene import settings_of_params_file
+    for bag in bags:
+        try:
+            params = run_of_bag(bag).get('parameters')
+        except BagError:
+            continue
+        if params:
+            st = settings_of_params_file(params, f'{bag}: recorded parameters')
+            return bench_of_settings(st, f'{bag}: recorded parameters')
+    return None, None, None
+
+
 def bench_of_settings(st: dict[str, Any], what: str
                       ) -> tuple[ValveParams, MuscleParams, LoadingServoParams]:
     """(valve, muscle, drive) of a scene's node settings (``Scene.settings``): its first
@@ -647,7 +671,8 @@ def calibrate_bag(job: tuple[str, int, str, str, int, str | None, str | None]
                   ) -> Calibration:
     """One job of ``pam-bench calibrate --each``: (bag folder, largest number of
     evaluations, replay, start, starts, law, scene) -> ``calibrate_bags``' result for that
-    bag alone (its starts run one after the other in the job).
+    bag alone (its starts run one after the other in the job), on the scene's bench, else the
+    bench the bag's run description holds.
 
     Raises:
         BagError: the bag cannot be read.
@@ -655,7 +680,8 @@ def calibrate_bag(job: tuple[str, int, str, str, int, str | None, str | None]
     """
     from pam_bench.bags.bagread import read_bags
     bag, max_nfev, replay, start, starts, law, scene = job
-    return calibrate_bags(observations_from_bags(read_bags([bag])), *bench_of_scene(scene),
+    base = bench_of_scene(scene) if scene is not None else bench_of_bags([bag])
+    return calibrate_bags(observations_from_bags(read_bags([bag])), *base,
                           max_nfev=max_nfev, replay=replay, start=start, starts=starts,
                           law=law)
 

@@ -335,3 +335,23 @@ def test_the_gauss_newton_share_is_the_step_to_a_linear_optimum(z_end: float,
     theta = lower + z * span
     np.testing.assert_allclose(gauss_newton_share(sol, lower, span),
                                (z_best - z_end) * span / np.abs(theta), rtol=1e-12, atol=1e-15)
+
+
+def test_a_bag_is_replayed_on_the_muscle_it_declares(tmp_path: pathlib.Path,
+                                                      ros_domain: int) -> None:
+    """A bag made with a muscle of another size: calibrate holds what it does not fit at that
+    muscle, from the bag's run description, not at the defaults (the valve's loop scales with
+    the chamber it sees)."""
+    import subprocess
+    import sys
+
+    from pam_bench.fit.calibrate_bags import bench_of_bags
+    res = subprocess.run([sys.executable, '-m', 'pam_bench.cli', 'run', 'demo', '--set',
+                          'muscle_1.muscle.nominal_length_m=0.25', '--set',
+                          'muscle_1.muscle.nominal_diameter_m=0.03', '--out',
+                          str(tmp_path / 'bag')], capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr
+    valve, muscle, drive = bench_of_bags([str(tmp_path / 'bag')])
+    assert muscle is not None and valve is not None and drive is not None
+    assert (muscle.nominal_length_m, muscle.nominal_diameter_m) == (0.25, 0.03)
+    assert bench_of_bags([str(tmp_path / 'nothing')]) == (None, None, None)
