@@ -24,6 +24,10 @@ __all__ = ['DRIVERS', 'bus_settings', 'start_buses']
 
 DRIVERS = ('daq_modbus', 'servo_canopen')
 """The driver nodes that replace the simulated devices."""
+DRIVER_PRIORITY = 45
+"""SCHED_FIFO priority of the drivers' exchanges where the machine allows it: above the
+emulated devices (``emulator.DEVICE_PRIORITY``), below the torque servo's control loop (50), as
+a lab's driver of real hardware runs (docs/drivers.md)."""
 
 
 def bus_settings(settings: dict[str, Any], register_map: str, stats_dir: str
@@ -58,11 +62,11 @@ def bus_settings(settings: dict[str, Any], register_map: str, stats_dir: str
     out['daq_modbus'] = DaqModbusSettings(
         port=ports[0], register_map=register_map,
         stats_file=os.path.join(stats_dir, 'daq_modbus.json'),
-        rate_hz=settings['valve_1'].rate_hz)
+        rate_hz=settings['valve_1'].rate_hz, realtime_priority=DRIVER_PRIORITY)
     out['servo_canopen'] = ServoCanopenSettings(
         can_interface='socketcand', can_port=ports[1],
         stats_file=os.path.join(stats_dir, 'servo_canopen.json'),
-        initial_mode=mode, initial_setpoint=setpoint,
+        initial_mode=mode, initial_setpoint=setpoint, realtime_priority=DRIVER_PRIORITY,
         drive=DriveScale(servo.pitch_diameter_m, servo.gear_ratio, servo.rated_torque_nm,
                          servo.encoder_bits_per_rev))
     return out, ports
@@ -80,12 +84,14 @@ def start_buses(start: Callable[..., subprocess.Popen], pfile: str, ports: tuple
     """
     import yaml
 
+    from pam_bench.bringup.emulator import DEVICE_PRIORITY
     from pam_bench.sim.faults import BUS_KINDS
     from pam_bench.twin.serve_buses import READY
     ours = [dataclasses.asdict(f) for f in faults if f.kind in BUS_KINDS]
     proc = start('buses', [sys.executable, '-m', 'pam_bench.twin.serve_buses', pfile,
                            '--modbus-port', str(ports[0]), '--can-port', str(ports[1]),
                            '--map', register_map, '--faults', yaml.safe_dump(ours),
+                           '--priority', str(DEVICE_PRIORITY),
                            *(['--faults-at-start'] if at_start and ours else [])],
                  pipe=True, feed=at_start and bool(ours))
     assert proc.stdout is not None

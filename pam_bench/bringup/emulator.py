@@ -70,9 +70,9 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
         install_interrupt_handlers,
         reject_undeclared,
         serve_services,
-        set_realtime_priority,
     )
     from pam_bench.runtime.profiling import profiled
+    from pam_bench.runtime.scheduling import set_realtime_priority
     from pam_bench.runtime.stats import ACK_WAIT_S
     from pam_bench.vocabulary.errors import PamBenchError
 

@@ -29,7 +29,7 @@ __all__ = ['NodeSettings', 'DeviceSettings', 'ControllerSettings', 'ClockSetting
            'ValveSettings', 'MuscleSettings', 'LoadCellSettings', 'EncoderSettings',
            'LoadingServoSettings', 'SequencerSettings', 'TorqueServoSettings',
            'RecorderSettings', 'LiveViewSettings', 'LIVE_FULL_RATE_TOPICS', 'ManagedSettings',
-           'RecordedSettings', 'InitialLoadSettings']
+           'RecordedSettings', 'InitialLoadSettings', 'RealtimeSettings']
 
 
 @dataclasses.dataclass
@@ -149,6 +149,15 @@ class EncoderSettings(DeviceSettings):
 
 
 @dataclasses.dataclass
+class RealtimeSettings:
+    """A loop on the wall clock that may run ahead of ordinary processes: the torque servo's
+    control loop and the bus drivers' exchanges (``runtime.scheduling.set_realtime_priority``)."""
+
+    realtime_priority: int = field(0, '-', 'without lock-step: run the loop SCHED_FIFO at this '
+                                   'priority where allowed (0: off)', 0, 99)
+
+
+@dataclasses.dataclass
 class InitialLoadSettings:
     """The load a drive holds from t_0 until its first command (scenes without a sequencer:
     the torque servo's, whose drive holds the pulley): the simulated loading servo's and the
@@ -177,7 +186,7 @@ class LoadingServoSettings(DeviceSettings, InitialLoadSettings):
 
 
 @dataclasses.dataclass
-class SequencerSettings(ControllerSettings, RunnerSettings):
+class SequencerSettings(ControllerSettings, RunnerSettings, RealtimeSettings):
     """sequencer: the protocol it runs and the runner's policies (``protocol.settings``)."""
 
     channel: int = field(1, '-', 'muscle channel under test', 1, 2)
@@ -224,7 +233,7 @@ CONTROLLERS = _controller_names()
 
 
 @dataclasses.dataclass
-class TorqueServoSettings(ControllerSettings, ManagedSettings):
+class TorqueServoSettings(ControllerSettings, ManagedSettings, RealtimeSettings):
     """torque_servo: the set point, the controller and the control loop."""
 
     muscles: int = field(2, '-', 'muscles driven: 2 (torque, N m) or 1 (force, N)', 1, 2)
@@ -245,8 +254,6 @@ class TorqueServoSettings(ControllerSettings, ManagedSettings):
     control_period_s: float = field(0.001, 's', 'control period without lock-step', 1e-4, 1.0)
     stale_timeout_s: float = field(0.05, 's', 'vent when a measured topic is older than this '
                                    '(without lock-step)', 1e-3, 60.0, tunable=True)
-    realtime_priority: int = field(0, '-', 'without lock-step: run the control loop SCHED_FIFO '
-                                   'at this priority where allowed (0: off)', 0, 99)
     wall_loop: str = field('deadline', '-', 'without lock-step: run the control loop on a '
                            "monotonic deadline ('deadline') or on rclpy's timer and executor "
                            "('timer', to compare)", choices=('deadline', 'timer'))
@@ -298,7 +305,7 @@ LIVE_FULL_RATE_TOPICS = ['/protocol/point', '/protocol/status', '/protocol/step_
 
 
 @dataclasses.dataclass
-class DriverSettings(NodeSettings, ManagedSettings):
+class DriverSettings(NodeSettings, ManagedSettings, RealtimeSettings):
     """A driver of real hardware on a field bus (``buses``): it runs on the wall clock only."""
 
     lockstep: bool = field(False, '-', 'drivers run on the wall clock only: keep false')

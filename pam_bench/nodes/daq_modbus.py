@@ -1,11 +1,11 @@
 """daq_modbus: the driver of a Modbus TCP DAQ carrying the valves, the load cells and the encoder.
 
-Thin node over ``buses.modbus_io``: every ``1 / rate_hz`` s one write of the valve voltages and
-one read of the inputs (``register_map``), then the readings out as the driver contract has
-them (``docs/drivers.md``): ``valve_N/pressure`` (absolute Pa), ``load_cell_N/force``,
-``encoder/joint_state`` (joint ``joint_name``), stamped at the read, reliable. Inputs:
-``valve_N/command`` for each valve the map carries; a command that is not finite or outside
-the map's range is rejected (counted, diagnosed) and the valve vents (0 V).
+Thin node over ``buses.modbus_io``: every ``1 / rate_hz`` s one exchange, the valve voltages
+written and the inputs read in one round trip (``register_map``), then the readings out as the
+driver contract has them (``docs/drivers.md``): ``valve_N/pressure`` (absolute Pa),
+``load_cell_N/force``, ``encoder/joint_state`` (joint ``joint_name``), stamped at the read,
+reliable. Inputs: ``valve_N/command`` for each valve the map carries; a command that is not
+finite or outside the map's range is rejected (counted, diagnosed) and the valve vents (0 V).
 
 A reading the map refuses (out of its range: a broken wire, a flipped register) is rejected and
 not published: the controllers see that topic go stale. A request that times out or a lost
@@ -102,8 +102,7 @@ class DaqModbusNode(BenchNode):
             self.backoff.reset()
             self.diagnose(DiagnosticStatus.OK, f'DAQ connected: {self.map.name}', 'bus')
         try:
-            self.io.write_outputs(self.voltages)
-            values = self.io.read_inputs()
+            values = self.io.exchange(self.voltages)
         except BusUnreachable as exc:
             self._lost(now, str(exc))
             return

@@ -23,11 +23,11 @@ from rclpy.node import Node
 
 from pam_bench.runtime.params import wildcard_only_keys
 from pam_bench.runtime.profiling import profiled
+from pam_bench.runtime.scheduling import set_realtime_priority
 from pam_bench.vocabulary.errors import PamBenchError
 from pam_bench.vocabulary.params import check_known
 
-__all__ = ['lean_spin', 'deadline_spin', 'spin', 'serve_services', 'set_realtime_priority',
-           'reject_undeclared',
+__all__ = ['lean_spin', 'deadline_spin', 'spin', 'serve_services', 'reject_undeclared',
            'install_interrupt_handlers', 'fail_line', 'start_node', 'run_node']
 
 
@@ -48,19 +48,6 @@ def serve_services(node: Node) -> Callable[[], None]:
     return serve
 
 
-def set_realtime_priority(priority: int) -> str:
-    """Put this process in the SCHED_FIFO class at ``priority`` (1..99) where the machine
-    allows it (root or CAP_SYS_NICE, an rtprio limit): a loop that sleeps most of its period
-    then wakes ahead of every ordinary process. Returns what happened, for the log."""
-    if priority <= 0:
-        return 'ordinary scheduling'
-    try:
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
-    except (PermissionError, OSError, AttributeError) as exc:
-        return f'SCHED_FIFO {priority} refused ({exc}): ordinary scheduling'
-    return f'SCHED_FIFO priority {priority}'
-
-
 def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
                   poll: Callable[[], None] | None = None, poll_period_s: float = 0.005,
                   should_stop: Callable[[], bool] | None = None) -> None:
@@ -69,14 +56,15 @@ def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
 
     The loop sleeps in the wait set until the next deadline or message; a message is handled
     at once. A tick that ends late keeps the phase (the next deadline is one period after the
-    missed one); a loop more than a period behind starts again from the end of its tick,
-    dropping the ticks it missed, as a driver's control loop does, and the messages that came
-    meanwhile are served before the next tick (a tick longer than the period, a Modbus round
-    trip on a loaded machine, once starved the subscriptions: commands reached the driver in
-    bursts seconds apart). ``poll`` (services, a bus refresh) runs every
-    ``poll_period_s``. Returns when ``should_stop()`` is true after a tick. SIGINT and SIGTERM
-    end the loop between ticks, never inside one (a tick cut between its publishes would leave
-    a device's outputs half sent), and then raise KeyboardInterrupt. rclpy's timer against
+    missed one); a loop more than a period behind drops the ticks it missed, as a driver's
+    control loop does, serves the messages that came meanwhile without waiting, and ticks
+    again at once (a tick longer than the period, a Modbus round trip on a loaded machine, once
+    starved the subscriptions: commands reached the driver in bursts seconds apart; waiting a
+    whole period after such a tick cost a 1 kHz driver a tenth of its rate). ``poll``
+    (services, a bus refresh) runs every ``poll_period_s``. Returns when ``should_stop()`` is
+    true after a tick. SIGINT and SIGTERM end the loop between ticks, never inside one (a tick
+    cut between its publishes would leave a device's outputs half sent), and then raise
+    KeyboardInterrupt. rclpy's timer against
     this loop: ``BENCHMARKS.md``, "The bench on a wall clock".
     """
     from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
@@ -97,21 +85,23 @@ def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
     now = time.monotonic_ns()
     deadline, next_poll = now + period, now + poll_period
     stop: list[int] = []
+    serve_first = False
     previous = {sig: signal.signal(sig, lambda signum, _: stop.append(signum))
                 for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         while ctx.ok() and not stop:
             now = time.monotonic_ns()
-            if now >= deadline:
+            if now >= deadline and not serve_first:
                 tick()
                 if should_stop is not None and should_stop():
                     return
                 deadline += period
                 after = time.monotonic_ns()
-                if deadline <= after:       # more than a period behind: again from now, so
-                    deadline = after + period    # the messages are served before the next tick
+                if deadline <= after:       # more than a period behind: the ticks missed are
+                    deadline = after        # dropped, the messages served, then a tick at once
+                    serve_first = True
                 continue
-            if poll is not None and now >= next_poll:
+            if poll is not None and now >= next_poll and not serve_first:
                 poll()
                 next_poll = now + poll_period
                 continue
@@ -120,7 +110,8 @@ def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
                 wait_set.add_subscription(sub.handle)
             wait_set.add_guard_condition(guard.handle)
             wake = deadline if poll is None else min(deadline, next_poll)
-            wait_set.wait(max(wake - now, 0))
+            wait_set.wait(0 if serve_first else max(wake - now, 0))
+            serve_first = False
             if guard.handle.pointer in wait_set.get_ready_entities('guard_condition'):
                 break
             for ptr in wait_set.get_ready_entities('subscription'):
