@@ -8,9 +8,9 @@ all sent at once and answered in order; each reply is matched to its request by 
 transaction identifier and checked for its function code, byte count and quantity. The guide
 lets a client keep several transactions open on one connection ("Client design", 4.3.1.2); a
 server that serves one at a time answers them from its TCP buffer in turn. Sending them
-together makes an exchange one round trip instead of one per block, and skips the general
-client's framer (pymodbus' synchronous client spent 0.79 ms per exchange where this one spends
-0.45 ms against the same loaded emulated DAQ; BENCHMARKS.md, "The buses").
+together makes an exchange one round trip instead of one per block, and skips a general
+client's framer (the two against pymodbus' synchronous client: BENCHMARKS.md, "The bench
+behind real buses").
 
 A request that times out, a connection that drops, an exception response or a reply that does
 not match its request raises ``BusUnreachable``; the caller (``nodes.daq_modbus``) then puts its

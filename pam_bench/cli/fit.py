@@ -150,10 +150,12 @@ def _calibrate_bags(args: argparse.Namespace) -> int:
     data = read_bags(args.bags)
     obs = observations_from_bags(data)
     check_observations(obs)
+    say = sys.stderr if args.json else sys.stdout      # with --json, stdout is the JSON only
     if obs.left_aside:
-        print('left aside: ' + '; '.join(obs.left_aside))
+        print('left aside: ' + '; '.join(obs.left_aside), file=say)
     print(f'fitting the muscle and valve to {len(obs.readings)} readings and '
-          f'{len(obs.records)} step records (the Jacobian on the cluster) ...', flush=True)
+          f'{len(obs.records)} step records (the Jacobian on the cluster) ...', flush=True,
+          file=say)
     with connect(**cluster_of(args)) as client:
         res = calibrate_bags(obs, *base, max_nfev=args.max_evaluations, replay=args.replay,
                              workers=map_on(client), start=args.start, starts=args.starts,
@@ -171,8 +173,8 @@ def _calibrate_bags(args: argparse.Namespace) -> int:
                           'fitted to these recordings\n' + yaml.safe_dump(overlay,
                                                                             sort_keys=False))
         print(f'overlay written to {args.out} (pam-bench run SCENE --params {args.out})'
-              + ('' if verdict.converged else ', marked not converged'))
-    print(verdict.line(), file=sys.stdout if verdict.converged else sys.stderr)
+              + ('' if verdict.converged else ', marked not converged'), file=say)
+    print(verdict.line(), file=say if verdict.converged else sys.stderr)
     return 0 if verdict.converged else NOT_CONVERGED
 
 

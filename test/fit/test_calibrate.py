@@ -355,3 +355,23 @@ def test_a_bag_is_replayed_on_the_muscle_it_declares(tmp_path: pathlib.Path,
     assert muscle is not None and valve is not None and drive is not None
     assert (muscle.nominal_length_m, muscle.nominal_diameter_m) == (0.25, 0.03)
     assert bench_of_bags([str(tmp_path / 'nothing')]) == (None, None, None)
+
+
+def test_calibrate_json_keeps_stdout_to_the_json(tmp_path: pathlib.Path,
+                                                  capsys: pytest.CaptureFixture) -> None:
+    """``--json``: what a script parses is on stdout alone; the progress lines go to stderr."""
+    import json
+
+    from pam_bench.cli import main
+    from test.analysis.bags import write_bag
+    rows = [(2.0, 50.0, 0.070), (2.0, 150.0, 0.048), (6.0, 50.0, 0.112), (6.0, 150.0, 0.085)]
+    write_bag(tmp_path / 'bag', [
+        dict(protocol='isobaric_quick', series=int(u > 2.0), step=k, direction=0,
+             series_value=u, set_value=f, voltage=u, force=f, contraction=x, pressure=u * 1e5)
+        for k, (u, f, x) in enumerate(rows)])
+    assert main(['calibrate', str(tmp_path / 'bag'), '--replay', 'static', '--json',
+                 '--max-evaluations', '1', '--starts', '0']) in (0, 3)
+    captured = capsys.readouterr()
+    res = json.loads(captured.out)
+    assert 'verdict' in res and 'values' in res
+    assert 'fitting the muscle and valve' in captured.err
