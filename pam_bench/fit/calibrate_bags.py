@@ -16,8 +16,10 @@ how, and how the residuals are scaled); the fit starts from values read off the 
   (``calibrate.fit_summary``, the prior's rows included). A parameter is flagged (the
   recordings do not fix it) when its error exceeds 5 % of its value, when it sits at a bound,
   when the data alone leave it a variance above ``UNFIXED_SHARE`` of its interval squared
-  ([(J^T J + delta I)^-1]_ii in z, delta = ``DATA_ONLY``), or when its data-only correlation
-  with a flagged parameter reaches ``JOINT_CORRELATION``.
+  ([(J^T J + delta I)^-1]_ii in z, delta = ``DATA_ONLY``), when the data alone (the residuals'
+  variance, without the prior, which shrinks the error of what the data do not see) leave it a
+  standard error above ``UNFIXED_REL`` of its value, or when its data-only correlation with a
+  flagged parameter reaches ``JOINT_CORRELATION``.
 - Settling: when the Gauss-Newton step from the fit's end would still move a parameter by more
   than ``SETTLED_STEP`` of its value, the fit goes on for a few evaluations without the early
   stop, its Jacobian by central differences (``SETTLE_JAC``; ``_settled``). Jacobian steps are
@@ -107,6 +109,7 @@ class Calibration(FitSummary):
 
 PRIOR_WEIGHT = 0.01             # a range costs one reading a noise deviation off (docstring)
 UNFIXED_SHARE = 0.01            # data-only variance in z at the tolerances that flags
+UNFIXED_REL = 0.05              # data-only standard error, share of the value, that flags
 DATA_ONLY = 1e-6                # the ridge that keeps J^T J invertible (module docstring)
 JOINT_CORRELATION = 0.95        # fixed only jointly with a flagged parameter: flagged too
 
@@ -426,16 +429,24 @@ def coarse(obs: Observations, most: int = COARSE_READINGS) -> Observations:
     return Observations([obs.readings[i] for i in keep], list(obs.records))
 
 
-def _unfixed(names: list[str], data_jac: np.ndarray, flags: Sequence[str]) -> list[str]:
+def _unfixed(names: list[str], data_jac: np.ndarray, flags: Sequence[str],
+             data_fun: np.ndarray | None = None, theta: np.ndarray | None = None,
+             span: np.ndarray | None = None) -> list[str]:
     """The parameters the data do not fix (module docstring): those already flagged, those
-    the data alone leave a variance above ``UNFIXED_SHARE`` (in z), and then,
-    until none is added, those the data fix only together with a flagged one (data-only
-    correlation ``JOINT_CORRELATION`` or more)."""
+    the data alone leave a variance above ``UNFIXED_SHARE`` (in z), those whose data-only
+    standard error (the residuals' own variance, no prior) exceeds ``UNFIXED_REL`` of their
+    value (given ``data_fun``, ``theta`` and ``span``), and then, until none is added, those
+    the data fix only together with a flagged one (data-only correlation
+    ``JOINT_CORRELATION`` or more)."""
     inv = np.linalg.inv(data_jac.T @ data_jac + DATA_ONLY * np.eye(len(names)))
     share = np.diag(inv)
     sd = np.sqrt(np.maximum(np.diag(inv), 1e-300))
     corr = inv / np.outer(sd, sd)
     out = {i for i, n in enumerate(names) if n in flags or share[i] > UNFIXED_SHARE}
+    if data_fun is not None and theta is not None and span is not None:
+        s2 = float(data_fun @ data_fun) / max(len(data_fun) - len(names), 1)
+        err = np.sqrt(share * s2) * span
+        out |= {i for i in range(len(names)) if err[i] > UNFIXED_REL * abs(theta[i])}
     grew = True
     while grew:
         more = {i for i in range(len(names)) if i not in out and any(
@@ -563,7 +574,8 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
     evaluations += more
     theta = lower + sol.x * span
     summary = fit_summary(names, theta, sol, span, rel_flag=0.05)
-    summary['flags'] = _unfixed(names, sol.jac[:-len(names)], summary['flags'])
+    summary['flags'] = _unfixed(names, sol.jac[:-len(names)], summary['flags'],
+                                sol.fun[:-len(names)], theta, span)
     summary['report'] = fit_report(summary)
     for n, value in held.items():           # not fitted: kept at the start, and flagged
         summary['names'].append(n)

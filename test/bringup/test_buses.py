@@ -181,6 +181,20 @@ def test_the_torque_servo_runs_through_the_buses_as_in_lock_step(tmp_path: pathl
         scene.settings()['torque_servo'].controller, s['signal'], scene.duration_s, s['angle_rad'],
         scene.exchange_step_s, s['inverse'], s['muscles'], s['params'], s['valve'],
         s['muscle'], plugins=s['plugins']))
-    assert abs(bus['rms_error'] - twin['rms_error']) <= 0.1, (bus, twin)
+    assert abs(bus['rms_error'] - twin['rms_error']) <= 0.1, (bus, twin, _troubles(
+        tmp_path / 'bus'))
     drive = bag_messages(tmp_path / 'bus', '/loading_servo/state')       # the drive holds
     assert drive and all(abs(m.position[0]) < 1e-3 for m in drive[-10:])
+
+
+def _troubles(bag: pathlib.Path) -> list[str]:
+    """Each distinct warning, error or stale status on the bag's /diagnostics, with the time of
+    its first appearance (what a failed run through the buses says about itself)."""
+    seen: dict[str, float] = {}
+    for m in bag_messages(bag, '/diagnostics'):
+        for st in m.status:
+            if st.level != b'\x00' and st.level != 0:
+                seen.setdefault(f'{st.name}: {st.message}',
+                                m.header.stamp.sec + m.header.stamp.nanosec * 1e-9)
+    return [f'{t:.3f} {k}' for k, t in sorted(seen.items(), key=lambda kv: kv[1])]
+
