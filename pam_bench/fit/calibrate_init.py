@@ -287,6 +287,17 @@ def initial_values(readings: Sequence[tuple[str, float, float, float]],
 _GAIN_NAMES = ('gain_n_per_pa', 'gain_min_n_per_pa', 'gain_min_contraction_m', 'gain_exponent')
 
 
+def _branch_means(iso: list[tuple[float, float, float]]) -> list[tuple[float, float, float]]:
+    """Isometric readings (u, x, F) with the rising and falling readings at one (u, x) replaced
+    by their mean: the braid's friction pulls the two branches apart by about as much either
+    way, so the mean stands nearer the law's frictionless force than either (a law fitted to
+    both branches bends to the loop instead)."""
+    groups: dict[tuple[float, float], list[float]] = {}
+    for u, x, f in iso:
+        groups.setdefault((round(u, 9), round(x, 12)), []).append(f)
+    return [(u, x, float(np.mean(fs))) for (u, x), fs in groups.items()]
+
+
 def law_start(law: ForceLaw, readings: Sequence[tuple[str, float, float, float]],
               records: Sequence[tuple[float, float, float, float, np.ndarray]],
               valve: ValveParams, muscle: MuscleParams) -> tuple[Start, dict[str, str]]:
@@ -300,7 +311,7 @@ def law_start(law: ForceLaw, readings: Sequence[tuple[str, float, float, float]]
     from pam_bench.analysis.force_models import fit_force_models
     out: Start = {}
     why: dict[str, str] = {}
-    iso = [(u, x, f) for kind, u, x, f in readings if kind == 'isometric']
+    iso = _branch_means([(u, x, f) for kind, u, x, f in readings if kind == 'isometric'])
     if len(iso) > len(law.params):
         u, x, f = (np.array(c, float) for c in zip(*iso, strict=True))
         fits = fit_force_models(valve.gain_pa_per_v * u, x, f, muscle.nominal_length_m, (law,))

@@ -375,3 +375,26 @@ def test_calibrate_json_keeps_stdout_to_the_json(tmp_path: pathlib.Path,
     res = json.loads(captured.out)
     assert 'verdict' in res and 'values' in res
     assert 'fitting the muscle and valve' in captured.err
+
+
+def test_a_jacobian_with_huge_columns_gives_a_step_not_a_traceback() -> None:
+    """A law with an exponential gave forces of 1e199 N at a finite-difference trial: the
+    Gauss-Newton step at the fit's end (``gauss_newton_share``) overflowed J^T J and numpy's
+    SVD failed with a traceback. Solved on J itself, the step is finite."""
+    import types
+
+    from pam_bench.fit.calibrate_bags import gauss_newton_share
+    jac = np.array([[1.0, 5e199], [2.0, 0.0], [0.0, 1.0]])
+    sol = types.SimpleNamespace(jac=jac, fun=np.array([0.01, -0.02, 0.0]), x=np.array([0.5, 0.5]))
+    step = gauss_newton_share(sol, np.zeros(2), np.ones(2))
+    assert np.all(np.isfinite(step))
+    np.testing.assert_allclose(step[0], 0.02, rtol=1e-6)        # -(0.01, -0.02) on column 1
+
+
+def test_the_law_start_fits_the_mean_of_the_two_branches() -> None:
+    """Rising and falling isometric readings at one (u, x) differ by the friction either way:
+    the law's start is fitted to their mean."""
+    from pam_bench.fit.calibrate_init import _branch_means
+    iso = [(1.0, 0.0, 100.0), (2.0, 0.0, 210.0), (1.0, 0.0, 96.0), (2.0, 0.04, 150.0)]
+    assert sorted(_branch_means(iso)) == [(1.0, 0.0, 98.0), (2.0, 0.0, 210.0),
+                                          (2.0, 0.04, 150.0)]
