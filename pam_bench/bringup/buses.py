@@ -25,9 +25,12 @@ __all__ = ['DRIVERS', 'bus_settings', 'start_buses']
 DRIVERS = ('daq_modbus', 'servo_canopen')
 """The driver nodes that replace the simulated devices."""
 DRIVER_PRIORITY = 45
-"""SCHED_FIFO priority of the drivers' exchanges where the machine allows it: above the
-emulated devices (``emulator.DEVICE_PRIORITY``), below the torque servo's control loop (50), as
-a lab's driver of real hardware runs (docs/drivers.md)."""
+"""SCHED_FIFO priority of the drivers' exchanges where the machine allows it: below the torque
+servo's control loop (50), as a lab's driver of real hardware runs (docs/drivers.md). The
+emulated buses' process stays at ordinary priority: at SCHED_FIFO beside the drivers and the
+servo, the real-time share of two cores ran out (the kernel's real-time throttling) and the
+servo stalled past its stale timeout in one run of two (docs/long_runs.md, "The DAQ at its
+contract rate through the buses")."""
 
 
 def bus_settings(settings: dict[str, Any], register_map: str, stats_dir: str
@@ -84,14 +87,12 @@ def start_buses(start: Callable[..., subprocess.Popen], pfile: str, ports: tuple
     """
     import yaml
 
-    from pam_bench.bringup.emulator import DEVICE_PRIORITY
     from pam_bench.sim.faults import BUS_KINDS
     from pam_bench.twin.serve_buses import READY
     ours = [dataclasses.asdict(f) for f in faults if f.kind in BUS_KINDS]
     proc = start('buses', [sys.executable, '-m', 'pam_bench.twin.serve_buses', pfile,
                            '--modbus-port', str(ports[0]), '--can-port', str(ports[1]),
                            '--map', register_map, '--faults', yaml.safe_dump(ours),
-                           '--priority', str(DEVICE_PRIORITY),
                            *(['--faults-at-start'] if at_start and ours else [])],
                  pipe=True, feed=at_start and bool(ours))
     assert proc.stdout is not None

@@ -122,8 +122,8 @@ def main(argv: list[str] | None = None) -> None:
     # thread: with Python's default 5 ms switch interval a request could wait that long for
     # the interpreter while the ticks ran, and the DAQ's exchange took 2-5 ms instead of 0.4.
     sys.setswitchinterval(SWITCH_INTERVAL_S)
-    # Real devices do not stall when the host is busy: the bench's threads (started below,
-    # they inherit it) run SCHED_FIFO where allowed, as the emulator's devices do.
+    # --priority: the bench's threads (started below, they inherit it) SCHED_FIFO where
+    # allowed; the bring-up leaves it at 0 (``bringup.buses.DRIVER_PRIORITY`` says why).
     print(f'emulated buses: {set_realtime_priority(args.priority)}', flush=True)
     stop = threading.Event()
     signal.signal(signal.SIGINT, lambda *_: stop.set())
