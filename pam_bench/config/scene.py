@@ -32,6 +32,7 @@ from pam_bench.config.errors import ConfigError
 from pam_bench.config.nodes import NODES, SCENE_NODES, Role, node
 from pam_bench.config.paths import config_dir, scenes_dir
 from pam_bench.config.protocols import protocol_schedule
+from pam_bench.config.settings import LawSettings
 from pam_bench.config.topics import EVENT_TOPICS, step_topics
 from pam_bench.models.constants import SUB_STEP_S
 from pam_bench.sim.faults import Fault, parse_faults
@@ -105,11 +106,36 @@ def settings_of_params_file(params: dict[str, Any], where: str = 'parameters'
     try:
         for key, entry in params.items():
             name = node_of_key(key)
-            values = (entry or {}).get('ros__parameters', {})
+            values = _installed_laws_only((entry or {}).get('ros__parameters', {}), name)
             out[name] = from_mapping(node(name).settings, values, f'{name}.')
     except ParameterError as exc:
         raise ConfigError(f'{where}: {exc}') from None
     return out
+
+
+def _installed_laws_only(values: dict[str, Any], name: str) -> dict[str, Any]:
+    """``values`` without the parameter sections of force laws not installed here: a bag
+    recorded where a plug-in law was installed carries its section (every law's parameters are
+    settings) even when its muscle held another law. A muscle that held such a law cannot be
+    rebuilt: one line says which plug-in to install.
+
+    Raises:
+        ConfigError: the muscle's own law is a plug-in not installed here.
+    """
+    laws = values.get('laws')
+    if not isinstance(laws, dict):
+        return values
+    known = {f.name for f in dataclasses.fields(LawSettings)}
+    missing = sorted(set(laws) - known)
+    if not missing:
+        return values
+    muscle = values.get('muscle')
+    held = muscle.get('law') if isinstance(muscle, dict) and muscle.get('kind') == 'law' else None
+    if held in missing:
+        raise ConfigError(f"{name}'s muscle holds the force law {held!r}, a plug-in not "
+                          'installed here: install its package (pam-bench plugins lists the '
+                          'laws there are)')
+    return {**values, 'laws': {k: v for k, v in laws.items() if k in known}}
 
 
 @dataclasses.dataclass

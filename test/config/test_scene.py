@@ -148,3 +148,21 @@ def test_a_law_named_without_kind_law_is_refused_in_one_line() -> None:
     scene.set('muscle_1.muscle.kind', 'law')
     scene.set('muscle_1.muscle.law', 'tondu_lopez')
     assert scene.settings()['muscle_1'].muscle.law == 'tondu_lopez'
+
+
+def test_a_bag_recorded_beside_a_plug_in_law_is_read_where_it_is_missing() -> None:
+    """A bag recorded where a plug-in law was installed carries that law's parameter section
+    (every law's parameters are settings). Where the plug-in is missing the section is left
+    out, unless the muscle held that law: then one line says to install it."""
+    from pam_bench.config.errors import ConfigError
+    from pam_bench.config.scene import settings_of_params_file
+    other = {'laws': {'sarosi': {'a': 120.0}, 'not_here_law': {'k': 1.0}},
+             'muscle': {'kind': 'law', 'law': 'sarosi'}}
+    st = settings_of_params_file({'muscle_1': {'ros__parameters': other}}, 'bag')
+    assert st['muscle_1'].laws.sarosi.a == 120.0 and st['muscle_1'].muscle.law == 'sarosi'
+    mine = {'laws': {'not_here_law': {'k': 1.0}}, 'muscle': {'kind': 'law', 'law': 'not_here_law'}}
+    with pytest.raises(ConfigError, match="'not_here_law', a plug-in not installed here"):
+        settings_of_params_file({'muscle_1': {'ros__parameters': mine}}, 'bag')
+    with pytest.raises(ConfigError, match='not_here'):        # a user's file: still an error
+        settings_of_params_file({'muscle_1': {'ros__parameters': {
+            'muscle': {'not_here': 1.0}}}}, 'bag')
