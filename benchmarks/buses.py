@@ -57,9 +57,9 @@ def _pct(values: list[float], q: float) -> float:
     return float(np.percentile(np.asarray(values), q)) if values else float('nan')
 
 
-def _pymodbus_exchange(rmap: Any, port: int) -> Callable[[], None]:
+def _pymodbus_exchange(rmap: Any, port: int) -> tuple[Callable[[], None], Any]:
     """The exchange as pymodbus' synchronous client makes it, one request per block (the
-    driver's client before it sent them together)."""
+    driver's client before it sent them together), and the client (to close)."""
     from pymodbus.client import ModbusTcpClient
 
     from pam_bench.buses.modbus_io import ModbusIo
@@ -76,8 +76,7 @@ def _pymodbus_exchange(rmap: Any, port: int) -> Callable[[], None]:
             call = (client.read_input_registers if b.register == 'input'
                     else client.read_holding_registers)
             call(b.address, count=b.count, device_id=rmap.device_id)
-    exchange.close = client.close  # type: ignore[attr-defined]
-    return exchange
+    return exchange, client
 
 
 def _modbus(seconds: float) -> dict[str, Any]:
@@ -107,7 +106,7 @@ def _modbus(seconds: float) -> dict[str, Any]:
             io.close()
             out = {'rate_hz': n / wall, 'round_trip_p50_ms': _pct(trips, 50) * 1e3,
                    'round_trip_p99_ms': _pct(trips, 99) * 1e3, 'requests': len(trips)}
-            other = _pymodbus_exchange(rmap, port)
+            other, client = _pymodbus_exchange(rmap, port)
             n, t0 = 0, time.perf_counter()
             times = []
             while time.perf_counter() - t0 < seconds:
@@ -115,7 +114,7 @@ def _modbus(seconds: float) -> dict[str, Any]:
                 other()
                 times.append(time.perf_counter() - t)
                 n += 1
-            other.close()  # type: ignore[attr-defined]
+            client.close()
             out['pymodbus'] = {'rate_hz': n / (time.perf_counter() - t0),
                                'exchange_p50_ms': _pct(times, 50) * 1e3,
                                'exchange_p99_ms': _pct(times, 99) * 1e3, 'exchanges': n}
@@ -349,28 +348,13 @@ def section(r: dict[str, Any], root: pathlib.Path) -> list[str]:
     else:
         lines += [f"{run['scene']}: lock-step exit {run['lock_code']}, through the buses exit "
                   f"{run['bus_code']}.", '']
-    rows = [(n, f"{run[n]['rate_hz']:.0f} Hz", f"{run[n]['p99_ms']:.3f} ms",
-             f"{run[n]['max_ms']:.1f} ms", f"{run[n]['late_share'] * 100:.2f} %")
-            for n in ('sequencer', 'daq_modbus', 'servo_canopen') if n in run]
-    f = run.get('floor') or {}
-    if f:
-        rows.append(('host floor (1 ms sleeps, own process)', f"{f['wakeups']} wake-ups",
-                     f"{f['p99_ms']:.3f} ms late", f"{f['max_ms']:.1f} ms late",
-                     f"{f['over_1ms_share'] * 100:.2f} % over 1 ms"))
-    lines += table(['loop during the run', 'rate', 'period p99', 'period max', 'late'], rows)
+    lines += table(['loop during the run', 'rate', 'period p99', 'period max', 'late'],
+                   _loop_rows(run, ('sequencer', 'daq_modbus', 'servo_canopen')))
     sv = b.get('servo')
     if sv:
         lines += ['', _servo_line(sv), '']
-        rows = [(n, f"{sv[n]['rate_hz']:.0f} Hz", f"{sv[n]['p99_ms']:.3f} ms",
-                 f"{sv[n]['max_ms']:.1f} ms", f"{sv[n]['late_share'] * 100:.2f} %")
-                for n in ('torque_servo', 'daq_modbus', 'servo_canopen') if n in sv]
-        f = sv.get('floor') or {}
-        if f:
-            rows.append(('host floor (1 ms sleeps, own process)', f"{f['wakeups']} wake-ups",
-                         f"{f['p99_ms']:.3f} ms late", f"{f['max_ms']:.1f} ms late",
-                         f"{f['over_1ms_share'] * 100:.2f} % over 1 ms"))
         lines += table(['loop during the servo run', 'rate', 'period p99', 'period max',
-                        'late'], rows)
+                        'late'], _loop_rows(sv, ('torque_servo', 'daq_modbus', 'servo_canopen')))
     faults = b.get('faults')
     if faults:
         lines += ['', 'Each bus fault in the short isometric series of "Injected faults" (4 '
@@ -389,6 +373,20 @@ def section(r: dict[str, Any], root: pathlib.Path) -> list[str]:
         lines += table(['fault', 'the run', 'reason on protocol/status', 'held', 'readings'],
                        frows)
     return lines
+
+
+def _loop_rows(run: dict[str, Any], names: tuple[str, ...]
+               ) -> list[tuple[str, str, str, str, str]]:
+    """One row per loop of ``names`` the run measured, then the host's stall floor beside it."""
+    rows = [(n, f"{run[n]['rate_hz']:.0f} Hz", f"{run[n]['p99_ms']:.3f} ms",
+             f"{run[n]['max_ms']:.1f} ms", f"{run[n]['late_share'] * 100:.2f} %")
+            for n in names if n in run]
+    f = run.get('floor') or {}
+    if f:
+        rows.append(('host floor (1 ms sleeps, own process)', f"{f['wakeups']} wake-ups",
+                     f"{f['p99_ms']:.3f} ms late", f"{f['max_ms']:.1f} ms late",
+                     f"{f['over_1ms_share'] * 100:.2f} % over 1 ms"))
+    return rows
 
 
 def _servo_line(sv: dict[str, Any]) -> str:

@@ -216,12 +216,7 @@ def test_a_parameter_the_recordings_do_not_reach_stays_at_its_start_and_is_flagg
 def test_calibrate_cli_names_the_readings_it_leaves_out(tmp_path: pathlib.Path,
                                                          capsys: pytest.CaptureFixture) -> None:
     from pam_bench.cli import main
-    from test.analysis.bags import write_bag
-    rows = [(2.0, 50.0, 0.070), (2.0, 150.0, 0.048), (6.0, 50.0, 0.112), (6.0, 150.0, 0.085)]
-    write_bag(tmp_path / 'bag', [
-        dict(protocol='isobaric_quick', series=int(u > 2.0), step=k, direction=0,
-             series_value=u, set_value=f, voltage=u, force=f, contraction=x, pressure=u * 1e5)
-        for k, (u, f, x) in enumerate(rows)])
+    _isobaric_bag(tmp_path / 'bag')
     assert main(['calibrate', str(tmp_path / 'bag'), '--replay', 'static',
                  '--max-evaluations', '1', '--starts', '0']) in (0, 3)   # not its point
     out = capsys.readouterr().out
@@ -363,12 +358,7 @@ def test_calibrate_json_keeps_stdout_to_the_json(tmp_path: pathlib.Path,
     import json
 
     from pam_bench.cli import main
-    from test.analysis.bags import write_bag
-    rows = [(2.0, 50.0, 0.070), (2.0, 150.0, 0.048), (6.0, 50.0, 0.112), (6.0, 150.0, 0.085)]
-    write_bag(tmp_path / 'bag', [
-        dict(protocol='isobaric_quick', series=int(u > 2.0), step=k, direction=0,
-             series_value=u, set_value=f, voltage=u, force=f, contraction=x, pressure=u * 1e5)
-        for k, (u, f, x) in enumerate(rows)])
+    _isobaric_bag(tmp_path / 'bag')
     assert main(['calibrate', str(tmp_path / 'bag'), '--replay', 'static', '--json',
                  '--max-evaluations', '1', '--starts', '0']) in (0, 3)
     captured = capsys.readouterr()
@@ -398,3 +388,13 @@ def test_the_law_start_fits_the_mean_of_the_two_branches() -> None:
     iso = [(1.0, 0.0, 100.0), (2.0, 0.0, 210.0), (1.0, 0.0, 96.0), (2.0, 0.04, 150.0)]
     assert sorted(_branch_means(iso)) == [(1.0, 0.0, 98.0), (2.0, 0.0, 210.0),
                                           (2.0, 0.04, 150.0)]
+
+
+def _isobaric_bag(path: pathlib.Path) -> None:
+    """A small isobaric bag: two voltages, two loads."""
+    from test.analysis.bags import write_bag
+    rows = [(2.0, 50.0, 0.070), (2.0, 150.0, 0.048), (6.0, 50.0, 0.112), (6.0, 150.0, 0.085)]
+    write_bag(path, [
+        dict(protocol='isobaric_quick', series=int(u > 2.0), step=k, direction=0,
+             series_value=u, set_value=f, voltage=u, force=f, contraction=x, pressure=u * 1e5)
+        for k, (u, f, x) in enumerate(rows)])
