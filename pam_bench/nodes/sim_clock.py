@@ -50,6 +50,8 @@ __all__ = ['SimClock', 'windowed_rate', 'eta_text', 'ETA_WINDOW_S', 'main']
 ETA_WINDOW_S = 30.0      # s of wall time the ETA's rate is taken over
 GRAPH_CHECK_S = 1.0      # s of wall time between two looks for a foreign /clock publisher
 FOREIGN_CODE = 4         # exit code of a run that met another run's clock in its domain
+NAME_WAIT_S = 3.0        # s of wall time to wait for DDS to pass on a foreign publisher's name
+UNKNOWN_NAME = '_NODE_NAME_UNKNOWN_'   # rmw's node name before the graph has caught up
 
 
 def windowed_rate(history: collections.deque[tuple[float, float]], wall_s: float,
@@ -115,6 +117,7 @@ class SimClock(BenchNode):
         self.last_tick_wall = time.monotonic()
         self.ready_at: float | None = None    # wall time when all were ready (lean mode)
         self.last_graph_check = 0.0
+        self.foreign_seen_at: float | None = None   # wall time a foreign /clock was first seen
         self.lean = (os.environ.get('PAM_BENCH_EXECUTOR') != 'single') if lean is None else lean
         if not self.lean:
             self.timer = self.create_timer(0.05, self._on_timer)
@@ -154,14 +157,26 @@ class SimClock(BenchNode):
         self.pub.publish(Clock(clock=time_of(self.tick_ns)))
 
     def _check_foreign(self, now: float) -> None:
-        """Once a second: end the run when another node publishes ``/clock`` here."""
-        if now - self.last_graph_check < GRAPH_CHECK_S or self.done:
+        """Once a second: end the run when another node publishes ``/clock`` here.
+
+        The graph can list a publisher before its node's name arrives; the check then looks
+        again every 0.1 s, for up to ``NAME_WAIT_S``, so that the message names the node.
+        """
+        wait = GRAPH_CHECK_S if self.foreign_seen_at is None else 0.1
+        if now - self.last_graph_check < wait or self.done:
             return
         self.last_graph_check = now
         if self.count_publishers(topics.CLOCK) <= 1:
             return
+        infos = self.get_publishers_info_by_topic(topics.CLOCK)
+        if self.foreign_seen_at is None:
+            self.foreign_seen_at = now
+        if (any(i.node_name == UNKNOWN_NAME for i in infos)
+                and now - self.foreign_seen_at < NAME_WAIT_S):
+            return
         others = sorted({f'{i.node_namespace.rstrip("/")}/{i.node_name}'
-                         for i in self.get_publishers_info_by_topic(topics.CLOCK)})
+                         if i.node_name != UNKNOWN_NAME else 'a node whose name DDS has not given'
+                         for i in infos})
         self._abort(f'another node publishes {topics.CLOCK} in ROS_DOMAIN_ID '
                     f'{os.environ.get("ROS_DOMAIN_ID", "0")} (publishers: {", ".join(others)}):'
                     ' another run shares this domain; this run stops', FOREIGN_CODE)
