@@ -48,7 +48,9 @@ CASES = {
                            'duration_s: 0.5, value: 300.0}', True, 'outside'),
     'message_loss': ('{kind: message_loss, target: load_cell_1, at_s: 2.0, duration_s: 3.0, '
                      'value: 0.5}', True, ''),
-    'valve_stuck': ('{kind: valve_stuck, target: valve_1, at_s: 2.6, duration_s: 3.0}', False,
+    # stuck from before the first 1 V command (after the first reading's 1.5 s dwell, at the
+    # earliest) to past the reading at 1 V, however long the loading servo takes to settle
+    'valve_stuck': ('{kind: valve_stuck, target: valve_1, at_s: 1.0, duration_s: 6.0}', False,
                     'valve does not follow'),
     # after the second reading's dwell: a device stalled 0.2 s before the first reading (load
     # on the machine) suspends and restarts that dwell, and the kill must still find a

@@ -1,8 +1,8 @@
 """Faults injected into a simulated device on a wall clock (``sim.faults``): when they act and
-what they do to a measured value. Their time base is the run's start: the start the first
-protocol status received states (its ``elapsed`` back from its arrival, so a status missed
-while discovery was still matching does not shift the faults), or the arrival of the first
-servo state."""
+what they do to a measured value. Their time base is the run's start: the protocol's start as
+the first protocol status past idle states it (its ``elapsed`` back from its arrival, so a
+status missed while discovery was still matching does not shift the faults), or the arrival of
+the first servo state."""
 
 from __future__ import annotations
 
@@ -19,6 +19,9 @@ from pam_bench.vocabulary.errors import ParameterError
 from pam_bench.vocabulary.yaml_io import load_yaml
 
 __all__ = ['FaultInjection']
+
+IDLE = 0
+"""``ProtocolStatus.STATE_IDLE``: the sequencer waits for its inputs, the protocol not begun."""
 
 
 class FaultInjection(NodeCore):
@@ -46,7 +49,9 @@ class FaultInjection(NodeCore):
                 self.create_subscription(cls, topic, self._run_started, RELIABLE)
 
     def _run_started(self, msg: Any) -> None:
-        if self._fault_epoch_ns is None:
+        # an idle status (waiting for its inputs, 0 s elapsed) comes before the protocol's
+        # start, however long bring-up takes: the faults' clock starts with the protocol
+        if self._fault_epoch_ns is None and getattr(msg, 'state', None) != IDLE:
             elapsed_s = float(getattr(msg, 'elapsed', 0.0))
             self._fault_epoch_ns = (int(self.get_clock().now().nanoseconds)
                                     - round(max(elapsed_s, 0.0) * 1e9))

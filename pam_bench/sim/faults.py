@@ -1,7 +1,8 @@
 """Injected faults: what a scene's ``faults`` list does to a device, and when.
 
-A fault has a kind, a target node, a start ``at_s`` (s from the start of the run: the first
-protocol status or servo state the target receives) and a ``duration_s``; ``value`` is the
+A fault has a kind, a target node, a start ``at_s`` (s from the start of the run: the
+protocol's start, as the first protocol status past idle states it, or the first servo state
+the target receives) and a ``duration_s``; ``value`` is the
 kind's size. Kinds:
 
 * ``sensor_dropout`` (load cell, encoder, valve pressure): the measured topic stops;
