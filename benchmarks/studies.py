@@ -13,6 +13,7 @@ from benchmarks import (
     faults,
     fuzz,
     layouts,
+    limits,
     lockstep,
     models,
     profile,
@@ -30,7 +31,8 @@ from benchmarks.study import Study
 __all__ = ['STUDIES', 'study']
 
 STUDIES: tuple[Study, ...] = (
-    calibration.STUDY, lockstep.STUDY, layouts.STUDY, profile.STUDY, exchange_step.STUDY,
+    calibration.STUDY, lockstep.STUDY, layouts.STUDY, limits.STUDY, profile.STUDY,
+    exchange_step.STUDY,
     settle.STUDY, record_exchange.STUDY, scenes.STUDY, models.STUDY, wallclock.STUDY,
     faults.STUDY, straight_fibre.STUDY, calibrate.STUDY, calibrate_bounds.STUDY,
     calibrate_nodes.STUDY,
