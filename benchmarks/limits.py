@@ -9,11 +9,9 @@ the other in one process:
 - twin: the same scene on the numpy twin, which runs the same models and the same sequencer
   without nodes or messages (``twin.protocol_run.run_scene``; the servo scenes through
   ``bringup.servo_compare.one_run`` with engine 'twin');
-- bag alone: every message of the nodes' bag read back and made into rclpy message objects
-  (not timed), then encoded and written again as the composed recorder does it
-  (``runtime.cdr``'s encoder, else rclpy's serialisation; ``bags.splitwriter.SplitWriter``
-  with the recorder's compression, one ``reserve_many`` per exchange): the floor of any layout
-  that records the same bag;
+- bag alone: every message of the nodes' bag encoded and written again as the composed
+  recorder does it, without the bench (``nodes.bag_floor.write_again``): the floor of any
+  layout that records the same bag;
 - physics alone: the twin's wall time times the share of its profiled time (cProfile, own
   time per function) that ``benchmarks.profile.cause_of`` puts under physics: the models,
   their compiled kernels, numpy and scipy.
@@ -26,7 +24,6 @@ from __future__ import annotations
 import cProfile
 import pathlib
 import pstats
-import shutil
 import tempfile
 import time
 from typing import Any
@@ -36,9 +33,10 @@ from benchmarks.runs import scene_bag, scene_run
 from benchmarks.study import Study
 from benchmarks.tables import Row, commit_of, table
 from pam_bench.config.scene import load_scene
+from pam_bench.nodes.bag_floor import write_again
 from pam_bench.vocabulary.run import Layout
 
-__all__ = ['STUDY', 'SCENES', 'measure', 'bag_alone_s', 'twin_run_s', 'physics_share']
+__all__ = ['STUDY', 'SCENES', 'measure', 'twin_run_s', 'physics_share']
 
 SCENES = ('demo', 'servo_sin_t', 'campaign_quick', 'campaign')
 """The scenes of the table; ``--quick`` leaves out the last."""
@@ -81,49 +79,6 @@ def physics_share(name: str) -> float:
     return own.get('physics', 0.0) / total if total > 0 else 0.0
 
 
-def bag_alone_s(bag: pathlib.Path, out: pathlib.Path) -> tuple[float, int]:
-    """Encode and write every message of ``bag`` again as the composed recorder does (module
-    docstring) into ``out`` (replaced).
-
-    Returns:
-        (wall seconds of the encoding and writing, messages written).
-    """
-    from rclpy.serialization import deserialize_message, serialize_message
-    from rosbags.highlevel import AnyReader
-
-    from pam_bench.bags.splitwriter import SplitWriter
-    from pam_bench.bags.types import bench_typestore
-    from pam_bench.runtime import cdr
-    from pam_bench.runtime.messages import message_class
-    store = bench_typestore()
-    with AnyReader([bag]) as reader:
-        types = {c.topic: c.msgtype for c in reader.connections}
-        messages = [(c.topic, t, deserialize_message(bytes(raw), message_class(c.msgtype)))
-                    for c, t, raw in reader.messages()]
-    exchanges: list[list[tuple[str, int, Any]]] = [[]]
-    for m in messages:                      # an exchange: from one /clock to the next
-        if m[0] == '/clock' and exchanges[-1]:
-            exchanges.append([])
-        exchanges[-1].append(m)
-    shutil.rmtree(out, ignore_errors=True)
-    encoders = {t: cdr.encoder(message_class(mt)) or serialize_message for t, mt in types.items()}
-    t0 = time.perf_counter()
-    writer = SplitWriter(out, compress=True)
-    writer.open()
-    for topic, msgtype in types.items():
-        writer.add_connection(topic, msgtype, typestore=store)
-    for batch in exchanges:
-        items = [(topic, t, encoders[topic](msg)) for topic, t, msg in batch]
-        put_many = writer.reserve_many(len(items))
-        if put_many is not None:
-            put_many(items)
-        else:
-            for topic, t, data in items:
-                writer.write(topic, t, data)
-    writer.close()
-    return time.perf_counter() - t0, len(messages)
-
-
 def measure(quick: bool, out: pathlib.Path, scenes: list[str] | None) -> dict[str, Any]:
     """Each scene of ``SCENES`` (or ``scenes``) through the nodes, on the twin, its bag alone
     and its physics alone, one after the other (module docstring)."""
@@ -133,7 +88,7 @@ def measure(quick: bool, out: pathlib.Path, scenes: list[str] | None) -> dict[st
         print(f'  {name}: nodes, twin, bag alone, physics ...', flush=True)
         run = scene_run(name, out, Layout.COMPOSED)
         twin_s = twin_run_s(name)
-        bag_s, n = bag_alone_s(scene_bag(name, out, Layout.COMPOSED), out / f'{name}_bag_alone')
+        bag_s, n = write_again(scene_bag(name, out, Layout.COMPOSED), out / f'{name}_bag_alone')
         share = physics_share(name)
         rows.append({'scene': name, 'code': run['code'], 'nodes_s': run['wall_s_total'],
                      'lockstep_s': run['wall_s_lockstep'], 'sim_s': run['sim_s'],

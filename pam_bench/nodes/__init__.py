@@ -2,5 +2,6 @@
 
 from __future__ import annotations
 
-__all__ = ['driver_probe', 'encoder_sim', 'live_view', 'load_cell_sim', 'loading_servo_sim',
-           'muscle_sim', 'recorder', 'sequencer', 'sim_clock', 'torque_servo', 'valve_sim']
+__all__ = ['bag_floor', 'driver_probe', 'encoder_sim', 'live_view', 'load_cell_sim',
+           'loading_servo_sim', 'muscle_sim', 'recorder', 'sequencer', 'sim_clock',
+           'torque_servo', 'valve_sim']
