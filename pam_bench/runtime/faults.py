@@ -20,9 +20,6 @@ from pam_bench.vocabulary.yaml_io import load_yaml
 
 __all__ = ['FaultInjection']
 
-IDLE = 0
-"""``ProtocolStatus.STATE_IDLE``: the sequencer waits for its inputs, the protocol not begun."""
-
 
 class FaultInjection(NodeCore):
     """A device's injected faults (module docstring)."""
@@ -51,7 +48,8 @@ class FaultInjection(NodeCore):
     def _run_started(self, msg: Any) -> None:
         # an idle status (waiting for its inputs, 0 s elapsed) comes before the protocol's
         # start, however long bring-up takes: the faults' clock starts with the protocol
-        if self._fault_epoch_ns is None and getattr(msg, 'state', None) != IDLE:
+        idle = getattr(msg, 'STATE_IDLE', None)          # a protocol status's own constant
+        if self._fault_epoch_ns is None and (idle is None or msg.state != idle):
             elapsed_s = float(getattr(msg, 'elapsed', 0.0))
             self._fault_epoch_ns = (int(self.get_clock().now().nanoseconds)
                                     - round(max(elapsed_s, 0.0) * 1e9))

@@ -396,6 +396,10 @@ def run_node(cls: type[Node], args: list[str] | None = None) -> None:
         code = getattr(node, 'INTERRUPTED_CODE', 0)
     except ExternalShutdownException:
         pass
+    except Exception:  # noqa: BLE001 - unexpected: its traceback and exit 1, as Python's own
+        import traceback
+        traceback.print_exc()
+        code = 1
     finally:
         if node is not None:
             node.destroy_node()
