@@ -11,7 +11,6 @@ exchange: the messages from one ``/clock`` to the next.
 from __future__ import annotations
 
 import pathlib
-import shutil
 import time
 from typing import Any
 
@@ -26,13 +25,18 @@ __all__ = ['write_again']
 
 
 def write_again(bag: pathlib.Path, out: pathlib.Path) -> tuple[float, int]:
-    """Encode and write every message of ``bag`` into ``out`` (replaced) as the composed
+    """Encode and write every message of ``bag`` into the new folder ``out`` as the composed
     recorder does (module docstring).
 
     Returns:
         (wall seconds of the encoding and writing, messages written).
+
+    Raises:
+        FileExistsError: ``out`` exists (nothing is replaced).
     """
     from rosbags.highlevel import AnyReader
+    if out.exists() or out.is_symlink():
+        raise FileExistsError(f'{out}: exists; the bag floor writes a new folder')
     store = bench_typestore()
     with AnyReader([bag]) as reader:
         types = {c.topic: c.msgtype for c in reader.connections}
@@ -43,7 +47,6 @@ def write_again(bag: pathlib.Path, out: pathlib.Path) -> tuple[float, int]:
         if m[0] == '/clock' and exchanges[-1]:
             exchanges.append([])
         exchanges[-1].append(m)
-    shutil.rmtree(out, ignore_errors=True)
     encoders = {t: cdr.encoder(message_class(mt)) or serialize_message for t, mt in types.items()}
     t0 = time.perf_counter()
     writer = SplitWriter(out, compress=True)
