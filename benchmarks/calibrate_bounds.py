@@ -8,10 +8,11 @@ the start read off the data, multi-start when the first fit is not at the noise 
   (``FREE_BAGS``), seeded; a draw the models refuse, or whose run the bench aborts (a muscle
   past the load cell's range at 6 V), is drawn again and counted;
 - every parameter at each end of its interval, the rest at the defaults;
-- a muscle of another size: a 10 mm McKibben of 004's braid (a quarter of the gains, half the
-  diameter), calibrated with its size given, as a lab does with ``calibrate --scene`` (the
-  diameter sets the chamber volume the valve's loop scales with; with 004's 20 mm the fit
-  moved the loop's frequency 69 % to make up for it).
+- muscles of other sizes (``SIZES``): 004's braid at another diameter and length, the force
+  gains scaled with the section and the contraction parameters with the length
+  (``sized_muscle``), each calibrated with its size given, as a lab does with ``calibrate
+  --scene`` (the diameter sets the chamber volume the valve's loop scales with; with 004's
+  20 mm the fit moved a 10 mm muscle's loop frequency 69 % to make up for it).
 
 Per set: each parameter's recovery error, whether the fit fixed it, the verdict (every
 protocol's RMS at the noise level), the fit's time and evaluations. Then issue 42's three
@@ -40,7 +41,8 @@ from pam_bench.models.sensors import LoadCellParams
 from pam_bench.models.valve import ValveParams
 from pam_bench.vocabulary.errors import PamBenchError
 
-__all__ = ['STUDY', 'SETS', 'draw_uniform', 'end_set', 'small_muscle', 'one_set', 'TOLERANCE']
+__all__ = ['STUDY', 'SETS', 'draw_uniform', 'end_set', 'sized_muscle', 'SIZES', 'one_set',
+           'TOLERANCE']
 
 SETS = 10
 TOLERANCE = 0.05
@@ -85,12 +87,26 @@ def _end_label(k: int) -> str:
     return f"{name} at its {'lower' if k % 2 == 0 else 'upper'} end ({value:g})"
 
 
-def small_muscle() -> tuple[ValveParams, MuscleParams]:
-    """A 10 mm McKibben of 004's braid: half the diameter, a quarter of the gains."""
+SIZES = ((0.010, 0.300, 200), (0.014, 0.250, 201), (0.010, 0.350, 202))
+"""The other muscles: (diameter m, length m, seed); 004's is 20 mm x 300 mm."""
+
+
+def sized_muscle(diameter_m: float, length_m: float) -> tuple[ValveParams, MuscleParams]:
+    """A McKibben of 004's braid at another size: the force gains g, g_m scaled with the
+    section (d / d_0)^2, the contraction at the gain's minimum x_m with the length l / l_0,
+    and the gain's rise g_r (per metre of contraction) with both."""
     m = MuscleParams()
+    a = (diameter_m / m.nominal_diameter_m) ** 2
+    s = length_m / m.nominal_length_m
     return ValveParams(), dataclasses.replace(
-        m, nominal_diameter_m=0.010, gain_n_per_pa=m.gain_n_per_pa / 4,
-        gain_min_n_per_pa=m.gain_min_n_per_pa / 4, gain_rise_n_per_pa_m=m.gain_rise_n_per_pa_m / 4)
+        m, nominal_diameter_m=diameter_m, nominal_length_m=length_m,
+        gain_n_per_pa=m.gain_n_per_pa * a, gain_min_n_per_pa=m.gain_min_n_per_pa * a,
+        gain_rise_n_per_pa_m=m.gain_rise_n_per_pa_m * a / s,
+        gain_min_contraction_m=m.gain_min_contraction_m * s)
+
+
+def _size_label(diameter_m: float, length_m: float) -> str:
+    return f'{diameter_m * 1e3:.0f} mm x {length_m * 1e3:.0f} mm McKibben'
 
 
 def _truth(values: dict[str, float], valve: ValveParams, muscle: MuscleParams
@@ -106,7 +122,7 @@ def _truth(values: dict[str, float], valve: ValveParams, muscle: MuscleParams
 
 def one_set(job: tuple[str, str, dict[str, Any], int]) -> dict[str, Any]:
     """One set (a cluster job): (label, protocol, what to apply: 'values' for the free
-    parameters, or 'small' for the 10 mm muscle, seed) -> its row."""
+    parameters, or 'size' (diameter m, length m) for ``sized_muscle``, seed) -> its row."""
     return _fit_set(job, None)
 
 
@@ -119,7 +135,8 @@ def _fit_set(job: tuple[str, str, dict[str, Any], int], mapper: Mapper | None
     from pam_bench.twin.protocol_run import run_protocol
     label, protocol, what, seed = job
     try:
-        valve, muscle = small_muscle() if what.get('small') else _apply(what['values'])
+        valve, muscle = (sized_muscle(*what['size']) if what.get('size')
+                         else _apply(what['values']))
     except PamBenchError as exc:             # a set no muscle can have: the model says why
         return {'set': label, 'refused': str(exc)}
     refused = invalid(valve, muscle)
@@ -133,8 +150,9 @@ def _fit_set(job: tuple[str, str, dict[str, Any], int], mapper: Mapper | None
     obs = observations_from_twin(run.points, run.records)
     t0 = time.perf_counter()
     # the muscle's size is what a lab measures, not fits (``calibrate --scene``)
-    size = (dataclasses.replace(MuscleParams(), nominal_diameter_m=muscle.nominal_diameter_m)
-            if what.get('small') else None)
+    size = (dataclasses.replace(MuscleParams(), nominal_diameter_m=muscle.nominal_diameter_m,
+                                nominal_length_m=muscle.nominal_length_m)
+            if what.get('size') else None)
     res = calibrate_bags(obs, muscle=size, workers=mapper, map_starts=mapper)
     fit_s = time.perf_counter() - t0
     true = _truth(what.get('values', {}), valve, muscle)
@@ -179,7 +197,8 @@ def measure(quick: bool, cluster: dict[str, Any] | None = None) -> dict[str, Any
     if not quick:
         jobs += [(_end_label(k), PROTOCOL, {'values': end_set(k)}, 100 + k)
                  for k in range(2 * len(FREE_BAGS))]
-        jobs.append(('10 mm McKibben', PROTOCOL, {'small': True}, 200))
+        jobs += [(_size_label(d, length), PROTOCOL, {'size': (d, length)}, seed)
+                 for d, length, seed in SIZES]
     tries = [('try 1: far muscle, part of the stroke, identification steps', 'far_try',
               {'values': FAR_ONE}, 300)]
     if not quick:
