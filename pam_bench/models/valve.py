@@ -24,6 +24,7 @@ Units: u in V, p in Pa gauge, t in s, V in m^3.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 
 import numpy as np
@@ -184,14 +185,13 @@ class ValveModel:
         key = (self.p.order, round(w, 9))
         s0, s1 = float(self.state[0]), float(self.state[1])
         p_max = self.p.pressure_max_pa
-        if jit.wanted(len(steps_s)):
-            a, b = self.matrices(chamber_volume_m3)
-            return self._samples_compiled(steps_s, target, a, b, key, s0, s1)
         if self.p.order == 1:                 # the entries of ``matrices``, as floats
             k = 1.0 / self.p.time_constant_s
             entries = (-k, 0.0, 0.0, 0.0, k, 0.0)
         else:
             entries = (0.0, 1.0, -w * w, -2.0 * self.p.damping_ratio * w, 0.0, w * w)
+        if jit.wanted(len(steps_s)):
+            return self._samples_compiled(steps_s, target, entries, key, s0, s1)
         out = []
         cur = None
         for d in steps_s:
@@ -206,27 +206,22 @@ class ValveModel:
         self.state = np.array([s0, s1])
         return out
 
-    def _samples_compiled(self, steps_s: list[float], target: float, a: np.ndarray,
-                          b: np.ndarray, key: tuple[int, float], s0: float, s1: float
-                          ) -> list[float]:
+    def _samples_compiled(self, steps_s: list[float], target: float,
+                          entries: tuple[float, float, float, float, float, float],
+                          key: tuple[int, float], s0: float, s1: float) -> list[float]:
         """``samples`` on the compiled core: each run of equal sub-steps in one call of
-        ``models.lti.zoh_run`` (the same operations, bit-equal)."""
-        n = len(steps_s)
-        out = np.empty(n)
+        ``models.lti.zoh_run`` (the same operations, bit-equal). The runs are found by
+        ``itertools.groupby``, whose loop is in C: a second of 1 ms sub-steps is one run."""
+        out = np.empty(len(steps_s))
         i = 0
-        while i < n:
-            d = steps_s[i]
+        for d, run in itertools.groupby(steps_s):
             if not (math.isfinite(d) and d >= 0.0):
                 raise ModelError(f'valve step {d!r} s is not a finite non-negative number')
-            j = i + 1
-            while j < n and steps_s[j] == d:
-                j += 1
-            ad, bd = self._cache.get(key, a, b, d)
-            a00, a01, a10, a11 = (float(v) for v in ad.ravel())
-            s0, s1 = zoh_run(s0, s1, a00, a01, a10, a11, float(bd[0, 0]) * target,
-                                      float(bd[1, 0]) * target, j - i,
-                                      self.p.pressure_max_pa, out, i)
-            i = j
+            m = len(list(run))
+            a00, a01, a10, a11, b0, b1 = self._cache.get_2x2(key, *entries, d)
+            s0, s1 = zoh_run(s0, s1, a00, a01, a10, a11, b0 * target, b1 * target, m,
+                             self.p.pressure_max_pa, out, i)
+            i += m
         self.state = np.array([s0, s1])
         return out.tolist()
 

@@ -110,7 +110,7 @@ def test_speed_limit_and_end_stop_are_bit_equal() -> None:
 def test_valve_samples_are_bit_equal_clamp_included(voltage: float) -> None:
     """12 V is beyond the range (clamped to 10 V, 1 MPa); 0 V from a high state overshoots
     below atmosphere, where the report clamps at 0."""
-    steps = substep_grid(0.503, 0.005) + [1e-3] * 7 + [0.2]
+    steps = substep_grid(0.503, 0.005) + [1e-3] * 7 + [0.2] + [0.005] * 3   # a length again
 
     def go() -> tuple:
         v = ValveModel(ValveParams(damping_ratio=0.1))
