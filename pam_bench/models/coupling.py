@@ -72,7 +72,7 @@ from pam_bench.models.muscle import McKibbenRecord, MuscleModel, backbone, effec
 from pam_bench.vocabulary.params import field
 
 __all__ = ['Holder', 'SettleParams', 'SubStepResult', 'solve_substep', 'solve_substeps',
-           'substep_grid', 'SETTLE_OFF']
+           'substep_grid', 'grid_counts', 'SETTLE_OFF', 'OK']
 
 
 # --- the coupled solve, compiled (models.jit) ---------------------------------------------
@@ -287,12 +287,19 @@ def substep_grid(dt_s: float, period_s: float) -> list[float]:
     one shorter when ``dt_s`` is not a multiple (rounded to the nanosecond), shape (n,)."""
     if not (dt_s > 0.0 and period_s > 0.0):
         raise ModelError(f'sub-steps of {dt_s!r} s at a period of {period_s!r} s')
-    n_ns, p_ns = round(dt_s * 1e9), max(round(period_s * 1e9), 1)
-    full, rest = divmod(n_ns, p_ns)
+    full, p_ns, rest = grid_counts(dt_s, period_s)
     steps = [p_ns * 1e-9] * full
     if rest:
         steps.append(rest * 1e-9)
     return steps or [dt_s]
+
+
+def grid_counts(dt_s: float, period_s: float) -> tuple[int, int, int]:
+    """``substep_grid`` as counts: (full sub-steps, their length ns, the last one's ns or 0),
+    both lengths rounded to the nanosecond (the period to at least 1 ns)."""
+    n_ns, p_ns = round(dt_s * 1e9), max(round(period_s * 1e9), 1)
+    full, rest = divmod(n_ns, p_ns)
+    return full, p_ns, rest
 
 
 def solve_substep(muscle: BenchMuscle, holder: Holder, d: float, pressure_pa: float,

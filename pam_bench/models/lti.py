@@ -84,6 +84,10 @@ def _scaled_cosh_sinhc(z: float, h: float, e: float) -> tuple[float, float, floa
     return gcm1, (1.0 + em1) * sc, 1.0 + gcm1
 
 
+EXP_MAX = 709.78
+"""Largest argument of exp taken (exp(709.78) is near a double's largest, 1.8e308)."""
+
+
 def zoh_2x2_floats(a00: float, a01: float, a10: float, a11: float, b0: float, b1: float,
                    h: float) -> tuple[float, float, float, float, float, float] | None:
     """The closed form of the module docstring for x' = A x + B u with a 2x2 A and one input,
@@ -93,14 +97,15 @@ def zoh_2x2_floats(a00: float, a01: float, a10: float, a11: float, b0: float, b1
     if not (abs(det) * h * h >= 1e-6 and math.isfinite(det)):
         return _series_2x2(a00, a01, a10, a11, b0, b1, h)
     half = 0.5 * (a00 + a11)
-    try:
-        cm1, sh, c = _scaled_cosh_sinhc((half * half - det) * h * h, h, half * h)
-    except OverflowError:
-        return None
+    z = (half * half - det) * h * h
+    if half * h + (math.sqrt(z) if z > 0.0 else 0.0) > EXP_MAX:   # exp would overflow (a
+        return None                               # None, not a raise: compiled it gives inf)
+    cm1, sh, c = _scaled_cosh_sinhc(z, h, half * h)
     # Ad - I = (c - 1) I + sh N, N = A - half I
     d00, d01 = cm1 + sh * (a00 - half), sh * a01
     d10, d11 = sh * a10, cm1 + sh * (a11 - half)
-    if not all(math.isfinite(v) for v in (d00, d01, d10, d11)):
+    if not (math.isfinite(d00) and math.isfinite(d01) and math.isfinite(d10)
+            and math.isfinite(d11)):
         return None
     v0, v1 = d00 * b0 + d01 * b1, d10 * b0 + d11 * b1     # Bd = A^-1 (Ad - I) B
     return (1.0 + d00, d01, d10, 1.0 + d11, (a11 * v0 - a01 * v1) / det,

@@ -67,7 +67,7 @@ from pam_bench.vocabulary.params import field
 
 __all__ = ['FrictionMuscle', 'MuscleParams', 'MuscleModel', 'MuscleOutput', 'MuscleTrial',
            'LOCK_COS', 'gain_rise_limit', 'McKibbenRecord', 'softplus', 'effective_pressure',
-           'backbone']
+           'backbone', 'braid_volume']
 
 MAX_PRESSURE_PA = 1.0e6
 """The valve's largest output pressure (004: 0..1 MPa over 0..10 V), Pa."""
@@ -282,6 +282,17 @@ class FrictionMuscle:
         return max(self.backbone(pressure_pa, contraction_m), 0.0)
 
 
+@jit.helper
+def braid_volume(x: float, length_m: float, thread_m: float, turns: float) -> float:
+    """Chamber volume V(x) = b^3 sin^2(theta) cos(theta) / (4 pi N^2) from the braid's
+    kinematics, m^3, with cos(theta) = (l0 - x) / b clamped to [1e-6, 1] (the braid's limits):
+    contraction x m, length l0 m, thread length b m, turns N."""
+    c = (length_m - x) / thread_m
+    c = min(max(c, 1.0e-6), 1.0)
+    s2 = 1.0 - c * c
+    return thread_m ** 3 * s2 * c / (4.0 * math.pi * turns ** 2)
+
+
 class MuscleModel(FrictionMuscle):
     """Quasi-static McKibben muscle with rate-independent friction hysteresis."""
 
@@ -383,8 +394,5 @@ class MuscleModel(FrictionMuscle):
         return contraction_m + self.p.slip_compliance_m_per_n * tension
 
     def volume(self, contraction_m: float) -> float:
-        """Chamber volume V(x) from braid kinematics, m^3 (clamped at the braid's limits)."""
-        c = (self.p.nominal_length_m - contraction_m) / self._thread_m
-        c = min(max(c, 1.0e-6), 1.0)
-        s2 = 1.0 - c * c
-        return self._thread_m ** 3 * s2 * c / (4.0 * math.pi * self._turns ** 2)
+        """Chamber volume V(x) from braid kinematics, m^3 (``braid_volume``)."""
+        return braid_volume(contraction_m, self.p.nominal_length_m, self._thread_m, self._turns)

@@ -34,7 +34,8 @@ from pam_bench.models.errors import ModelError
 from pam_bench.models.lti import ZohCache, zoh_run
 from pam_bench.vocabulary.params import field
 
-__all__ = ['ValveParams', 'ValveModel', 'VolumeEvidence']
+__all__ = ['ValveParams', 'ValveModel', 'VolumeEvidence', 'volume_report', 'scaled_frequency',
+           'transient_request']
 
 
 @dataclasses.dataclass
@@ -68,6 +69,38 @@ class ValveParams:
                                                0.0, 1.0e3)
 
 
+def volume_report(t0_s: float, v0_m3: float, command_t_s: float, t_s: float,
+                  volume_m3: float) -> tuple[float, float]:
+    """What a volume report V (m^3, > 0) at ``t_s`` tells after the one before, (t0 s, V0):
+    (|V - V0| / V, the time between them, or 0 when the one before came before the last
+    command change at ``command_t_s``: the transient that change started is not seen yet)."""
+    return (abs(volume_m3 - v0_m3) / volume_m3,
+            t_s - t0_s if t0_s >= command_t_s - 1e-12 else 0.0)
+
+
+def scaled_frequency(w0_rad_s: float, line_m3: float, reference_m3: float,
+                     chamber_m3: float) -> float:
+    """The loop's natural frequency at a chamber volume, rad/s: w0 sqrt(V_ref / (V_line + V)),
+    the volume at least 0 and the sum at least 1e-12 m^3 (``ValveParams.volume_scaling``)."""
+    total = line_m3 + max(chamber_m3, 0.0)
+    return w0_rad_s * math.sqrt(reference_m3 / max(total, 1.0e-12))
+
+
+def transient_request(span_s: float, change_rel: float, p_pa: float, dp_pa_s: float,
+                      target_pa: float, w_rad_s: float, transient_step_s: float,
+                      rate_tolerance_per_s: float, settled_pa: float) -> float:
+    """``ValveModel.max_step`` for a valve of order 1 or 2 in floats: ``transient_step_s``
+    while the pressure (p Pa, p' Pa/s) is farther than ``settled_pa`` from its target (or p'
+    above ``settled_pa`` w) and no exchange of at least that length since the last command
+    change showed the volume still (relative change over ``span_s`` at most
+    ``rate_tolerance_per_s`` span); else 0 (any)."""
+    if span_s >= transient_step_s - 1e-9 and change_rel <= rate_tolerance_per_s * span_s:
+        return 0.0
+    if abs(p_pa - target_pa) > settled_pa or abs(dp_pa_s) > settled_pa * w_rad_s:
+        return transient_step_s
+    return 0.0
+
+
 class VolumeEvidence:
     """What a valve knows of the chamber volume's motion: the muscle's volume reports (one per
     exchange, each arriving an exchange late) and the times of its own command changes.
@@ -90,11 +123,10 @@ class VolumeEvidence:
         self.span_s = 0.0
 
     def volume(self, t_s: float, volume_m3: float) -> None:
-        """A volume report stamped ``t_s``, m^3."""
+        """A volume report stamped ``t_s``, m^3 (``volume_report``)."""
         if self._last is not None and volume_m3 > 0.0:
-            t0, v0 = self._last
-            self.change_rel = abs(volume_m3 - v0) / volume_m3
-            self.span_s = t_s - t0 if t0 >= self._command_t - 1e-12 else 0.0
+            self.change_rel, self.span_s = volume_report(*self._last, self._command_t, t_s,
+                                                         volume_m3)
         self._last = (t_s, volume_m3)
 
 
@@ -117,11 +149,10 @@ class ValveModel:
 
     def natural_frequency(self, chamber_volume_m3: float | None) -> float:
         """W in rad/s for the given muscle chamber volume (None: reference volume)."""
-        w = self.p.natural_frequency_rad_s
         if self.p.volume_scaling and chamber_volume_m3 is not None:
-            total = self.p.line_volume_m3 + max(chamber_volume_m3, 0.0)
-            w *= math.sqrt(self.p.reference_volume_m3 / max(total, 1.0e-12))
-        return w
+            return scaled_frequency(self.p.natural_frequency_rad_s, self.p.line_volume_m3,
+                                    self.p.reference_volume_m3, chamber_volume_m3)
+        return self.p.natural_frequency_rad_s
 
     def matrices(self, chamber_volume_m3: float | None) -> tuple[np.ndarray, np.ndarray]:
         """Continuous (A, B) with state (p, p') and input p_ss; shapes (2, 2), (2, 1)."""
@@ -234,16 +265,14 @@ class ValveModel:
         command change showed the volume standing still (at a held length any step is exact;
         a light muscle contracts under the new pressure and its volume moves).
         """
-        span = evidence.span_s
-        if self.p.order == 0 or (span >= self.p.transient_step_s - 1e-9 and evidence.change_rel
-                                 <= self.p.volume_rate_tolerance_per_s * span):
+        if self.p.order == 0:
             return 0.0
-        target = self.steady_pressure(voltage_v)
         w = self.natural_frequency(None) if self.p.order == 2 else 1.0 / self.p.time_constant_s
-        tol = self.p.settled_tolerance_pa
-        if abs(self.state[0] - target) > tol or abs(self.state[1]) > tol * w:
-            return self.p.transient_step_s
-        return 0.0
+        return transient_request(evidence.span_s, evidence.change_rel,
+                                 float(self.state[0]), float(self.state[1]),
+                                 self.steady_pressure(voltage_v), w, self.p.transient_step_s,
+                                 self.p.volume_rate_tolerance_per_s,
+                                 self.p.settled_tolerance_pa)
 
     @property
     def pressure(self) -> float:
