@@ -11,12 +11,14 @@ one bench, so the friction follows the recorded path, in one of two ways (``repl
   implicit, so the longer step stays stable). The drive's force loop, speed limit, inertia
   and gear play decide where inside its friction loop a muscle stops after a new set value,
   and the position loop's transient shakes the friction at the first pressure of an isometric
-  series. The step records follow on the same bench (004's campaign runs the step responses
-  last): each settles at its start voltage and held x for the dwell, then the valve steps and
-  the bench is compared at every ``RECORD_STRIDE``-th sample period, run in sub-steps of the
-  record's own sample period (as the bench records one), shorter where the valve's loop asks
-  (omega_n h at most ``RECORD_OMEGA_H``; ``record_sub_step_s``). How the two sub-steps were
-  chosen: docs/long_runs.md, 'Calibrate: how the fit's rules were chosen';
+  series (the readings' exchanges as one compiled call where it applies:
+  ``twin.bench_holds``, the same steps). The step records follow on the same bench (004's
+  campaign runs the step responses last): each settles at its start voltage and held x for
+  the dwell, then the valve steps and the bench is compared at every ``RECORD_STRIDE``-th
+  sample period, run in sub-steps of the record's own sample period (as the bench records
+  one), shorter where the valve's loop asks (omega_n h at most ``RECORD_OMEGA_H``;
+  ``record_sub_step_s``). How the two sub-steps were chosen: docs/long_runs.md, 'Calibrate:
+  how the fit's rules were chosen';
 - 'static': the quasi-static bench (``twin.quasistatic``) with the valve's overshoot turning
   points, the muscle end following the belt stretch at each; an ideal drive; each step
   record from its own settled start, the valve's pressure loop integrated exactly (ZOH)
@@ -50,6 +52,7 @@ from pam_bench.models.muscle import MuscleParams
 from pam_bench.models.sensors import LoadCellParams
 from pam_bench.models.valve import ValveParams
 from pam_bench.twin.bench import SingleMuscleBench
+from pam_bench.twin.bench_holds import run_holds, run_steps
 from pam_bench.twin.quasistatic import QuasiStaticBench
 
 __all__ = ['Observations', 'Bench', 'observations_from_bags', 'observations_from_twin',
@@ -65,6 +68,9 @@ REPLAYS = ('stepped', 'static')
 DWELL_S = 3.0                   # 004's dwell
 TRANSIENT_S = 1.0               # at the bench's sub-step, then the slow settling
 SETTLE_SUB_STEP_S = 0.005
+PHASES = ((TRANSIENT_S, TRANSIENT_S, SUB_STEP_S),
+          (DWELL_S - TRANSIENT_S, DWELL_S, SETTLE_SUB_STEP_S))
+"""A reading's dwell as (duration s, longest exchange s, sub-step s) (module docstring)."""
 PATH_WIDTH_M = 8.0e-3           # friction loop wider than 16 contraction tolerances
 PATH_PROBE_N = 100.0            # load offset the loop's two sides are approached from
 
@@ -156,29 +162,38 @@ def _replay_stepped(obs: Observations, bench: Bench) -> tuple[np.ndarray, list[n
                              servo=bench.servo, settle=SETTLE_OFF, laws=bench.laws)
 
     def settle(mode: LoadMode, voltage_v: float, held: float) -> None:
+        if run_holds(twin, [(voltage_v, mode, held)], PHASES, [True]) is not None:
+            return                                            # compiled (twin.bench_holds)
         twin.command_valve(voltage_v)
         twin.command_load(mode, held)
-        twin.sub_step_s = SUB_STEP_S
-        twin.run(TRANSIENT_S, TRANSIENT_S)
-        twin.sub_step_s = SETTLE_SUB_STEP_S
-        twin.run(DWELL_S - TRANSIENT_S, DWELL_S)
+        for duration, h_s, sub_step_s in PHASES:
+            twin.sub_step_s = sub_step_s
+            twin.run(duration, h_s)
 
-    out = np.empty(len(obs.readings))
-    for i, (kind, u, held, _) in enumerate(obs.readings):
-        position = kind == 'isometric'
-        settle(LoadMode.POSITION if position else LoadMode.FORCE, u, held)
-        out[i] = twin.f if position else twin.servo.angle * twin.servo.r
+    position = [kind == 'isometric' for kind, _, _, _ in obs.readings]
+    out = run_holds(twin, [(u, LoadMode.POSITION if pos else LoadMode.FORCE, held) for
+                           (_, u, held, _), pos in zip(obs.readings, position, strict=True)],
+                    PHASES, position)
+    if out is None:                                           # the Python bench
+        out = np.empty(len(obs.readings))
+        for i, ((_, u, held, _), pos) in enumerate(zip(obs.readings, position, strict=True)):
+            settle(LoadMode.POSITION if pos else LoadMode.FORCE, u, held)
+            out[i] = twin.f if pos else twin.servo.angle * twin.servo.r
     recs = []
     for x, u0, u1, period, samples in obs.records:
         settle(LoadMode.POSITION, u0, x)
         twin.command_valve(u1)
         h = period * RECORD_STRIDE
         twin.sub_step_s = record_sub_step_s(period, bench.valve.natural_frequency_rad_s)
-        forces = [twin.f]
-        for _ in range(len(samples[::RECORD_STRIDE]) - 1):
-            twin.step(h)
-            forces.append(twin.f)
-        recs.append(np.array(forces))
+        first = twin.f
+        n = len(samples[::RECORD_STRIDE]) - 1
+        after = run_steps(twin, n, h, twin.sub_step_s)
+        if after is None:                                     # the Python bench
+            after = np.empty(n)
+            for k in range(n):
+                twin.step(h)
+                after[k] = twin.f
+        recs.append(np.concatenate([[first], after]))
     return out, recs
 
 
