@@ -88,7 +88,7 @@ def _end_label(k: int) -> str:
 
 
 SIZES = ((0.010, 0.300, 200), (0.014, 0.250, 201), (0.010, 0.350, 202))
-"""The other muscles: (diameter m, length m, seed); 004's is 20 mm x 300 mm."""
+"""The other muscles: (diameter m, length m, seed); 004's is 20 mm x 350 mm."""
 
 
 def sized_muscle(diameter_m: float, length_m: float) -> tuple[ValveParams, MuscleParams]:
