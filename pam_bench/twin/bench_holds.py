@@ -126,9 +126,8 @@ def _exchange(h: float, period: float, sv: Array, vp: Array, mp: McKibbenRecord,
     sv[S0] = s0
     sv[S1] = s1
     # the muscle and the drive
-    k_, ff_, iters, status, held = _solve_mckibben(
-        steps[:n], pressures[:n], sv[F], mp, fk, ff0, fmu, z, st, dp, ds, int(sv[MODE]),
-        sv[SETPOINT], out_f[:n], out_x[:n], tol)
+    status = _solve_mckibben(steps[:n], pressures[:n], sv[F], mp, fk, ff0, fmu, z, st, dp, ds,
+                             int(sv[MODE]), sv[SETPOINT], out_f[:n], out_x[:n], tol)[3]
     if status != OK:
         return BAD
     if pending_mode >= 0.0:                                   # servo.command
