@@ -57,8 +57,11 @@ __all__ = ['available', 'enabled', 'core', 'wanted', 'LOAD_AT', 'use', 'start_lo
 F = TypeVar('F', bound=Callable[..., Any])
 
 KERNEL_MODULES = ('pam_bench.models.lti', 'pam_bench.models.muscle', 'pam_bench.models.friction',
-                  'pam_bench.models.loading_servo.substep', 'pam_bench.models.coupling')
-"""The modules that hold the kernels and their helpers (imported before compiling)."""
+                  'pam_bench.models.loading_servo.substep', 'pam_bench.models.coupling',
+                  'pam_bench.models.valve')
+"""The modules that hold the kernels and their helpers (imported before compiling; their
+sources key numba's cache, ``sources_key``). The valve's: ``twin.bench_holds`` compiles its
+pure functions into its own."""
 
 
 def cache_dir() -> pathlib.Path:

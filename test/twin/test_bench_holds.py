@@ -112,3 +112,28 @@ def test_what_it_does_not_run_is_left_to_the_python_bench(case: str) -> None:
     finally:
         jit.use('compiled')
     assert (twin.t, twin.f, twin.steps) == before
+
+
+def test_every_module_compiled_into_it_keys_the_cache() -> None:
+    """numba checks only the file of the function it caches: every module whose functions
+    ``hold_series`` and ``step_series`` call is in ``jit.KERNEL_MODULES`` (its sources key
+    the cache), so a change there compiles them again."""
+    import types
+
+    from pam_bench.twin import bench_holds
+
+    done: set[types.FunctionType] = set()
+
+    def walk(fn: types.FunctionType) -> None:
+        if fn in done:
+            return
+        done.add(fn)
+        for name in fn.__code__.co_names:
+            obj = fn.__globals__.get(name)
+            if isinstance(obj, types.FunctionType):
+                walk(obj)
+    for fn in (bench_holds.hold_series, bench_holds.step_series):
+        walk(fn)
+    modules = {fn.__module__ for fn in done}
+    assert modules - {bench_holds.__name__} <= set(jit.KERNEL_MODULES), modules
+    assert {'pam_bench.models.valve', 'pam_bench.models.friction'} <= modules
