@@ -105,7 +105,11 @@ def observations_from_bags(data: BagData) -> Observations:
     whose readings hold a contraction or a force while the voltage moves, or sweep the load at
     a held voltage, whatever its name (``analysis.static.kind_of``). A protocol of kind
     ``ramp`` (the README demo's) is set aside and named in ``left_aside``: its readings are
-    taken while the voltage moves, the replay settles each reading at its voltage."""
+    taken while the voltage moves, the replay settles each reading at its voltage. So are the
+    readings of a ``step_response`` protocol, each record's settled start: the replay compares
+    the records from their own settled starts after the static readings (as
+    ``observations_from_twin`` leaves them out); replayed as isometric readings in between,
+    they sent the default bench's own campaign_quick bag 1.2 N off at its true parameters."""
     from pam_bench.analysis.static import kind_of
     from pam_bench.config.protocols import load_protocols
     table = load_protocols()
@@ -113,9 +117,14 @@ def observations_from_bags(data: BagData) -> Observations:
     aside = []
     for name, p in data.points.items():
         kind = kind_of(p)
-        if (table.get(name) or {}).get('kind') == 'ramp':
+        declared = (table.get(name) or {}).get('kind')
+        if declared == 'ramp':
             aside.append(f'{name} ({len(p)} readings): a ramp, its readings taken while the '
                          'voltage moves')
+            continue
+        if declared == 'step_response':
+            aside.append(f"{name} ({len(p)} readings): the step records' settled starts, "
+                         'compared in the records themselves')
             continue
         if kind is None:
             aside.append(f'{name} ({len(p)} readings): neither the contraction nor the force '

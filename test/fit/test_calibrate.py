@@ -398,3 +398,26 @@ def _isobaric_bag(path: pathlib.Path) -> None:
         dict(protocol='isobaric_quick', series=int(u > 2.0), step=k, direction=0,
              series_value=u, set_value=f, voltage=u, force=f, contraction=x, pressure=u * 1e5)
         for k, (u, f, x) in enumerate(rows)])
+
+
+def test_a_step_protocols_readings_are_the_records_starts_not_isometric_readings(
+        tmp_path: pathlib.Path) -> None:
+    """The step records' settled starts (a step_response protocol's readings, held x while the
+    voltage changes) stay out of the static readings, named, as the twin's observations leave
+    them out; the isometric protocol's are kept."""
+    from pam_bench.bags.bagread import read_bags
+    from pam_bench.fit.calibrate_bags import observations_from_bags
+    from test.analysis.bags import write_bag
+    iso = [dict(protocol='isometric_quick', series=0, step=k, direction=0, series_value=0.04,
+                set_value=0.04, voltage=u, force=100.0 * u, contraction=0.04, pressure=u * 1e5)
+           for k, u in enumerate((1.0, 2.0, 3.0))]
+    steps = [dict(protocol='step_response_quick', series=k, step=0, direction=0,
+                  series_value=x, set_value=x, voltage=u, force=f, contraction=x,
+                  pressure=u * 1e5)
+             for k, (u, x, f) in enumerate([(3.0, 0.0, 665.0), (5.0, 0.0, 1288.0),
+                                            (3.0, 0.04, 317.0)])]
+    write_bag(tmp_path / 'bag', iso + steps)
+    obs = observations_from_bags(read_bags([tmp_path / 'bag']))
+    assert [r[:3] for r in obs.readings] == [('isometric', u, 0.04) for u in (1.0, 2.0, 3.0)]
+    assert obs.left_aside == ("step_response_quick (3 readings): the step records' settled "
+                              'starts, compared in the records themselves',)
