@@ -35,7 +35,7 @@ from pam_bench.models.lti import ZohCache, zoh_run
 from pam_bench.vocabulary.params import field
 
 __all__ = ['ValveParams', 'ValveModel', 'VolumeEvidence', 'volume_report', 'scaled_frequency',
-           'transient_request']
+           'transient_request', 'steady_target', 'loop_entries']
 
 
 @dataclasses.dataclass
@@ -84,6 +84,22 @@ def scaled_frequency(w0_rad_s: float, line_m3: float, reference_m3: float,
     the volume at least 0 and the sum at least 1e-12 m^3 (``ValveParams.volume_scaling``)."""
     total = line_m3 + max(chamber_m3, 0.0)
     return w0_rad_s * math.sqrt(reference_m3 / max(total, 1.0e-12))
+
+
+def steady_target(gain_pa_per_v: float, voltage_max_v: float, voltage_v: float) -> float:
+    """p_ss(u) = k_v u, Pa, with u clamped to [0, u_max] V (``ValveModel.steady_pressure``)."""
+    u = min(max(voltage_v, 0.0), voltage_max_v)
+    return gain_pa_per_v * u
+
+
+def loop_entries(order: float, time_constant_s: float, damping_ratio: float, w_rad_s: float
+                 ) -> tuple[float, float, float, float, float, float]:
+    """The entries (A00, A01, A10, A11, B0, B1) of ``ValveModel.matrices`` as floats: order 1
+    a lag of ``time_constant_s``, else the second-order loop at ``w_rad_s``."""
+    if order == 1:
+        k = 1.0 / time_constant_s
+        return -k, 0.0, 0.0, 0.0, k, 0.0
+    return 0.0, 1.0, -w_rad_s * w_rad_s, -2.0 * damping_ratio * w_rad_s, 0.0, w_rad_s * w_rad_s
 
 
 def transient_request(span_s: float, change_rel: float, p_pa: float, dp_pa_s: float,
@@ -144,8 +160,7 @@ class ValveModel:
 
     def steady_pressure(self, voltage_v: float) -> float:
         """p_ss(u) in Pa for a (clamped) control voltage in V."""
-        u = min(max(voltage_v, 0.0), self.p.voltage_max_v)
-        return self.p.gain_pa_per_v * u
+        return steady_target(self.p.gain_pa_per_v, self.p.voltage_max_v, voltage_v)
 
     def natural_frequency(self, chamber_volume_m3: float | None) -> float:
         """W in rad/s for the given muscle chamber volume (None: reference volume)."""
@@ -216,11 +231,7 @@ class ValveModel:
         key = (self.p.order, round(w, 9))
         s0, s1 = float(self.state[0]), float(self.state[1])
         p_max = self.p.pressure_max_pa
-        if self.p.order == 1:                 # the entries of ``matrices``, as floats
-            k = 1.0 / self.p.time_constant_s
-            entries = (-k, 0.0, 0.0, 0.0, k, 0.0)
-        else:
-            entries = (0.0, 1.0, -w * w, -2.0 * self.p.damping_ratio * w, 0.0, w * w)
+        entries = loop_entries(self.p.order, self.p.time_constant_s, self.p.damping_ratio, w)
         if jit.wanted(len(steps_s)):
             return self._samples_compiled(steps_s, target, entries, key, s0, s1)
         out = []

@@ -47,7 +47,13 @@ from pam_bench.models.loading_servo.substep import (
 )
 from pam_bench.models.lti import _zoh_run, zoh_2x2_floats
 from pam_bench.models.muscle import McKibbenRecord, MuscleModel, braid_volume
-from pam_bench.models.valve import transient_request, volume_report
+from pam_bench.models.valve import (
+    loop_entries,
+    scaled_frequency,
+    steady_target,
+    transient_request,
+    volume_report,
+)
 from pam_bench.protocol.sequencer import COMMAND_STEP_S
 
 __all__ = ['run_holds', 'run_steps', 'hold_series', 'step_series']
@@ -66,11 +72,9 @@ BAD = 1
 
 def _valve_w(vp: Array, volume: float) -> float:
     """The loop's frequency at the chamber volume (``ValveModel.natural_frequency``)."""
-    w = vp[V_W0]
     if vp[V_SCALING] > 0.0:
-        total = vp[V_LINE] + max(volume, 0.0)
-        w = w * math.sqrt(vp[V_REF] / max(total, 1.0e-12))
-    return w
+        return scaled_frequency(vp[V_W0], vp[V_LINE], vp[V_REF], volume)
+    return vp[V_W0]
 
 
 def _exchange(h: float, period: float, sv: Array, vp: Array, mp: McKibbenRecord, fk: Array,
@@ -103,14 +107,9 @@ def _exchange(h: float, period: float, sv: Array, vp: Array, mp: McKibbenRecord,
     if rest:
         steps[full] = rest * 1e-9
     # the valve (ValveModel.samples, order 1 or 2, ZOH)
-    u = min(max(sv[U], 0.0), vp[V_UMAX])
-    target = vp[V_GAIN] * u
-    w = _valve_w(vp, sv[VOLUME])
-    if vp[V_ORDER] == 1.0:
-        k = 1.0 / vp[V_TAU]
-        e00, e01, e10, e11, e0, e1 = -k, 0.0, 0.0, 0.0, k, 0.0
-    else:
-        e00, e01, e10, e11, e0, e1 = (0.0, 1.0, -w * w, -2.0 * vp[V_ZETA] * w, 0.0, w * w)
+    target = steady_target(vp[V_GAIN], vp[V_UMAX], sv[U])
+    e00, e01, e10, e11, e0, e1 = loop_entries(vp[V_ORDER], vp[V_TAU], vp[V_ZETA],
+                                              _valve_w(vp, sv[VOLUME]))
     s0, s1 = sv[S0], sv[S1]
     i = 0
     while i < n:
