@@ -397,9 +397,12 @@ def run_node(cls: type[Node], args: list[str] | None = None) -> None:
     except ExternalShutdownException:
         pass
     except Exception:  # noqa: BLE001 - unexpected: its traceback and exit 1, as Python's own
-        import traceback
-        traceback.print_exc()
-        code = 1
+        if rclpy.ok():
+            import traceback
+            traceback.print_exc()
+            code = 1
+        else:           # the run stopped this process while it started: a stop, not a fault
+            code = getattr(cls, 'INTERRUPTED_CODE', 0)
     finally:
         if node is not None:
             node.destroy_node()
