@@ -61,7 +61,11 @@ def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
     control loop does, serves the messages that came meanwhile without waiting, and ticks
     again at once (a tick longer than the period, a Modbus round trip on a loaded machine, once
     starved the subscriptions: commands reached the driver in bursts seconds apart; waiting a
-    whole period after such a tick cost a 1 kHz driver a tenth of its rate). ``poll``
+    whole period after such a tick cost a 1 kHz driver a tenth of its rate). A loop that wakes
+    more than a period past its deadline (the process stalled while it waited) serves the
+    messages that came meanwhile before it ticks too: a tick first would judge the inputs by
+    their state before the stall (on a loaded machine a sequencer aborted on an encoder 0.53 s
+    'stale' while the recorder had the encoder's messages without a gap). ``poll``
     (services, a bus refresh) runs every ``poll_period_s``. Returns when ``should_stop()`` is
     true after a tick. SIGINT and SIGTERM end the loop between ticks, never inside one (a tick
     cut between its publishes would leave a device's outputs half sent), and then raise
@@ -86,13 +90,16 @@ def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
     now = time.monotonic_ns()
     deadline, next_poll = now + period, now + poll_period
     stop: list[int] = []
-    serve_first = False
+    serve_first = served = False
     previous = {sig: signal.signal(sig, lambda signum, _: stop.append(signum))
                 for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         while ctx.ok() and not stop:
             now = time.monotonic_ns()
+            if now - deadline >= period and not served:   # woke a period late (the process
+                serve_first = served = True                # stalled): the messages first
             if now >= deadline and not serve_first:
+                served = False
                 tick()
                 if should_stop is not None and should_stop():
                     return

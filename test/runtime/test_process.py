@@ -52,3 +52,39 @@ def test_a_tick_longer_than_its_period_still_lets_the_messages_in(
     assert len(delays) > 100, len(delays)
     assert max(delays) < 0.25, max(delays)         # taken between ticks, never in bursts
     assert len(ticks) > 50                          # and it still ticks as fast as it can
+
+
+def test_a_loop_that_stalled_while_it_waited_serves_the_messages_before_its_tick(
+        context: rclpy.Context, context_with: Any, own: Any) -> None:
+    """A process stalled outside its tick (here a poll of 0.2 s, on a loaded machine the
+    scheduler) serves what came meanwhile before it ticks: a sequencer that ticked first judged
+    its inputs 0.2 s old although fresh ones sat in its queue."""
+    node = own(rclpy.create_node('sequencer', context=context))
+    last: list[float] = [0.0]
+    node.create_subscription(Float64, 'state', lambda m: last.__setitem__(0, m.data), RELIABLE)
+    sender = own(rclpy.create_node('device', context=context_with([])))
+    pub = sender.create_publisher(Float64, 'state', RELIABLE)
+    end = time.monotonic() + 1.5
+    stall: list[float] = []
+    seen: list[tuple[float, float]] = []            # (tick at, newest message sent at)
+
+    def poll() -> None:
+        if not stall and time.monotonic() > end - 0.8 and last[0] > 0.0:
+            time.sleep(0.2)
+            stall.append(time.monotonic())
+
+    def send() -> None:
+        while time.monotonic() < end:
+            pub.publish(Float64(data=time.monotonic()))
+            time.sleep(0.002)
+    thread = threading.Thread(target=send)
+    thread.start()
+    try:
+        deadline_spin([node], lambda: seen.append((time.monotonic(), last[0])), 0.01,
+                      poll=poll, poll_period_s=0.005,
+                      should_stop=lambda: time.monotonic() > end)
+    finally:
+        thread.join()
+    assert stall, 'the messages never came'
+    at, newest = next((t, s) for t, s in seen if t >= stall[0])
+    assert at - newest < 0.05, (at - newest)        # not the 0.2 s of the stall
