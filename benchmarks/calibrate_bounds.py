@@ -162,6 +162,7 @@ def _fit_set(job: tuple[str, str, dict[str, Any], int], mapper: Mapper | None
             'converged': res['verdict']['converged'], 'rms_after': res['rms_after'],
             'tolerance': res['verdict']['tolerance'], 'fit_s': fit_s,
             'evaluations': res['evaluations'], 'starts': res['starts'],
+            'profile': {n: [p['rise_low'], p['rise_high']] for n, p in res['profile'].items()},
             'readings': len(obs.readings), 'records': len(obs.records),
             'on_cluster': mapper is not None}
 

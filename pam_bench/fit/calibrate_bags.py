@@ -19,7 +19,11 @@ how, and how the residuals are scaled); the fit starts from values read off the 
   ([(J^T J + delta I)^-1]_ii in z, delta = ``DATA_ONLY``), when the data alone (the residuals'
   variance, without the prior, which shrinks the error of what the data do not see) leave it a
   standard error above ``UNFIXED_REL`` of its value, or when its data-only correlation with a
-  flagged parameter reaches ``JOINT_CORRELATION``.
+  flagged parameter reaches ``JOINT_CORRELATION``. Every parameter left fixed then has its
+  profile taken (``fit.calibrate_profile``): moved 5 % either way with the others refitted, a
+  rise of the cost within the noise flags it too, with the range tried; a move that found the
+  cost well below the fit's shows the fit stopped short, and it fits on from there (at most
+  ``PROFILE_REFITS`` times).
 - Settling: when the Gauss-Newton step from the fit's end would still move a parameter by more
   than ``SETTLED_STEP`` of its value, the fit goes on for a few evaluations without the early
   stop, its Jacobian by central differences (``SETTLE_JAC``; ``_settled``). Jacobian steps are
@@ -46,6 +50,7 @@ from scipy.optimize import least_squares
 
 from pam_bench.fit.calibrate import FitSummary, fit_report, fit_summary
 from pam_bench.fit.calibrate_init import initial_values, law_start
+from pam_bench.fit.calibrate_profile import profile
 from pam_bench.fit.calibrate_replay import (
     CONTRACTION_SCALE_M,
     FORCE_SCALE_N,
@@ -86,7 +91,8 @@ class Calibration(FitSummary):
     law's static RMS on the isometric readings best first (N), the law fitted (None: the
     bench's McKibben), the start values and what each was read from, the held values and
     why, the starts tried and how many reached the best, the readings left out (kind, u V,
-    held value), the cost, evaluations and seconds taken."""
+    held value), each profiled parameter's ``calibrate_profile.Profile`` as a dict, the cost,
+    evaluations and seconds taken."""
 
     valve: ValveParams
     muscle: MuscleParams
@@ -102,6 +108,7 @@ class Calibration(FitSummary):
     held: dict[str, str]
     starts: dict[str, int]
     left_out: list[Any]
+    profile: dict[str, dict[str, Any]]
     cost: float
     evaluations: int
     fit_s: float
@@ -242,6 +249,10 @@ shallow valley): it goes on without the early stop, for at most ``SETTLE_NFEV`` 
 (``_settled``). A fifth of the 5 % the round-trip studies ask for: from the slope of a curved
 valley the step reaches only part of the way (docs/long_runs.md, 'The settling check at 1 %')."""
 SETTLE_NFEV = 20
+PROFILE_REFITS = 1
+"""At most this many fits on from a lower point the profile found (``calibrate_profile``): a
+10 mm muscle's identification fit walked its curved valley slowly, 252 evaluations for two
+(docs/long_runs.md, 'The profile'); what is still not settled after one is flagged."""
 SETTLE_JAC = '3-point'
 """The settling fit's finite differences: central (twice the evaluations per Jacobian)."""
 DIFF_STEP = 1e-2
@@ -590,11 +601,30 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
                 sol, mine = refined, theirs
     sol, more = _settled(problem, sol, z0, lower, span, max_nfev, workers)
     evaluations += more
-    theta = lower + sol.x * span
-    summary = fit_summary(names, theta, sol, span, rel_flag=0.05)
-    summary['flags'] = _unfixed(names, sol.jac[:-len(names)], summary['flags'],
-                                sol.fun[:-len(names)], theta, span)
+    refits = 0
+    while True:                         # the profile; a lower point it found: fit on from it
+        theta = lower + sol.x * span
+        summary = fit_summary(names, theta, sol, span, rel_flag=0.05)
+        summary['flags'] = _unfixed(names, sol.jac[:-len(names)], summary['flags'],
+                                    sol.fun[:-len(names)], theta, span)
+        profiles, better = profile(problem, sol, z0, PRIOR_WEIGHT, names, summary['flags'],
+                                   workers)
+        evaluations += sum(p.evaluations for p in profiles.values())
+        if better is None or refits == PROFILE_REFITS:
+            break
+        refits += 1
+        on = _local_fit(problem, better, z0, min(max_nfev, SETTLE_NFEV), workers)
+        evaluations += int(on.nfev)
+        if on.cost >= sol.cost:
+            break
+        sol = on
+    loose = [n for n, p in profiles.items() if not p.fixed]
+    if loose:
+        summary['flags'] = _unfixed(names, sol.jac[:-len(names)], summary['flags'] + loose,
+                                    sol.fun[:-len(names)], theta, span)
     summary['report'] = fit_report(summary)
+    for n in loose:
+        summary['report'][n] = profiles[n].line(summary['values'][n])
     for n, value in held.items():           # not fitted: kept at the start, and flagged
         summary['names'].append(n)
         summary['values'][n] = float(value)
@@ -625,6 +655,7 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
         start_from=why, held={n: f'{held[n]:.6g}: {unseen[n]}' for n in held},
         starts={'tried': best_of[1], 'at_best': best_of[0]},
         left_out=[obs.readings[i][:3] for i in left_out], cost=float(sol.cost),
+        profile={n: dataclasses.asdict(p) for n, p in profiles.items()},
         evaluations=evaluations, fit_s=time.perf_counter() - t0)
 
 

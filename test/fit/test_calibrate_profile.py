@@ -1,0 +1,122 @@
+"""The profile that flags what the data do not fix (``fit.calibrate_profile``): against the
+closed form of a linear model, and on the two ways a parameter escapes the data (a flat
+direction, a curved valley of a product)."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+from scipy.optimize import least_squares
+
+from pam_bench.fit.calibrate_profile import PROFILE_MOVE, profile
+
+T = np.linspace(0.0, 1.0, 40)
+NOISE = np.random.default_rng(3).normal(0.0, 0.01, T.size)
+PRIOR = 1e-4
+
+
+@dataclasses.dataclass(frozen=True)
+class Toy:
+    """A problem as the profile sees it: bounds and scaled data residuals at z."""
+
+    model: Callable[[np.ndarray], np.ndarray]
+    truth: np.ndarray
+    lower: np.ndarray
+    span: np.ndarray
+
+    def data(self, z: np.ndarray) -> np.ndarray:
+        theta = self.lower + z * self.span
+        return self.model(theta) - (self.model(self.truth) + NOISE)
+
+
+def fitted(toy: Toy) -> tuple[object, np.ndarray]:
+    z0 = np.full(len(toy.truth), 0.5)
+
+    def res(z: np.ndarray) -> np.ndarray:
+        return np.concatenate([toy.data(z), PRIOR * (z - z0)])
+
+    sol = least_squares(res, z0, bounds=(0.0, 1.0), xtol=1e-12, ftol=1e-12, gtol=1e-12)
+    return sol, z0
+
+
+def linear(theta: np.ndarray) -> np.ndarray:
+    return theta[0] + theta[1] * T
+
+
+def flat(theta: np.ndarray) -> np.ndarray:
+    return theta[0] + theta[1] * T + 1e-7 * theta[2] * T ** 2
+
+
+def product(theta: np.ndarray) -> np.ndarray:
+    return theta[0] * theta[1] * T + theta[2] * T ** 2
+
+
+def test_a_linear_models_rise_is_the_closed_form() -> None:
+    toy = Toy(linear, np.array([0.05, 0.1]), np.zeros(2), np.array([2.0, 4.0]))
+    sol, z0 = fitted(toy)
+    names = ['a', 'b']
+    out, better = profile(toy, sol, z0, PRIOR, names, skip=[])
+    jac = np.asarray(sol.jac)
+    inv = np.linalg.inv(jac.T @ jac)
+    data = np.asarray(sol.fun)[:-2]
+    s2 = float(data @ data) / (len(data) - 2)
+    theta = toy.lower + sol.x * toy.span
+    for i, n in enumerate(names):
+        dz = PROFILE_MOVE * theta[i] / toy.span[i]
+        closed = dz ** 2 / inv[i, i] / s2                  # SSR rise of a linear model
+        np.testing.assert_allclose([out[n].rise_low, out[n].rise_high], [closed, closed],
+                                   rtol=1e-6)
+        assert out[n].evaluations > 0
+    assert better is None                                   # the fit is at its minimum
+
+
+def test_a_flat_direction_is_flagged_with_its_range() -> None:
+    toy = Toy(flat, np.array([1.0, 2.0, 3.0]), np.zeros(3), np.array([2.0, 4.0, 6.0]))
+    sol, z0 = fitted(toy)
+    out, better = profile(toy, sol, z0, PRIOR, ['a', 'b', 'c'], skip=[])
+    theta = toy.lower + sol.x * toy.span
+    assert out['a'].fixed and out['b'].fixed
+    assert not out['c'].fixed                               # c moves the data by 1e-7 T^2
+    np.testing.assert_allclose([out['c'].low, out['c'].high],
+                               theta[2] * np.array([1 - PROFILE_MOVE, 1 + PROFILE_MOVE]),
+                               rtol=1e-9)
+    assert 'not fixed by these recordings' in out['c'].line(theta[2])
+
+
+def test_a_curved_valley_of_a_product_flags_both_factors_and_not_the_third() -> None:
+    toy = Toy(product, np.array([2.0, 3.0, 1.0]), np.full(3, 0.5), np.full(3, 4.0))
+    sol, z0 = fitted(toy)
+    out, better = profile(toy, sol, z0, PRIOR, ['a', 'b', 'c'], skip=[])
+    assert not out['a'].fixed and not out['b'].fixed
+    assert out['c'].fixed
+    assert out['a'].evaluations >= 1                         # evaluated, not only predicted
+
+
+def test_skipped_names_and_bounds_are_left_out() -> None:
+    toy = Toy(flat, np.array([1.0, 2.0, 5.98]), np.zeros(3), np.array([2.0, 4.0, 6.0]))
+    sol, z0 = fitted(toy)
+    out, _ = profile(toy, sol, z0, PRIOR, ['a', 'b', 'c'], skip=['a'])
+    assert set(out) == {'b', 'c'}
+    theta_c = toy.lower[2] + sol.x[2] * toy.span[2]
+    if theta_c * (1 + PROFILE_MOVE) > 6.0:                   # the bound ends that side
+        assert out['c'].high == pytest.approx(6.0)
+
+
+def test_a_fit_stopped_short_of_its_minimum_is_shown_the_lower_point() -> None:
+    """A fit that ended away from its minimum (here: moved off it by hand): a move finds the
+    cost lower by more than the noise and hands back where."""
+    toy = Toy(linear, np.array([0.05, 0.1]), np.zeros(2), np.array([2.0, 4.0]))
+    sol, z0 = fitted(toy)
+    z_off = sol.x.copy()
+    z_off[1] *= 1.4                                         # b 40 % off, a at the minimum
+    r = np.concatenate([toy.data(z_off), PRIOR * (z_off - z0)])
+
+    class Short:
+        x, fun, jac = z_off, r, sol.jac
+    _, better = profile(toy, Short(), z0, PRIOR, ['a', 'b'], skip=[])
+    assert better is not None
+    lower = np.concatenate([toy.data(better), PRIOR * (better - z0)])
+    assert float(lower @ lower) < float(r @ r)
