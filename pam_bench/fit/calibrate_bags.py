@@ -251,8 +251,9 @@ valley the step reaches only part of the way (docs/long_runs.md, 'The settling c
 SETTLE_NFEV = 20
 PROFILE_REFITS = 1
 """At most this many fits on from a lower point the profile found (``calibrate_profile``): a
-10 mm muscle's identification fit walked its curved valley slowly, 252 evaluations for two
-(docs/long_runs.md, 'The profile'); what is still not settled after one is flagged."""
+10 mm muscle's identification fit walked its curved valley slowly, 252 evaluations for two;
+what is still not settled after one is flagged (docs/long_runs.md, 'The profile: flagging
+what the data do not fix')."""
 SETTLE_JAC = '3-point'
 """The settling fit's finite differences: central (twice the evaluations per Jacobian)."""
 DIFF_STEP = 1e-2

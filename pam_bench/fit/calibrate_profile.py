@@ -22,9 +22,9 @@ with the parameter 5 % away: it is not fixed within 5 %, and is flagged with the
 refit's cost can only be at or above the profile's own minimum, so a flag is never a refit's
 shortfall. Every side is evaluated: the linear model of a move (the first chord step, not
 evaluated) predicted a rise of 1700 noise variances for a 10 mm muscle's g_m where the
-evaluated steps found the cost 35 variances lower (docs/long_runs.md, 'The profile'). A
-move that ends that far below the fit's cost shows the fit stopped short: the caller fits on
-from it (``profile`` returns it).
+evaluated steps found the cost 35 variances lower (docs/long_runs.md, 'The profile: flagging
+what the data do not fix'). A move that ends ``PROFILE_CHI2`` variances or more below the
+fit's cost shows the fit stopped short: the caller fits on from it (``profile`` returns it).
 
 Every move is independent: they run through the fit's mapper (the cluster) as one batch.
 """
