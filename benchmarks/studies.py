@@ -7,6 +7,7 @@ from benchmarks import (
     calibrate,
     calibrate_bounds,
     calibrate_nodes,
+    calibrate_zoo,
     calibration,
     dynamics,
     exchange_step,
@@ -35,7 +36,7 @@ STUDIES: tuple[Study, ...] = (
     exchange_step.STUDY,
     settle.STUDY, record_exchange.STUDY, scenes.STUDY, models.STUDY, wallclock.STUDY,
     faults.STUDY, straight_fibre.STUDY, calibrate.STUDY, calibrate_bounds.STUDY,
-    calibrate_nodes.STUDY,
+    calibrate_nodes.STUDY, calibrate_zoo.STUDY,
     servo_compare.STUDY, soak.STUDY, sweep_scaling.STUDY, dynamics.STUDY, fuzz.STUDY,
     buses.STUDY)
 """Every study; ``python -m benchmarks --only KEY`` runs some."""

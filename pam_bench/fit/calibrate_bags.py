@@ -514,7 +514,8 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
     replay asked for and keeps whichever fit is better. With ``law`` the muscle is that force
     law of the zoo or a plug-in (``muscle.kind: law``): its parameters, the friction's scale
     and the valve's loop are fitted (``free_of_law``), the law's start from its static fit to
-    the isometric readings.
+    the isometric readings. A ``muscle`` of kind law (the one the bags declare) is fitted as
+    its law, as ``law`` would.
 
     Returns a ``Calibration`` (its docstring names every field). ``workers``:
     a map-like callable the finite-difference Jacobian's columns are evaluated through
@@ -527,6 +528,8 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
     """
     check_observations(obs)
     t0 = time.perf_counter()
+    if law is None and muscle is not None and muscle.kind == 'law':
+        law = muscle.law            # the bags' own law: FREE_BAGS are the McKibben law's
     base = Bench(valve or ValveParams(), muscle or MuscleParams(), servo)
     why: dict[str, str] = {}
     if law is not None:

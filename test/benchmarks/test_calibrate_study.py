@@ -74,3 +74,27 @@ def test_a_quick_run_leaves_out_a_study_marked_full_only(tmp_path, monkeypatch) 
     assert suite.run_benchmarks(True, tmp_path, only=['full'])['full'] == {'x': 1}
     (tmp_path / 'f').mkdir()
     assert suite.run_benchmarks(False, tmp_path / 'f')['full'] == {'x': 1}
+
+
+def test_the_zoo_study_counts_false_verdicts_on_its_own_laws_only() -> None:
+    """A made-up zoo report: a bag fitted with its own law and not converged is a false 'not
+    converged'; one converged with a fixed parameter 8 % off a false 'converged' (a flagged
+    one, or one whose truth is 0, does not count); the bench law's rows are counted apart."""
+    from benchmarks.calibrate_zoo import BENCH_LAW, results, section
+
+    def bag(law: str, fit: str, converged: bool, errors: dict, flags: list) -> dict:
+        return {'law': law, 'seed': 1, 'fit': fit, 'converged': converged,
+                'rms': {'isometric': 0.2}, 'tolerance': {'isometric': 0.6}, 'zero': ['c'],
+                'errors': errors, 'flags': flags, 'fixed': 2, 'advice': [], 'fit_s': 3.0,
+                'evaluations': 9}
+    bags = [bag('a', 'a', False, {'p': 0.01}, []),
+            bag('b', 'b', True, {'p': 0.08, 'c': 0.5}, []),
+            bag('d', 'd', True, {'p': 0.08}, ['p']),
+            bag('e', 'e', True, {'c': 0.5}, []),
+            bag('a', BENCH_LAW, False, {}, ['x'])]
+    r = {'calibrate_zoo': {'bags': bags, 'tolerance': 0.05}, 'measured': {}, 'commit': 'abc'}
+    lines = section(r)
+    assert lines[-1] == ("4 bags fitted with their own law: 1 'not converged', 1 'converged' "
+                         "with a parameter reported fixed more than 5% off; 1 fitted with the "
+                         "bench's McKibben law: 1 'not converged'.")
+    assert results(r)[0][2] == '1 and 1 of 4'

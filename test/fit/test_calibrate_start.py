@@ -176,6 +176,19 @@ def test_calibrate_with_a_law_of_the_zoo_recovers_it() -> None:
     assert 'chou_hannaford' in res['law_zoo']
 
 
+def test_bags_that_declare_a_law_are_fitted_as_that_law_without_naming_it() -> None:
+    """A bag recorded with a law muscle, calibrated without ``--law``: its own law is fitted
+    (the McKibben parameters would move nothing, and a fit of none of them said 'converged'
+    with every parameter flagged)."""
+    muscle = dataclasses.replace(MuscleParams(), kind='law', law='chou_hannaford')
+    readings = [('isometric', 2.0, 0.0, 300.0), ('isometric', 4.0, 0.0, 700.0),
+                ('isometric', 2.0, 0.04, 150.0), ('isometric', 4.0, 0.04, 400.0)]
+    res = calibrate_bags(Observations(readings, []), muscle=muscle, replay='static',
+                         max_nfev=2, starts=0)
+    assert res['law'] == 'chou_hannaford'
+    assert 'chou_hannaford.D0_m' in res['values'] and 'gain_n_per_pa' not in res['values']
+
+
 def test_a_fit_that_stopped_short_goes_on_to_recover_a_weak_friction() -> None:
     """The braid friction at the low end of its range (scale 0.2) moves the readings little:
     the fit reaches the noise level early, short of the optimum; its Gauss-Newton step shows
