@@ -4,4 +4,5 @@ from __future__ import annotations
 
 from pam_bench.cli.main import main
 
-__all__ = ['main', 'bags', 'bench', 'design', 'errors', 'fit', 'numbers', 'plugins', 'run']
+__all__ = ['main', 'bags', 'bench', 'design', 'errors', 'fit', 'json_out', 'numbers', 'plugins',
+           'run']

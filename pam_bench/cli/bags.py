@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import json
 import pathlib
 from typing import Any
+
+from pam_bench.cli.json_out import dumps
 
 __all__ = ['register']
 
@@ -39,7 +40,7 @@ def _cmd_info(args: argparse.Namespace) -> int:
     from pam_bench.bags.baginfo import bag_info
     info = bag_info(args.bag)
     if args.json:
-        print(json.dumps(info, indent=2, default=str))
+        print(dumps(info))
         return 0
     run, end = info['run'] or {}, info['end'] or {}
     if run:
@@ -77,7 +78,7 @@ def _cmd_diff(args: argparse.Namespace) -> int:
     from pam_bench.bags.bagdiff import diff_bags
     d = diff_bags(args.bag_a, args.bag_b)
     if args.json:
-        print(json.dumps(d, indent=2))
+        print(dumps(d))
     same = True
     for name, row in d.items():
         worst = {k: v for k, v in row.items() if k.startswith('max_')}

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import json
 import pathlib
 from typing import Any
 
 from pam_bench.cli.cluster_args import add_cluster_args, cluster_of
 from pam_bench.cli.errors import UsageError
+from pam_bench.cli.json_out import dumps
 from pam_bench.cli.numbers import integer, number, out_path
 
 __all__ = ['register']
@@ -52,7 +52,7 @@ def register(sub: Any) -> None:
 def _cmd_pingpong(args: argparse.Namespace) -> int:
     from pam_bench.bringup.pingpong import pingpong_rate
     rate = pingpong_rate(args.count)
-    print(json.dumps({'pingpong_round_trips_per_s': rate}) if args.json
+    print(dumps({'pingpong_round_trips_per_s': rate}, indent=None) if args.json
           else f'rclpy ping-pong between two processes: {rate:.0f} round trips/s')
     return 0
 

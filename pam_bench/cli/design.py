@@ -4,13 +4,13 @@ many runs)."""
 from __future__ import annotations
 
 import argparse
-import json
 import pathlib
 import sys
 from typing import Any
 
 from pam_bench.cli.cluster_args import add_cluster_args, cluster_of
 from pam_bench.cli.errors import UsageError
+from pam_bench.cli.json_out import dumps
 from pam_bench.cli.numbers import integer, number, out_path
 from pam_bench.vocabulary.outputs import (
     check_output,
@@ -82,7 +82,7 @@ def _cmd_size(args: argparse.Namespace) -> int:
                                                 'p_l0sq_over_f': [1.2, 2880.0],
                                                 'wall_mm': [1.0, 4.0]}}
     if args.json:
-        print(json.dumps(out, indent=2))
+        print(dumps(out))
     else:
         print(f'segment L0 {r.segment_length_m * 1e3:.1f} mm, Phi0/L0 {r.phi0_over_l0:.3f}, '
               f'P L0^2/F {r.p_l0sq_over_f:.4g}: dL/L0 {r.segment_ratio:.4f} from the graph, '
@@ -108,7 +108,7 @@ def _size_inverse(args: argparse.Namespace) -> int:
         print(f'graph with the design points: {pathlib.Path(args.plot) / name}',
               file=sys.stderr)
     if args.json:
-        print(json.dumps([dataclasses.asdict(d) for d in found], indent=2))
+        print(dumps([dataclasses.asdict(d) for d in found]))
     elif not found:
         print('no design inside the correlation graph meets the target')
     for d in [] if args.json else found:

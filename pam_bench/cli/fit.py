@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 from pam_bench.cli.cluster_args import add_cluster_args, cluster_of
 from pam_bench.cli.errors import UsageError
+from pam_bench.cli.json_out import dumps
 from pam_bench.cli.numbers import integer, number, out_path
 from pam_bench.fit.calibrate_verdict import NOT_CONVERGED, Verdict
 from pam_bench.vocabulary.outputs import (
@@ -109,9 +110,9 @@ def _cmd_calibration(args: argparse.Namespace) -> int:
     measured = measure_004()
     rows = figure_rows(measured)
     if args.json:
-        print(json.dumps({**fig, 'figures_004': rows,
-                          'readings_004': {k: v for k, v in measured.items()
-                                           if k != 'isotonic_by_point'}}, indent=2))
+        print(dumps({**fig, 'figures_004': rows,
+                     'readings_004': {k: v for k, v in measured.items()
+                                      if k != 'isotonic_by_point'}}))
         return 0 if all(r['ok'] for r in rows) else 1
     print("004's figures on its full grids (quasi-static bench, the extraction's estimators; "
           'verify/figures_004.py says how each is read):')
@@ -161,8 +162,7 @@ def _calibrate_bags(args: argparse.Namespace) -> int:
                              workers=map_on(client), start=args.start, starts=args.starts,
                              map_starts=map_on(client), law=args.law)
     if args.json:
-        print(json.dumps({k: v for k, v in res.items() if k not in ('valve', 'muscle')},
-                         indent=2, default=str))
+        print(dumps({k: v for k, v in res.items() if k not in ('valve', 'muscle')}))
     else:
         _print_fit(res)
     verdict = Verdict(**res['verdict'])
@@ -267,7 +267,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         write_output_file(args.out, VERB, "# --target 004: muscle parameters fitted to 004's "
                           'figures\n' + yaml.safe_dump(overlay, sort_keys=False))
     if args.json:
-        print(json.dumps(res, indent=2))
+        print(dumps(res))
     else:
         _figure_table(res['figures'])
         print(f"fit: {res['evaluations']} evaluations in {res['fit_s']:.1f} s, cost "
@@ -312,7 +312,7 @@ def _cmd_truth(args: argparse.Namespace) -> int:
             raise UsageError(f'cannot read {path}: {exc}') from None
         truth['comparison'] = compare(truth, summary)
     if args.json:
-        print(json.dumps(truth, indent=2))
+        print(dumps(truth))
         return 0
     for k in ('isometric', 'isotonic', 'isobaric'):
         if k in truth:

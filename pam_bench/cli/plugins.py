@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import json
 from typing import Any
+
+from pam_bench.cli.json_out import dumps
 
 __all__ = ['register']
 
@@ -36,7 +37,7 @@ def _cmd_plugins(args: argparse.Namespace) -> int:
             rows.append({'kind': kind, 'name': p.name, 'package': p.package,
                          'status': status})
     if args.json:
-        print(json.dumps(rows, indent=2))
+        print(dumps(rows))
     elif not rows:
         print('no plug-ins installed (entry-point groups pam_bench.muscle_laws, '
               'pam_bench.controllers; examples/pam_bench_example is one)')

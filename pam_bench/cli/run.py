@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import json
 import pathlib
 import sys
 from typing import Any
 
 from pam_bench.cli.errors import UsageError
+from pam_bench.cli.json_out import dumps
 from pam_bench.cli.numbers import integer, number, out_path
 from pam_bench.vocabulary.errors import shorten
 
@@ -536,7 +536,7 @@ def _cmd_params(args: argparse.Namespace) -> int:
                          'high': info.high, 'choices': list(info.choices), 'text': info.text,
                          'tunable': info.tunable})
     if args.json:
-        print(json.dumps(rows, indent=2))
+        print(dumps(rows))
         return 0
     for r in rows:
         rng = (f" [{r['low']}, {r['high']}]" if r['low'] is not None or r['high'] is not None

@@ -354,7 +354,8 @@ def test_a_bag_is_replayed_on_the_muscle_it_declares(tmp_path: pathlib.Path,
 
 def test_calibrate_json_keeps_stdout_to_the_json(tmp_path: pathlib.Path,
                                                   capsys: pytest.CaptureFixture) -> None:
-    """``--json``: what a script parses is on stdout alone; the progress lines go to stderr."""
+    """``--json``: what a script parses is on stdout alone, strict JSON (a held parameter's
+    standard error, undefined, is null, not NaN); the progress lines go to stderr."""
     import json
 
     from pam_bench.cli import main
@@ -362,8 +363,9 @@ def test_calibrate_json_keeps_stdout_to_the_json(tmp_path: pathlib.Path,
     assert main(['calibrate', str(tmp_path / 'bag'), '--replay', 'static', '--json',
                  '--max-evaluations', '1', '--starts', '0']) in (0, 3)
     captured = capsys.readouterr()
-    res = json.loads(captured.out)
+    res = json.loads(captured.out, parse_constant=lambda c: pytest.fail(f'{c} is not JSON'))
     assert 'verdict' in res and 'values' in res
+    assert None in res['stderr'].values()            # the held parameters' undefined errors
     assert 'fitting the muscle and valve' in captured.err
 
 
