@@ -60,6 +60,7 @@ class Move:
             residuals, or None where the models refuse z.
         index: the parameter moved (its column of ``jac``).
         z_moved: its value in z (the unit interval over its fit interval).
+        whole: whether it moved the whole ``PROFILE_MOVE`` (False: a bound cut the side short).
         z_opt: the fit's optimum in z, shape (n,).
         z_prior: the prior's centre in z, shape (n,).
         prior_weight: the prior's weight per unit of z.
@@ -71,6 +72,7 @@ class Move:
     problem: Any
     index: int
     z_moved: float
+    whole: bool
     z_opt: np.ndarray
     z_prior: np.ndarray
     prior_weight: float
@@ -161,10 +163,12 @@ def profile_moves(problem: Any, sol: Any, z_prior: np.ndarray, prior_weight: flo
     for i in indices:
         theta = lower[i] + sol.x[i] * span[i]
         for d in (-1.0, 1.0):
-            z = float(np.clip((theta * (1.0 + d * PROFILE_MOVE) - lower[i]) / span[i], 0.0, 1.0))
+            wanted = (theta * (1.0 + d * PROFILE_MOVE) - lower[i]) / span[i]
+            z = float(np.clip(wanted, 0.0, 1.0))
             if abs(z - sol.x[i]) > 1e-12:
-                out.append(Move(problem, i, z, np.asarray(sol.x, float), z_prior, prior_weight,
-                                np.asarray(sol.jac, float), np.asarray(sol.fun, float), s2))
+                out.append(Move(problem, i, z, z == wanted, np.asarray(sol.x, float), z_prior,
+                                prior_weight, np.asarray(sol.jac, float),
+                                np.asarray(sol.fun, float), s2))
     return out
 
 
@@ -191,8 +195,7 @@ def profile(problem: Any, sol: Any, z_prior: np.ndarray, prior_weight: float,
             below = m.z_moved < sol.x[i]
             value[below] = float(lower[i] + m.z_moved * span[i])
             rise[below] = float(r)
-            free |= r < PROFILE_CHI2 and abs(value[below] - theta) >= PROFILE_MOVE * abs(
-                theta) * (1.0 - 1e-9)
+            free |= r < PROFILE_CHI2 and m.whole
         out[names[i]] = Profile(names[i], value[True], value[False], rise[True], rise[False],
                                 not free, sum(n for _, (_, n, _) in sides))
     lowest = min(results, key=lambda r: r[0], default=None)
