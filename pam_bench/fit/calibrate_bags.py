@@ -50,7 +50,7 @@ from scipy.optimize import least_squares
 
 from pam_bench.fit.calibrate import FitSummary, fit_report, fit_summary
 from pam_bench.fit.calibrate_init import initial_values, law_start
-from pam_bench.fit.calibrate_profile import profile
+from pam_bench.fit.calibrate_profile import kept_profiles, profile
 from pam_bench.fit.calibrate_replay import (
     CONTRACTION_SCALE_M,
     FORCE_SCALE_N,
@@ -606,13 +606,14 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
     sol, more = _settled(problem, sol, z0, lower, span, max_nfev, workers)
     evaluations += more
     refits = 0
+    kept: dict[str, Any] = {}
     while True:                         # the profile; a lower point it found: fit on from it
         theta = lower + sol.x * span
         summary = fit_summary(names, theta, sol, span, rel_flag=0.05)
         summary['flags'] = _unfixed(names, sol.jac[:-len(names)], summary['flags'],
                                     sol.fun[:-len(names)], theta, span)
         profiles, better = profile(problem, sol, z0, PRIOR_WEIGHT, names, summary['flags'],
-                                   workers)
+                                   workers, kept)
         evaluations += sum(p.evaluations for p in profiles.values())
         if better is None or refits == PROFILE_REFITS:
             break
@@ -621,6 +622,7 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
         evaluations += int(on.nfev)
         if on.cost >= sol.cost:
             break
+        kept = kept_profiles(profiles, theta, lower + on.x * span, names)
         sol = on
     loose = [n for n, p in profiles.items() if not p.fixed]
     if loose:

@@ -16,6 +16,15 @@ direction d = -1, +1:
   residual variance s^2 = SSR_data / (m - n) (a chi-square with one degree of freedom when
   the fit is at the noise level).
 
+A move stops early where the data fix the parameter by far: after two evaluated steps, once
+the rise less ``PROFILE_TAIL`` times the last step's fall (what the remaining chord steps could
+still take off, their falls shrinking at least by a quarter a step) stays ``PROFILE_FAR``
+thresholds above ``PROFILE_CHI2``. A second profile, after the fit went on from a lower point,
+moves again only what the first did not find fixed by far: a parameter whose two rises were
+``PROFILE_FAR`` thresholds or more and which the fit moved by less than a fifth of
+``PROFILE_MOVE`` keeps its first profile (its 5 % points lie within 1 % of the new ones, and
+the new optimum's lower cost only raises their rises).
+
 A rise below ``PROFILE_CHI2`` on a side moved the whole 5 % means the data reproduce as well
 with the parameter 5 % away: it is not fixed within 5 %, and is flagged with the range tried
 (a side a bound cut short fixes that side: the truth is not past the bound). The
@@ -39,8 +48,8 @@ from typing import Any
 import numpy as np
 from scipy.optimize import lsq_linear
 
-__all__ = ['PROFILE_MOVE', 'PROFILE_CHI2', 'PROFILE_STEPS', 'Move', 'Profile', 'profile_moves',
-           'run_move', 'profile']
+__all__ = ['PROFILE_MOVE', 'PROFILE_CHI2', 'PROFILE_STEPS', 'PROFILE_FAR', 'PROFILE_TAIL', 'Move',
+           'Profile', 'profile_moves', 'run_move', 'profile', 'kept_profiles']
 
 PROFILE_MOVE = 0.05
 """How far each parameter is moved, a share of its value: the 5 % the round trips ask for."""
@@ -49,6 +58,12 @@ PROFILE_CHI2 = 4.0
 two standard deviations of a one-parameter profile."""
 PROFILE_STEPS = 4
 """At most this many refit steps (each one evaluation of the replay) per move."""
+PROFILE_FAR = 25.0
+"""A rise this many times ``PROFILE_CHI2`` (100 noise variances) or more is fixed by far: its
+move may stop early, and a second profile keeps it (module docstring)."""
+PROFILE_TAIL = 3.0
+"""What the chord steps still to come could take off, in units of the last step's fall: the
+sum of a geometric series whose falls shrink by a quarter or more a step."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -146,9 +161,12 @@ def run_move(move: Move) -> tuple[float, int, np.ndarray]:
         ssr = float(r @ r)
         if ssr >= best * (1.0 - 1e-3):
             break
-        best, z_best = ssr, z.copy()
+        fall, best, z_best = best - ssr, ssr, z.copy()
         if best - ssr0 < PROFILE_CHI2 * move.s2:
             break
+        if used >= 2 and best - ssr0 - PROFILE_TAIL * fall > \
+                PROFILE_FAR * PROFILE_CHI2 * move.s2:
+            break                                   # fixed by far (module docstring)
     return (best - ssr0) / move.s2, used, z_best
 
 
@@ -172,15 +190,36 @@ def profile_moves(problem: Any, sol: Any, z_prior: np.ndarray, prior_weight: flo
     return out
 
 
+def kept_profiles(before: dict[str, Profile], theta_before: np.ndarray,
+                  theta: np.ndarray, names: Sequence[str]) -> dict[str, Profile]:
+    """The profiles of ``before`` a second profile keeps (module docstring): both rises
+    ``PROFILE_FAR`` thresholds or more, and the parameter moved from ``theta_before`` to
+    ``theta`` (shape (n,), its units) by less than a fifth of ``PROFILE_MOVE``."""
+    far = PROFILE_FAR * PROFILE_CHI2
+    out = {}
+    for i, n in enumerate(names):
+        p = before.get(n)
+        if p is None or not p.fixed:
+            continue
+        rises = [r for r in (p.rise_low, p.rise_high) if not math.isnan(r)]
+        moved = abs(theta[i] - theta_before[i]) <= 0.2 * PROFILE_MOVE * abs(theta_before[i])
+        if rises and min(rises) >= far and moved:
+            out[n] = dataclasses.replace(p, evaluations=0)
+    return out
+
+
 def profile(problem: Any, sol: Any, z_prior: np.ndarray, prior_weight: float,
             names: Sequence[str], skip: Sequence[str],
-            mapper: Callable[[Callable[[Any], Any], Any], Any] | None = None
+            mapper: Callable[[Callable[[Any], Any], Any], Any] | None = None,
+            kept: dict[str, Profile] | None = None
             ) -> tuple[dict[str, Profile], np.ndarray | None]:
     """The profile of every parameter of ``names`` not in ``skip`` (module docstring), its
     moves through ``mapper`` (default: ``map``); and the z of the lowest cost a move found
     when it lies ``PROFILE_CHI2`` noise variances or more below the fit's (the fit stopped
-    short of a lower point: the caller fits on from there), else None."""
-    indices = [i for i, n in enumerate(names) if n not in skip]
+    short of a lower point: the caller fits on from there), else None. A parameter of
+    ``kept`` (``kept_profiles``) is not moved again: its profile is returned as it is."""
+    kept = kept or {}
+    indices = [i for i, n in enumerate(names) if n not in skip and n not in kept]
     moves = profile_moves(problem, sol, z_prior, prior_weight, indices)
     results = list((mapper or map)(run_move, moves)) if moves else []
     lower, span = problem.lower, problem.span
@@ -198,6 +237,7 @@ def profile(problem: Any, sol: Any, z_prior: np.ndarray, prior_weight: float,
             free |= r < PROFILE_CHI2 and m.whole
         out[names[i]] = Profile(names[i], value[True], value[False], rise[True], rise[False],
                                 not free, sum(n for _, (_, n, _) in sides))
+    out.update({n: p for n, p in kept.items() if n not in skip})
     lowest = min(results, key=lambda r: r[0], default=None)
     better = lowest[2] if lowest is not None and lowest[0] <= -PROFILE_CHI2 else None
     return out, better

@@ -5,13 +5,22 @@ direction, a curved valley of a product)."""
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable
 
 import numpy as np
 import pytest
 from scipy.optimize import least_squares
 
-from pam_bench.fit.calibrate_profile import PROFILE_MOVE, profile
+from pam_bench.fit import calibrate_profile
+from pam_bench.fit.calibrate_profile import (
+    PROFILE_CHI2,
+    PROFILE_FAR,
+    PROFILE_MOVE,
+    Profile,
+    kept_profiles,
+    profile,
+)
 
 T = np.linspace(0.0, 1.0, 40)
 NOISE = np.random.default_rng(3).normal(0.0, 0.01, T.size)
@@ -120,3 +129,55 @@ def test_a_fit_stopped_short_of_its_minimum_is_shown_the_lower_point() -> None:
     assert better is not None
     lower = np.concatenate([toy.data(better), PRIOR * (better - z0)])
     assert float(lower @ lower) < float(r @ r)
+
+
+def exponentials(theta: np.ndarray) -> np.ndarray:
+    return theta[1] * np.exp(theta[0] * T) + np.exp(theta[2] * T)
+
+
+def test_a_parameter_fixed_by_far_stops_early_with_the_same_verdict(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The early stop spends fewer evaluations where the rises are far above the threshold,
+    and ends where the full chord steps end to a percent, with the same verdicts."""
+    toy = Toy(exponentials, np.array([2.0, 1.0, 0.5]), np.full(3, 0.1), np.full(3, 4.0))
+    sol, z0 = fitted(toy)
+    names = ['a', 'b', 'c']
+    early, _ = profile(toy, sol, z0, PRIOR, names, skip=[])
+    monkeypatch.setattr(calibrate_profile, 'PROFILE_FAR', np.inf)
+    full, _ = profile(toy, sol, z0, PRIOR, names, skip=[])
+    assert sum(p.evaluations for p in early.values()) < sum(
+        p.evaluations for p in full.values())
+    for n in names:
+        assert early[n].fixed == full[n].fixed, n
+        rises = [early[n].rise_low, early[n].rise_high]
+        np.testing.assert_allclose(rises, [full[n].rise_low, full[n].rise_high], rtol=0.01)
+        if early[n].evaluations < full[n].evaluations:          # stopped early: fixed by far
+            assert min(rises) > PROFILE_FAR * PROFILE_CHI2, (n, rises)
+
+
+@pytest.mark.parametrize('rises, fixed, moved, kept', [
+    ((150.0, 300.0), True, 0.005, True),          # far on both sides, hardly moved
+    ((150.0, math.nan), True, 0.005, True),       # a bound ended one side
+    ((150.0, 300.0), True, 0.02, False),          # moved more than a fifth of the 5 %
+    ((50.0, 300.0), True, 0.0, False),            # one side not far
+    ((150.0, 300.0), False, 0.0, False),          # not fixed: moved again
+])
+def test_a_second_profile_keeps_only_what_was_fixed_by_far(
+        rises: tuple[float, float], fixed: bool, moved: float, kept: bool) -> None:
+    before = {'a': Profile('a', 0.95, 1.05, rises[0], rises[1], fixed, 7)}
+    out = kept_profiles(before, np.array([1.0]), np.array([1.0 + moved]), ['a'])
+    assert ('a' in out) == kept
+    if kept:
+        assert out['a'].evaluations == 0 and out['a'].rise_low == rises[0]
+
+
+def test_a_kept_profile_is_not_moved_again() -> None:
+    toy = Toy(exponentials, np.array([2.0, 1.0, 0.5]), np.full(3, 0.1), np.full(3, 4.0))
+    sol, z0 = fitted(toy)
+    first, _ = profile(toy, sol, z0, PRIOR, ['a', 'b', 'c'], skip=[])
+    theta = toy.lower + sol.x * toy.span
+    kept = kept_profiles(first, theta, theta, ['a', 'b', 'c'])
+    assert set(kept) == {'b', 'c'}                            # a is free (rises about 2)
+    again, _ = profile(toy, sol, z0, PRIOR, ['a', 'b', 'c'], skip=[], kept=kept)
+    assert again['b'] == kept['b'] and again['c'] == kept['c']
+    assert again['a'].evaluations == first['a'].evaluations
