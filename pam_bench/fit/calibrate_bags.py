@@ -185,6 +185,52 @@ def free_of_law(law: ForceLaw) -> Free:
                                f[1] == 'friction_stiffness_scale')
 
 
+LAW_FORCE_STEP = 0.01
+"""A law parameter's finite-difference step moves the law's forces over the isometric readings
+by this share of their RMS (``law_steps``)."""
+
+
+def law_steps(law: ForceLaw, free: Free, readings: Sequence[tuple[str, float, float, float]],
+              theta: np.ndarray, kv: float, l0: float) -> np.ndarray:
+    """Each free parameter's finite-difference step in z, shape (n,): ``DIFF_STEP`` (1 % of its
+    fit interval), or for a parameter of ``law`` less where that moves the law's forces more
+    than ``LAW_FORCE_STEP`` of their RMS over the isometric readings (pressure k_v u, Pa;
+    contraction x, m; l0 m) at ``theta`` (shape (n,), the start). A plug-in's interval may be
+    a placeholder for 'unbounded' (002's law: +-1e5 for a parameter near 1 N): 1 % of it is a
+    step of 2000 N, the Jacobian is blind and the fit ends where it started (docs/long_runs.md,
+    'A law with wide bounds: the fit's step scaled to its forces'). The fit's trust region is
+    scaled alike (``_local_fit``)."""
+    steps = np.full(len(free), DIFF_STEP)
+    iso = [(u, x) for kind, u, x, _ in readings if kind == 'isometric']
+    if not iso:
+        return steps
+    u, x = (np.array(c, float) for c in zip(*iso, strict=True))
+    p = kv * u
+    names = [f'{law.name}.{n}' for n in law.params]
+    rows = [i for i, f in enumerate(free) if f[0] == 'law' and f[1] in names]
+    th = np.array(law.start, float)
+    for i in rows:
+        th[names.index(free[i][1])] = theta[i]
+    with np.errstate(all='ignore'):
+        force = np.asarray(law.law(th, p, x, l0), float)
+        scale = float(np.sqrt(np.mean(force ** 2)))
+        if not (math.isfinite(scale) and scale > 0.0):
+            return steps
+        for i in rows:
+            k = names.index(free[i][1])
+            d = 1e-6 * max(abs(th[k]), 1e-6 * (free[i][3] - free[i][2]), 1e-12)
+            up, down = th.copy(), th.copy()
+            up[k] += d
+            down[k] -= d
+            slope = (np.asarray(law.law(up, p, x, l0), float)
+                     - np.asarray(law.law(down, p, x, l0), float)) / (2.0 * d)
+            rms = float(np.sqrt(np.mean(slope ** 2)))
+            if math.isfinite(rms) and rms > 0.0:
+                span = free[i][3] - free[i][2]
+                steps[i] = min(DIFF_STEP, max(LAW_FORCE_STEP * scale / rms / span, 1e-9))
+    return steps
+
+
 RISE_MARGIN = 0.99
 """A fitted gain rise is clamped to this share of the most the muscle's stability allows
 (g_r 1 MPa < k_bl, ``models.muscle``): a trial or a finite-difference step across the rule
@@ -292,6 +338,8 @@ class _Problem:
     free: Free
     left_out: tuple[int, ...]
     replay: str
+    steps: np.ndarray | None = None
+    """Each parameter's finite-difference step in z (``law_steps``; None: ``DIFF_STEP``)."""
 
     @property
     def lower(self) -> np.ndarray:
@@ -356,8 +404,10 @@ def _local_fit(problem: _Problem, z_start: np.ndarray, z_prior: np.ndarray, max_
                                                rms.items()):
             raise StopIteration
 
-    return least_squares(res, z_start, bounds=(0.0, 1.0), diff_step=DIFF_STEP, max_nfev=max_nfev,
-                         x_scale=1.0, callback=callback, ftol=FTOL, xtol=XTOL, jac=jac,
+    steps = problem.steps if problem.steps is not None else DIFF_STEP
+    return least_squares(res, z_start, bounds=(0.0, 1.0), diff_step=steps, max_nfev=max_nfev,
+                         x_scale=np.asarray(steps) / DIFF_STEP, callback=callback, ftol=FTOL,
+                         xtol=XTOL, jac=jac,
                          **({'workers': workers} if workers is not None else {}))
 
 
@@ -532,6 +582,7 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
         law = muscle.law            # the bags' own law: FREE_BAGS are the McKibben law's
     base = Bench(valve or ValveParams(), muscle or MuscleParams(), servo)
     why: dict[str, str] = {}
+    the_law: ForceLaw | None = None
     if law is not None:
         from pam_bench.config.settings import LawSettings
         from pam_bench.models.laws.zoo import force_law
@@ -568,7 +619,10 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
     z0 = np.clip((np.array([initial[n] for n in names]) - lower) / span, 0.0, 1.0)
     b0 = _bench(lower + z0 * span, base, free)
     left_out = tuple(path_sensitive(obs, b0))
-    problem = _Problem(obs, base, free, left_out, replay)
+    steps = (law_steps(the_law, free, obs.readings, lower + z0 * span,
+                       base.valve.gain_pa_per_v, base.muscle.nominal_length_m)
+             if the_law is not None else None)
+    problem = _Problem(obs, base, free, left_out, replay, steps)
     pred0 = predict(obs, b0, replay)
     noise = noise_levels(obs.readings, obs.records, servo)
     stop_at = {k: STOP_SHARE * t for k, t in verdict(rms_of(obs, pred0, left_out),
