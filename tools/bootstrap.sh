@@ -59,7 +59,7 @@ if [ "$(cat "$VENV/.stamp-msgs" 2>/dev/null)" != "$want" ]; then
   for d in "$SP"/ros_*.libs; do [ -d "$d" ] && LD_LIBRARY_PATH="$d:$LD_LIBRARY_PATH"; done
   cmake -S msg_defs -B "$BUILD" -DCMAKE_INSTALL_PREFIX="$VENV" -DCMAKE_PREFIX_PATH="$VENV" \
     -DPython3_EXECUTABLE="$VPY" -DPYTHON_EXECUTABLE="$VPY" -DBUILD_TESTING=OFF \
-    -DCMAKE_BUILD_TYPE=Release > "$BUILD/configure.log" 2>&1 \
+    -DCMAKE_BUILD_TYPE=Release -DCMAKE_UNITY_BUILD=ON > "$BUILD/configure.log" 2>&1 \
     || { tail -40 "$BUILD/configure.log"; exit 1; }
   cmake --build "$BUILD" -j 2 > "$BUILD/build.log" 2>&1 || { tail -40 "$BUILD/build.log"; exit 1; }
   cmake --install "$BUILD" > "$BUILD/install.log" 2>&1 || { tail -40 "$BUILD/install.log"; exit 1; }
