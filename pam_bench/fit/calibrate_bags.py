@@ -50,7 +50,7 @@ from scipy.optimize import least_squares
 
 from pam_bench.fit.calibrate import FitSummary, fit_report, fit_summary
 from pam_bench.fit.calibrate_init import initial_values, law_start
-from pam_bench.fit.calibrate_profile import kept_profiles, profile
+from pam_bench.fit.calibrate_profile import Profile, kept_profiles, profile
 from pam_bench.fit.calibrate_replay import (
     CONTRACTION_SCALE_M,
     FORCE_SCALE_N,
@@ -207,27 +207,27 @@ def law_steps(law: ForceLaw, free: Free, readings: Sequence[tuple[str, float, fl
     u, x = (np.array(c, float) for c in zip(*iso, strict=True))
     p = kv * u
     names = [f'{law.name}.{n}' for n in law.params]
-    rows = [i for i, f in enumerate(free) if f[0] == 'law' and f[1] in names]
+    at = {i: names.index(f[1]) for i, f in enumerate(free) if f[0] == 'law' and f[1] in names}
     th = np.array(law.start, float)
-    for i in rows:
-        th[names.index(free[i][1])] = theta[i]
+    for i, k in at.items():
+        th[k] = theta[i]
+
+    def rms(v: np.ndarray) -> float:
+        return float(np.sqrt(np.mean(np.asarray(v, float) ** 2)))
     with np.errstate(all='ignore'):
-        force = np.asarray(law.law(th, p, x, l0), float)
-        scale = float(np.sqrt(np.mean(force ** 2)))
+        scale = rms(law.law(th, p, x, l0))
         if not (math.isfinite(scale) and scale > 0.0):
             return steps
-        for i in rows:
-            k = names.index(free[i][1])
-            d = 1e-6 * max(abs(th[k]), 1e-6 * (free[i][3] - free[i][2]), 1e-12)
+        for i, k in at.items():
+            span = free[i][3] - free[i][2]
+            d = 1e-6 * max(abs(th[k]), 1e-6 * span, 1e-12)
             up, down = th.copy(), th.copy()
             up[k] += d
             down[k] -= d
-            slope = (np.asarray(law.law(up, p, x, l0), float)
-                     - np.asarray(law.law(down, p, x, l0), float)) / (2.0 * d)
-            rms = float(np.sqrt(np.mean(slope ** 2)))
-            if math.isfinite(rms) and rms > 0.0:
-                span = free[i][3] - free[i][2]
-                steps[i] = min(DIFF_STEP, max(LAW_FORCE_STEP * scale / rms / span, 1e-9))
+            slope = rms((np.asarray(law.law(up, p, x, l0), float)
+                         - np.asarray(law.law(down, p, x, l0), float)) / (2.0 * d))
+            if math.isfinite(slope) and slope > 0.0:
+                steps[i] = min(DIFF_STEP, max(LAW_FORCE_STEP * scale / slope / span, 1e-9))
     return steps
 
 
@@ -660,7 +660,7 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
     sol, more = _settled(problem, sol, z0, lower, span, max_nfev, workers)
     evaluations += more
     refits = 0
-    kept: dict[str, Any] = {}
+    kept: dict[str, Profile] = {}
     while True:                         # the profile; a lower point it found: fit on from it
         theta = lower + sol.x * span
         summary = fit_summary(names, theta, sol, span, rel_flag=0.05)
