@@ -29,6 +29,9 @@ import time
 from pam_bench.buses.errors import BusUnreachable
 from pam_bench.buses.register_map import Block, RegisterMap
 
+_HEAD = struct.Struct('>HHHB')
+"""The MBAP header: transaction, protocol, length (unit and PDU), unit."""
+
 __all__ = ['ModbusIo', 'Backoff']
 
 
@@ -73,6 +76,7 @@ class ModbusIo:
         self.out_blocks = register_map.blocks(True)
         self.round_trips_s: list[float] = []     # one per exchange since the last take
         self._tid = 0
+        self._buffer = bytearray()               # reply bytes received, not yet cut
 
     def _where(self) -> str:
         return f'Modbus server {self.host}:{self.port}'
@@ -93,6 +97,7 @@ class ModbusIo:
 
     def close(self) -> None:
         """Close the connection."""
+        self._buffer.clear()
         if self.sock is not None:
             with contextlib.suppress(OSError):
                 self.sock.close()
@@ -119,15 +124,28 @@ class ModbusIo:
     def _read_pdu(b: Block) -> bytes:
         return struct.pack('>BHH', 4 if b.register == 'input' else 3, b.address, b.count)
 
-    def _recv(self, n: int) -> bytes:
+    def _replies(self, n: int) -> list[tuple[int, int, bytes]]:
+        """The next ``n`` reply frames as (transaction, protocol, PDU), read in as few
+        receives as they arrive in (a server that answers a batch in one segment: one)."""
         assert self.sock is not None
-        buf = bytearray()
-        while len(buf) < n:
-            chunk = self.sock.recv(n - len(buf))
+        buf = self._buffer
+        out: list[tuple[int, int, bytes]] = []
+        while True:
+            while len(out) < n and len(buf) >= 7:
+                tid, pid, length, _unit = _HEAD.unpack_from(buf)
+                if not 2 <= length <= 254:
+                    raise OSError(f'reply out of step (transaction {tid}, protocol {pid}, '
+                                  f'length {length})')
+                if len(buf) < 6 + length:
+                    break
+                out.append((tid, pid, bytes(buf[7:6 + length])))
+                del buf[:6 + length]
+            if len(out) == n:
+                return out
+            chunk = self.sock.recv(4096)
             if not chunk:
                 raise OSError('connection closed by the server')
             buf += chunk
-        return bytes(buf)
 
     def _transact(self, pdus: list[bytes]) -> list[bytes]:
         """Send every request at once; the reply PDUs in the same order (module docstring)."""
@@ -138,12 +156,12 @@ class ModbusIo:
         try:
             self.sock.sendall(b''.join(f for _, f in framed))
             replies = []
-            for tid, _ in framed:
-                r_tid, pid, length, _unit = struct.unpack('>HHHB', self._recv(7))
-                if r_tid != tid or pid != 0 or not 2 <= length <= 254:
-                    raise OSError(f'reply out of step (transaction {r_tid}, protocol {pid}, '
-                                  f'length {length}; expected transaction {tid})')
-                replies.append(self._recv(length - 1))
+            for (tid, _), (r_tid, pid, pdu) in zip(framed, self._replies(len(framed)),
+                                                   strict=True):
+                if r_tid != tid or pid != 0:
+                    raise OSError(f'reply out of step (transaction {r_tid}, protocol {pid}; '
+                                  f'expected transaction {tid})')
+                replies.append(pdu)
         except OSError as exc:       # timeouts, resets, frames out of step
             raise BusUnreachable(f'{self._where()}: {exc or type(exc).__name__}') from None
         self.round_trips_s.append(time.perf_counter() - t0)

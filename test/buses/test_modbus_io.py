@@ -7,6 +7,7 @@ from __future__ import annotations
 import socket
 import struct
 import threading
+import time
 from collections.abc import Callable, Iterator
 
 import pytest
@@ -67,8 +68,8 @@ def test_an_exchange_writes_and_reads_in_one_round_trip(
 class FakeServer:
     """Answers each request as ``reply`` says (a server that misbehaves)."""
 
-    def __init__(self, reply: Reply) -> None:
-        self.reply = reply
+    def __init__(self, reply: Reply, trickle: bool = False) -> None:
+        self.reply, self.trickle = reply, trickle
         self.sock = socket.create_server(('127.0.0.1', 0))
         self.port = self.sock.getsockname()[1]
         self.thread = threading.Thread(target=self._serve, daemon=True)
@@ -98,7 +99,11 @@ class FakeServer:
                         conn.close()
                         return
                     try:
-                        conn.sendall(out)
+                        for k in range(len(out)) if self.trickle else ():
+                            conn.sendall(out[k:k + 1])     # a byte per segment
+                            time.sleep(0.0005)
+                        if not self.trickle:
+                            conn.sendall(out)
                     except OSError:             # the client gave up first: it may
                         return
 
@@ -125,8 +130,9 @@ def normal(tid: int, pdu: bytes) -> bytes:
     (lambda tid, pdu: adu(tid, pdu[:5]) if pdu[0] == 16 else adu(tid, b'\x04\x02\0\0'),
      '2 bytes for 8 registers'),
     (lambda tid, pdu: None, 'timed out'),
+    (lambda tid, pdu: struct.pack('>HHHB', tid, 0, 300, 1), 'length 300'),
     (lambda tid, pdu: b'', 'closed|reset'),       # a FIN, or an RST over unread bytes
-], ids=['transaction', 'exception', 'function', 'count', 'silent', 'hang-up'])
+], ids=['transaction', 'exception', 'function', 'count', 'silent', 'length', 'hang-up'])
 def test_a_wrong_answer_is_one_bus_error(reply: Reply, says: str) -> None:
     fake = FakeServer(reply)
     io = ModbusIo(load_register_map('daq_generic'), '127.0.0.1', fake.port, timeout_s=0.2)
@@ -134,6 +140,23 @@ def test_a_wrong_answer_is_one_bus_error(reply: Reply, says: str) -> None:
         io.connect()
         with pytest.raises(BusUnreachable, match=says):
             io.exchange({'valve_1.voltage': 1.0})
+    finally:
+        io.close()
+        fake.close()
+
+
+def test_replies_cut_anywhere_are_read_whole() -> None:
+    """The replies to one exchange may come in any number of segments (here a byte each)."""
+    rmap = load_register_map('daq_generic')
+    force = rmap.channel('load_cell_1.force')
+    assert force is not None
+    fake = FakeServer(normal, trickle=True)
+    io = ModbusIo(rmap, '127.0.0.1', fake.port, timeout_s=1.0)
+    try:
+        io.connect()
+        for _ in range(3):                        # and the next exchange stays in step
+            values = io.exchange({'valve_1.voltage': 1.0})
+            assert values['load_cell_1.force'] == rmap.decode(force, [0] * force.count)
     finally:
         io.close()
         fake.close()

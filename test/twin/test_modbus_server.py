@@ -7,6 +7,7 @@ from __future__ import annotations
 import re
 import socket
 import struct
+import time
 from collections.abc import Iterator
 
 import pytest
@@ -131,6 +132,32 @@ def test_a_malformed_header_never_stalls_the_next_request(server: ModbusServer) 
         assert sock.recv(16) == b''
     with _connect(server) as sock:                      # and the next connection is served
         assert _ask(sock, good)[7] == fc
+
+
+def test_a_frame_left_half_sent_ends_its_connection_only(server: ModbusServer,
+                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    from pam_bench.twin import modbus_server
+    monkeypatch.setattr(modbus_server, 'FRAME_TIMEOUT_S', 0.2)
+    fc, address = _readable(server)
+    good = _raw(struct.pack('>BHH', fc, address, 2), tid=11)
+    with _connect(server) as sock:
+        sock.sendall(good + good[:9])        # one whole request, then half of the next
+        reply = _exactly(sock, 7 + 2 + 4)
+        assert struct.unpack('>H', reply[:2])[0] == 11 and reply[7] == fc
+        t0 = time.monotonic()
+        assert sock.recv(16) == b''          # the half frame: dropped with its connection
+        assert 0.15 < time.monotonic() - t0 < 2.0
+    with _connect(server) as sock:
+        assert _ask(sock, good)[7] == fc
+
+
+def test_requests_sent_together_are_answered_in_order(server: ModbusServer) -> None:
+    fc, address = _readable(server)
+    reqs = [_raw(struct.pack('>BHH', fc, address, 2), tid=t) for t in (21, 22, 23)]
+    with _connect(server) as sock:
+        sock.sendall(b''.join(reqs))
+        tids = [struct.unpack('>H', _exactly(sock, 13)[:2])[0] for _ in reqs]
+    assert tids == [21, 22, 23]
 
 
 # --- LabJack's published Modbus map, line by line ------------------------------------------
