@@ -5,6 +5,9 @@ and message or result fields written for others. Add a name only with its reason
 
 _.bus_error  # kept on the network for whoever looks at a lost bus (canopen_drive._BusLost)
 _.on_message_received  # python-can's Listener interface
+_.connection_made  # asyncio's Protocol interface (the emulated DAQ's server)
+_.connection_lost  # asyncio's Protocol interface
+_.data_received  # asyncio's Protocol interface
 _.on_error  # python-can's Listener and rclpy's lifecycle callbacks
 _.RESPONSE_TIMEOUT  # canopen's SDO client setting
 _.unraisablehook  # sys hook set on interrupt
