@@ -327,6 +327,9 @@ replay: the static replay's floor (0.75-0.9 N on isometric bags of the zoo's law
 COARSE_READINGS = 400
 """Past this many readings, a first fit runs on every k-th series only (``coarse``), and the
 fit on all of them starts where it ended."""
+ZOO_READINGS = 400
+"""The law zoo's hint fits each law to at most this many isometric readings, evenly spread
+over them (a hint ranks laws; docs/long_runs.md, "The law zoo's hint on a spread subset")."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -534,12 +537,15 @@ def _unfixed(names: list[str], data_jac: np.ndarray, flags: Sequence[str],
 
 def _law_zoo(obs: Observations, kv: float, l0: float) -> dict[str, float]:
     """RMS (N) of every law of the zoo fitted statically to the isometric readings (the
-    extraction's fit: ``analysis.force_models``), best first: which law a bag looks like."""
+    extraction's fit: ``analysis.force_models``; at most ``ZOO_READINGS`` of them, evenly
+    spread), best first: which law a bag looks like."""
     from pam_bench.analysis.force_models import fit_force_models
     from pam_bench.models.laws.zoo import all_laws
     iso = [(u, x, f) for k, u, x, f in obs.readings if k == 'isometric']
     if len(iso) < 4:
         return {}
+    if len(iso) > ZOO_READINGS:
+        iso = [iso[i] for i in np.linspace(0, len(iso) - 1, ZOO_READINGS).round().astype(int)]
     u, x, f = (np.array(c, float) for c in zip(*iso, strict=True))
     fits = fit_force_models(kv * u, x, f, l0, tuple(all_laws()))
     return dict(sorted(((m['model'], float(m['rmse_N'])) for m in fits), key=lambda t: t[1]))
