@@ -411,7 +411,17 @@ def results(r: dict[str, Any]) -> list[Row]:
         rows.append((f"{run['scene']} through the buses vs lock-step (seed 3)",
                      '<= 10 N, 0.2 mm', f"{run['max_force_n']:.2f} N, "
                      f"{run['max_contraction_m'] * 1e3:.3f} mm", commit_of(r, 'buses')))
+    if 'daq_modbus' in run:
+        d = run['daq_modbus']
+        rows.append((f"{run['scene']} through the buses: daq_modbus rate, late share",
+                     '>= 990 Hz, < 1 %', f"{d['rate_hz']:.0f} Hz, {d['late_share'] * 100:.2f} %",
+                     commit_of(r, 'buses')))
     sv = b.get('servo') or {}
+    if 'torque_servo' in sv:
+        t = sv['torque_servo']
+        rows.append((f"{sv['scene']} through the buses: torque servo period p99, late share",
+                     '<= 1.1 ms, <= 0.5 %', f"{t['p99_ms']:.3f} ms, {t['late_share'] * 100:.2f} %",
+                     commit_of(r, 'buses')))
     if 'bus_rms_nm' in sv:
         rows.append((f"{sv['scene']} through the buses: torque RMS against its twin",
                      '<= 0.1 N m', f"{abs(sv['bus_rms_nm'] - sv['twin_rms_nm']):.3f} N m "
