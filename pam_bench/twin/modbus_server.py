@@ -23,7 +23,7 @@ Messaging on TCP/IP Implementation Guide V1.0b):
 The server runs an asyncio loop in a thread of its own on 127.0.0.1 (or ``host``), one protocol
 object per connection that cuts the stream into frames itself (no stream reader, no timeout
 task per frame: the emulated DAQ's thread took 159 us of CPU per exchange that way, see
-docs/long_runs.md, "The emulated DAQ's server made cheaper, and real-time again"); the
+docs/long_runs.md, "The emulated DAQ's server made cheaper, and real-time tried again"); the
 registers are the caller's, through ``read`` and ``write``.
 """
 

@@ -123,7 +123,7 @@ def main(argv: list[str] | None = None) -> None:
     # the interpreter while the ticks ran, and the DAQ's exchange took 2-5 ms instead of 0.4.
     sys.setswitchinterval(SWITCH_INTERVAL_S)
     # --priority: the bench's threads (started below, they inherit it) SCHED_FIFO where
-    # allowed (the bring-up asks ``bringup.buses.EMULATED_PRIORITY``, below the drivers).
+    # allowed; the bring-up leaves it at 0 (``bringup.buses.DRIVER_PRIORITY`` says why).
     print(f'emulated buses: {set_realtime_priority(args.priority)}', flush=True)
     stop = threading.Event()
     signal.signal(signal.SIGINT, lambda *_: stop.set())
