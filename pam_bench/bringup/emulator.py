@@ -69,6 +69,7 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
         fail_line,
         install_interrupt_handlers,
         reject_undeclared,
+        serve_services,
     )
     from pam_bench.runtime.profiling import profiled
     from pam_bench.runtime.scheduling import set_realtime_priority
@@ -104,6 +105,7 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
             nodes.append(node)
         periods = [round(n.take_wall_ticks() * 1e9) for n in nodes]
         due: list[int | None] = [None] * len(nodes)
+        services = [serve_services(n) for n in nodes]
         now_ns = nodes[0].now_ns
         behind_ns = round(MAX_BEHIND_S * 1e9)
 
@@ -129,10 +131,15 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
                     node.dropped_ticks += missed
                     due[i] = d + missed * periods[i]
 
+        def poll() -> None:
+            bus.refresh()
+            for serve in services:
+                serve()
+
         if priority:
             nodes[0].get_logger().info(f'emulator: {set_realtime_priority(priority)}')
         with profiled('emulator'):
-            deadline_spin(nodes, tick, min(periods) * 1e-9, bus.refresh, poll_period_s=0.02)
+            deadline_spin(nodes, tick, min(periods) * 1e-9, poll, poll_period_s=0.02)
     except KeyboardInterrupt:
         pass
     finally:

@@ -430,7 +430,7 @@ def record(out_dir: str, topic_names: list[str], record_all: bool, compress: boo
     import rclpy
     from rclpy.parameter import Parameter
 
-    from pam_bench.runtime.process import install_interrupt_handlers, lean_spin
+    from pam_bench.runtime.process import install_interrupt_handlers, lean_spin, serve_services
     install_interrupt_handlers()
     rclpy.init()
     node = None
@@ -446,7 +446,7 @@ def record(out_dir: str, topic_names: list[str], record_all: bool, compress: boo
             Parameter('topic_names', value=list(topic_names) or ['']),
             Parameter('event_topics', value=['/diagnostics:diagnostic_msgs/msg/'
                                              'DiagnosticArray'] if record_all else [''])])
-        lean_spin(node, graceful=True)
+        lean_spin(node, graceful=True, poll=serve_services(node))
     except KeyboardInterrupt:
         pass
     finally:

@@ -28,18 +28,25 @@ from pam_bench.runtime.scheduling import set_realtime_priority
 from pam_bench.vocabulary.errors import PamBenchError
 from pam_bench.vocabulary.params import check_known
 
-__all__ = ['lean_spin', 'deadline_spin', 'spin', 'answer_requests', 'reject_undeclared',
+__all__ = ['lean_spin', 'deadline_spin', 'spin', 'serve_services', 'reject_undeclared',
            'install_interrupt_handlers', 'fail_line', 'start_node', 'run_node']
 
 
-def answer_requests(srv: Any) -> None:
-    """Answer every request waiting at the service ``srv``, in order."""
-    srv_type: Any = srv.srv_type
-    while True:
-        request, header = srv.handle.service_take_request(srv_type.Request)
-        if header is None:
-            return
-        srv.send_response(srv.callback(request, srv_type.Response()), header)
+def serve_services(node: Node) -> Callable[[], None]:
+    """A poll that answers ``node``'s pending service requests (parameter services) without
+    blocking and without an executor, so the lean loops below keep their subscriptions to
+    themselves."""
+
+    def serve() -> None:
+        for srv in node.services:
+            while True:
+                srv_type: Any = srv.srv_type
+                request, header = srv.handle.service_take_request(srv_type.Request)
+                if header is None:
+                    break
+                srv.send_response(srv.callback(request, srv_type.Response()), header)
+
+    return serve
 
 
 def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
@@ -58,14 +65,12 @@ def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
     more than a period past its deadline (the process stalled while it waited) serves the
     messages that came meanwhile before it ticks too: a tick first would judge the inputs by
     their state before the stall (on a loaded machine a sequencer aborted on an encoder 0.53 s
-    'stale' while the recorder had the encoder's messages without a gap). The nodes'
-    services (parameters, lifecycle) are in the wait set too and answered when a request
-    comes (polling a dozen services every 5 ms cost a 250 Hz driver a fifth of its
-    interpreter time). ``poll`` (a bus refresh) runs every ``poll_period_s``. Returns when
-    ``should_stop()`` is true after a tick. SIGINT and SIGTERM end the loop between ticks,
-    never inside one (a tick cut between its publishes would leave a device's outputs half
-    sent), and then raise KeyboardInterrupt. rclpy's timer against this loop:
-    ``BENCHMARKS.md``, "The bench on a wall clock".
+    'stale' while the recorder had the encoder's messages without a gap). ``poll``
+    (services, a bus refresh) runs every ``poll_period_s``. Returns when ``should_stop()`` is
+    true after a tick. SIGINT and SIGTERM end the loop between ticks, never inside one (a tick
+    cut between its publishes would leave a device's outputs half sent), and then raise
+    KeyboardInterrupt. rclpy's timer against
+    this loop: ``BENCHMARKS.md``, "The bench on a wall clock".
     """
     from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
     from rclpy.signals import SignalHandlerGuardCondition
@@ -73,10 +78,8 @@ def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
     ctx = nodes[0].context
     subs = [s for n in nodes for s in n.subscriptions]
     by_ptr = {s.handle.pointer: s for s in subs}
-    services = [s for n in nodes for s in n.services]
-    srv_by_ptr = {s.handle.pointer: s for s in services}
     guard = SignalHandlerGuardCondition(context=ctx)
-    wait_set = _rclpy.WaitSet(len(subs), 1, 0, 0, len(services), 0, ctx.handle)
+    wait_set = _rclpy.WaitSet(len(subs), 1, 0, 0, 0, 0, ctx.handle)
     period = max(round(period_s * 1e9), 1)
     poll_period = round(poll_period_s * 1e9)
     # Everything built so far (modules, nodes, models) is long-lived: move it out of the
@@ -113,16 +116,12 @@ def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
             wait_set.clear_entities()
             for sub in subs:
                 wait_set.add_subscription(sub.handle)
-            for srv in services:
-                wait_set.add_service(srv.handle)
             wait_set.add_guard_condition(guard.handle)
             wake = deadline if poll is None else min(deadline, next_poll)
             wait_set.wait(0 if serve_first else max(wake - now, 0))
             serve_first = False
             if guard.handle.pointer in wait_set.get_ready_entities('guard_condition'):
                 break
-            for ptr in wait_set.get_ready_entities('service'):
-                answer_requests(srv_by_ptr[ptr])
             for ptr in wait_set.get_ready_entities('subscription'):
                 sub = by_ptr[ptr]
                 while True:
@@ -145,9 +144,8 @@ def lean_spin(node: Node, graceful: bool = False,
     One wait set over the node's subscriptions and the signal guard condition; at every wake-up
     every ready subscription is drained. rclpy's SingleThreadedExecutor rebuilds its wait set
     and schedules a task per callback, which dominates the cost of a lock-step exchange.
-    The node's services are in the wait set as well, answered when a request comes. A node may
-    define ``lean_poll()``: it is called after every wake-up and at least every 50 ms (the
-    place for what timers would do), as is ``poll``.
+    A node may define ``lean_poll()``: it is called after every wake-up and at least every
+    50 ms (the place for what timers would do), as is ``poll`` (services: ``serve_services``).
     A subscription whose callback has ``with_info`` set gets ``(message, info)``: the
     message info of the middleware (receive time, publication sequence number). A node that
     creates or destroys subscriptions while it spins bumps ``subscriptions_version``.
@@ -163,10 +161,8 @@ def lean_spin(node: Node, graceful: bool = False,
     ctx = node.context
     subs = list(node.subscriptions)
     by_ptr = {s.handle.pointer: s for s in subs}
-    services = list(node.services)
-    srv_by_ptr = {s.handle.pointer: s for s in services}
     guard = SignalHandlerGuardCondition(context=ctx)
-    wait_set = _rclpy.WaitSet(len(subs), 1, 0, 0, len(services), 0, ctx.handle)
+    wait_set = _rclpy.WaitSet(len(subs), 1, 0, 0, 0, 0, ctx.handle)
     polls = [p for p in (getattr(node, 'lean_poll', None), poll) if p is not None]
     with_info = {s.handle.pointer for s in subs if getattr(s.callback, 'with_info', False)}
     version = getattr(node, 'subscriptions_version', 0)
@@ -182,18 +178,14 @@ def lean_spin(node: Node, graceful: bool = False,
                 by_ptr = {s.handle.pointer: s for s in subs}
                 with_info = {s.handle.pointer for s in subs
                              if getattr(s.callback, 'with_info', False)}
-                wait_set = _rclpy.WaitSet(len(subs), 1, 0, 0, len(services), 0, ctx.handle)
+                wait_set = _rclpy.WaitSet(len(subs), 1, 0, 0, 0, 0, ctx.handle)
             wait_set.clear_entities()
             for sub in subs:
                 wait_set.add_subscription(sub.handle)
-            for srv in services:
-                wait_set.add_service(srv.handle)
             wait_set.add_guard_condition(guard.handle)
             wait_set.wait(50_000_000)
             if guard.handle.pointer in wait_set.get_ready_entities('guard_condition'):
                 raise KeyboardInterrupt
-            for ptr in wait_set.get_ready_entities('service'):
-                answer_requests(srv_by_ptr[ptr])
             for ptr in wait_set.get_ready_entities('subscription'):
                 sub = by_ptr[ptr]
                 info = ptr in with_info
@@ -318,15 +310,16 @@ def spin(node: Any) -> int:
     mode = node.spin_mode()
     if os.environ.get('PAM_BENCH_EXECUTOR') == 'single':
         mode = Spin.EXECUTOR
+    services = serve_services(node) if list(node.services) else None
     if mode == Spin.DEADLINE:
         priority = getattr(node.settings, 'realtime_priority', 0)
         if priority:
             node.get_logger().info(f'control loop: {set_realtime_priority(priority)}')
         deadline_spin([node], node.wall_tick, node.take_wall_ticks(),
-                      should_stop=lambda: node.exit_code is not None)
+                      serve_services(node), should_stop=lambda: node.exit_code is not None)
         return int(node.exit_code or 0)
     if mode == Spin.LEAN:
-        lean_spin(node, graceful=node.GRACEFUL_STOP)
+        lean_spin(node, graceful=node.GRACEFUL_STOP, poll=services)
         return 0
     from rclpy.executors import SingleThreadedExecutor
     executor = SingleThreadedExecutor(context=node.context)
