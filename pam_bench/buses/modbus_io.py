@@ -29,10 +29,11 @@ import time
 from pam_bench.buses.errors import BusUnreachable
 from pam_bench.buses.register_map import Block, RegisterMap
 
-_HEAD = struct.Struct('>HHHB')
-"""The MBAP header: transaction, protocol, length (unit and PDU), unit."""
+MBAP = struct.Struct('>HHHB')
+"""The MBAP header: transaction, protocol, length (unit and PDU), unit (the master's and the
+emulated server's one layout)."""
 
-__all__ = ['ModbusIo', 'Backoff']
+__all__ = ['ModbusIo', 'Backoff', 'MBAP']
 
 
 class Backoff:
@@ -132,7 +133,7 @@ class ModbusIo:
         out: list[tuple[int, int, bytes]] = []
         while True:
             while len(out) < n and len(buf) >= 7:
-                tid, pid, length, _unit = _HEAD.unpack_from(buf)
+                tid, pid, length, _unit = MBAP.unpack_from(buf)
                 if not 2 <= length <= 254:
                     raise OSError(f'reply out of step (transaction {tid}, protocol {pid}, '
                                   f'length {length})')

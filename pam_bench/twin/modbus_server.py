@@ -36,6 +36,7 @@ import threading
 from collections.abc import Callable
 
 from pam_bench.buses.errors import BusUnreachable
+from pam_bench.buses.modbus_io import MBAP
 from pam_bench.buses.register_map import RegisterMap
 
 __all__ = ['ModbusServer', 'FRAME_TIMEOUT_S', 'ILLEGAL_FUNCTION', 'ILLEGAL_ADDRESS',
@@ -50,8 +51,6 @@ Read = Callable[[str, int], int]
 """(register kind 'input' or 'holding', address) -> the 16-bit word there."""
 Write = Callable[[int, list[int]], None]
 """(first address, words) written to holding registers."""
-_HEAD = struct.Struct('>HHHB')
-"""The MBAP header: transaction, protocol, length (unit and PDU), unit."""
 
 
 class ModbusServer:
@@ -216,7 +215,7 @@ class _Connection(asyncio.Protocol):
         replies: list[bytes] = []
         framed = False
         while len(buf) >= 7:
-            tid, pid, length, unit = _HEAD.unpack_from(buf)
+            tid, pid, length, unit = MBAP.unpack_from(buf)
             if not 2 <= length <= 254:           # no frame can follow: the stream is lost
                 self._send(replies)
                 self.transport.close()
@@ -230,7 +229,7 @@ class _Connection(asyncio.Protocol):
             if pid != 0:
                 continue                         # not Modbus: dropped, unanswered
             reply = self.server.answer(pdu)
-            replies.append(_HEAD.pack(tid, 0, len(reply) + 1, unit) + reply)
+            replies.append(MBAP.pack(tid, 0, len(reply) + 1, unit) + reply)
         self._send(replies)
         if not buf:
             self._stop_timer()

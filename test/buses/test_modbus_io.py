@@ -99,10 +99,11 @@ class FakeServer:
                         conn.close()
                         return
                     try:
-                        for k in range(len(out)) if self.trickle else ():
-                            conn.sendall(out[k:k + 1])     # a byte per segment
-                            time.sleep(0.0005)
-                        if not self.trickle:
+                        if self.trickle:
+                            for k in range(len(out)):
+                                conn.sendall(out[k:k + 1])     # a byte per segment
+                                time.sleep(0.0005)
+                        else:
                             conn.sendall(out)
                     except OSError:             # the client gave up first: it may
                         return
