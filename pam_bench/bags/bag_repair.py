@@ -44,6 +44,7 @@ from pam_bench.bags.splitwriter import (
 )
 from pam_bench.bags.types import bench_typestore
 from pam_bench.vocabulary.outputs import claim_output, seal_output
+from pam_bench.vocabulary.yaml_io import load_written
 
 __all__ = ['RepairReport', 'FileScan', 'scan_file', 'repair_bag', 'OLD_METADATA']
 
@@ -145,7 +146,6 @@ def scan_file(path: pathlib.Path) -> FileScan:
 def _rebuild(records: list[Any], out: pathlib.Path, kept: dict[str, int]) -> dict[str, Any]:
     """Write ``records`` as a one-file bag in ``out``; count them in ``kept``; return the
     rosbag2 metadata of that file."""
-    import yaml
     from mcap.records import Channel, Schema
     from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
     store = bench_typestore()
@@ -179,24 +179,22 @@ def _rebuild(records: list[Any], out: pathlib.Path, kept: dict[str, int]) -> dic
                 kept[ch.topic] = kept.get(ch.topic, 0) + 1
     finally:
         writer.close()
-    meta = yaml.safe_load((out / 'metadata.yaml').read_text(encoding='utf-8'))
+    meta = load_written((out / 'metadata.yaml').read_text(encoding='utf-8'))
     return dict(meta['rosbag2_bagfile_information'])
 
 
 def _old_info(path: pathlib.Path) -> dict[str, Any]:
     """The bag's metadata.yaml (its rosbag2_bagfile_information), {} when none is readable."""
-    import yaml
     try:
-        data = yaml.safe_load((path / 'metadata.yaml').read_text(encoding='utf-8'))
+        data = load_written((path / 'metadata.yaml').read_text(encoding='utf-8'))
         return dict((data or {}).get('rosbag2_bagfile_information') or {})
     except Exception:  # noqa: BLE001 - unreadable metadata: the repair rebuilds it
         return {}
 
 
 def _custom_of(yaml_text: str) -> dict[str, str]:
-    import yaml
     try:
-        data: Any = yaml.safe_load(yaml_text) or {}
+        data: Any = load_written(yaml_text) or {}
         info: Any = data.get('rosbag2_bagfile_information', data)
         return {str(k): str(v) for k, v in (info.get('custom_data') or {}).items()}
     except Exception:  # noqa: BLE001 - a damaged record: nothing from it

@@ -12,10 +12,9 @@ from __future__ import annotations
 import pathlib
 from typing import Any
 
-import yaml
-
 from pam_bench.bags.bagread import open_bag
 from pam_bench.bags.errors import BagError
+from pam_bench.vocabulary.yaml_io import load_written
 
 __all__ = ['RUN_KEY', 'END_KEY', 'bag_info', 'run_of_bag']
 
@@ -23,10 +22,10 @@ RUN_KEY = 'pam_bench.run'
 END_KEY = 'pam_bench.end'
 
 
-def _custom(path: pathlib.Path) -> dict[str, str]:
-    meta = yaml.safe_load((path / 'metadata.yaml').read_text(encoding='utf-8')) or {}
-    info = meta.get('rosbag2_bagfile_information', {})
-    return dict(info.get('custom_data') or {})
+def _info(path: pathlib.Path) -> dict[str, Any]:
+    """The rosbag2_bagfile_information of a bag's metadata.yaml."""
+    meta = load_written((path / 'metadata.yaml').read_text(encoding='utf-8')) or {}
+    return dict(meta.get('rosbag2_bagfile_information') or {})
 
 
 def run_of_bag(path: str | pathlib.Path) -> dict[str, Any]:
@@ -38,11 +37,11 @@ def run_of_bag(path: str | pathlib.Path) -> dict[str, Any]:
     """
     path = pathlib.Path(path)
     open_bag(path).close()
-    text = _custom(path).get(RUN_KEY)
+    text = (_info(path).get('custom_data') or {}).get(RUN_KEY)
     if not text:
         raise BagError(f'{path}: no run description (recorded by an older pam_bench or '
                        'another recorder)')
-    return dict(yaml.safe_load(text))
+    return dict(load_written(text))
 
 
 def bag_info(path: str | pathlib.Path) -> dict[str, Any]:
@@ -65,12 +64,12 @@ def bag_info(path: str | pathlib.Path) -> dict[str, Any]:
         start = reader.start_time * 1e-9 if reader.message_count else 0.0
     finally:
         reader.close()
-    meta = yaml.safe_load((path / 'metadata.yaml').read_text(encoding='utf-8'))
-    names = meta['rosbag2_bagfile_information']['relative_file_paths']
+    info = _info(path)
+    names = info['relative_file_paths']
     files = [(n, (path / n).stat().st_size) for n in names if (path / n).exists()]
-    custom = _custom(path)
-    run = yaml.safe_load(custom[RUN_KEY]) if RUN_KEY in custom else None
-    end = yaml.safe_load(custom[END_KEY]) if END_KEY in custom else None
+    custom = dict(info.get('custom_data') or {})
+    run = load_written(custom[RUN_KEY]) if RUN_KEY in custom else None
+    end = load_written(custom[END_KEY]) if END_KEY in custom else None
     return {'bag': str(path), 'run': run, 'end': end, 'duration_s': duration,
             'start_s': start, 'topics': topics, 'files': files,
             'compression': _compression(path / files[0][0]) if files else ''}

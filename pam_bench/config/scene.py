@@ -126,7 +126,7 @@ def _installed_laws_only(values: dict[str, Any], name: str) -> dict[str, Any]:
     if not isinstance(laws, dict):
         return values
     known = {f.name for f in dataclasses.fields(LawSettings)}
-    missing = sorted(set(laws) - known)
+    missing = sorted(set(laws) - known, key=str)
     if not missing:
         return values
     muscle = values.get('muscle')

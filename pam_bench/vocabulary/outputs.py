@@ -90,8 +90,10 @@ def _legacy_bag_files(path: pathlib.Path) -> set[str] | None:
     if 'pam_bench.run' not in text:
         return None
     import yaml
+
+    from pam_bench.vocabulary.yaml_io import load_written
     try:
-        info = (yaml.safe_load(text) or {}).get('rosbag2_bagfile_information', {})
+        info = (load_written(text) or {}).get('rosbag2_bagfile_information', {})
         names = [str(n) for n in info.get('relative_file_paths') or []]
     except (yaml.YAMLError, AttributeError):
         return None

@@ -199,7 +199,7 @@ def check_known(keys: Iterable[str], known: Iterable[str], where: str, prefix: s
         ParameterError: names the unknown key and the nearest known one.
     """
     known = list(known)
-    unknown = sorted(set(keys) - set(known))
+    unknown = sorted(set(keys) - set(known), key=str)
     if not unknown:
         return
     key = unknown[0]
@@ -221,10 +221,10 @@ def from_mapping(cls: type[T], values: Mapping[str, Any] | None, prefix: str = '
     """
     values = dict(values or {})
     fields = {f.name: f for f in dataclasses.fields(cls)}   # type: ignore[arg-type]
-    unknown = sorted(set(values) - set(fields))
+    unknown = sorted(set(values) - set(fields), key=str)
     if unknown:
         raise ParameterError(f'unknown setting {quoted(prefix + str(unknown[0]))} '
-                             f'({hint(unknown[0], fields, prefix)})')
+                             f'({hint(str(unknown[0]), fields, prefix)})')
     kwargs = {}
     for k, v in values.items():
         sec = _section_of(fields[k])
