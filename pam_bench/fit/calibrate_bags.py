@@ -50,7 +50,7 @@ from scipy.optimize import least_squares
 
 from pam_bench.fit.calibrate import FitSummary, fit_report, fit_summary
 from pam_bench.fit.calibrate_init import initial_values, law_start
-from pam_bench.fit.calibrate_profile import Profile, kept_profiles, profile
+from pam_bench.fit.calibrate_profile import Profile, kept_profiles, profile, walk
 from pam_bench.fit.calibrate_replay import (
     CONTRACTION_SCALE_M,
     FORCE_SCALE_N,
@@ -672,12 +672,15 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
         summary = fit_summary(names, theta, sol, span, rel_flag=0.05)
         summary['flags'] = _unfixed(names, sol.jac[:-len(names)], summary['flags'],
                                     sol.fun[:-len(names)], theta, span)
-        profiles, better = profile(problem, sol, z0, PRIOR_WEIGHT, names, summary['flags'],
-                                   workers, kept)
+        profiles, better, lowest = profile(problem, sol, z0, PRIOR_WEIGHT, names,
+                                           summary['flags'], workers, kept)
         evaluations += sum(p.evaluations for p in profiles.values())
         if better is None or refits == PROFILE_REFITS:
             break
         refits += 1
+        if lowest is not None:
+            better, spent = walk(lowest, better)
+            evaluations += spent
         on = _local_fit(problem, better, z0, min(max_nfev, SETTLE_NFEV), workers)
         evaluations += int(on.nfev)
         if on.cost >= sol.cost:

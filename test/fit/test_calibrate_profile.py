@@ -20,6 +20,7 @@ from pam_bench.fit.calibrate_profile import (
     Profile,
     kept_profiles,
     profile,
+    walk,
 )
 
 T = np.linspace(0.0, 1.0, 40)
@@ -67,7 +68,7 @@ def test_a_linear_models_rise_is_the_closed_form() -> None:
     toy = Toy(linear, np.array([0.05, 0.1]), np.zeros(2), np.array([2.0, 4.0]))
     sol, z0 = fitted(toy)
     names = ['a', 'b']
-    out, better = profile(toy, sol, z0, PRIOR, names, skip=[])
+    out, better, _ = profile(toy, sol, z0, PRIOR, names, skip=[])
     jac = np.asarray(sol.jac)
     inv = np.linalg.inv(jac.T @ jac)
     data = np.asarray(sol.fun)[:-2]
@@ -85,7 +86,7 @@ def test_a_linear_models_rise_is_the_closed_form() -> None:
 def test_a_flat_direction_is_flagged_with_its_range() -> None:
     toy = Toy(flat, np.array([1.0, 2.0, 3.0]), np.zeros(3), np.array([2.0, 4.0, 6.0]))
     sol, z0 = fitted(toy)
-    out, better = profile(toy, sol, z0, PRIOR, ['a', 'b', 'c'], skip=[])
+    out, better, _ = profile(toy, sol, z0, PRIOR, ['a', 'b', 'c'], skip=[])
     theta = toy.lower + sol.x * toy.span
     assert out['a'].fixed and out['b'].fixed
     assert not out['c'].fixed                               # c moves the data by 1e-7 T^2
@@ -98,7 +99,7 @@ def test_a_flat_direction_is_flagged_with_its_range() -> None:
 def test_a_curved_valley_of_a_product_flags_both_factors_and_not_the_third() -> None:
     toy = Toy(product, np.array([2.0, 3.0, 1.0]), np.full(3, 0.5), np.full(3, 4.0))
     sol, z0 = fitted(toy)
-    out, better = profile(toy, sol, z0, PRIOR, ['a', 'b', 'c'], skip=[])
+    out, better, _ = profile(toy, sol, z0, PRIOR, ['a', 'b', 'c'], skip=[])
     assert not out['a'].fixed and not out['b'].fixed
     assert out['c'].fixed
     assert out['a'].evaluations >= 1                         # evaluated, not only predicted
@@ -107,7 +108,7 @@ def test_a_curved_valley_of_a_product_flags_both_factors_and_not_the_third() -> 
 def test_skipped_names_and_bounds_are_left_out() -> None:
     toy = Toy(flat, np.array([1.0, 2.0, 5.98]), np.zeros(3), np.array([2.0, 4.0, 6.0]))
     sol, z0 = fitted(toy)
-    out, _ = profile(toy, sol, z0, PRIOR, ['a', 'b', 'c'], skip=['a'])
+    out, _, _ = profile(toy, sol, z0, PRIOR, ['a', 'b', 'c'], skip=['a'])
     assert set(out) == {'b', 'c'}
     theta_c = toy.lower[2] + sol.x[2] * toy.span[2]
     if theta_c * (1 + PROFILE_MOVE) > 6.0:                   # the bound ends that side
@@ -125,10 +126,61 @@ def test_a_fit_stopped_short_of_its_minimum_is_shown_the_lower_point() -> None:
 
     class Short:
         x, fun, jac = z_off, r, sol.jac
-    _, better = profile(toy, Short(), z0, PRIOR, ['a', 'b'], skip=[])
+    _, better, _ = profile(toy, Short(), z0, PRIOR, ['a', 'b'], skip=[])
     assert better is not None
     lower = np.concatenate([toy.data(better), PRIOR * (better - z0)])
     assert float(lower @ lower) < float(r @ r)
+
+
+T_LONG = np.linspace(0.0, 1.0, 2000)
+NOISE_LONG = np.random.default_rng(5).normal(0.0, 0.01, T_LONG.size)
+
+
+@dataclasses.dataclass(frozen=True)
+class CurvedValley:
+    """Many readings of a model whose cost has a narrow, curved valley (b = a^2) with a weak
+    slope along it (its minimum near a = 1.3 with this noise and prior): a fit left far along
+    the valley is many noise variances above the minimum, and a straight step leaves the floor.
+    """
+
+    lower: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(2))
+    span: np.ndarray = dataclasses.field(default_factory=lambda: np.full(2, 4.0))
+
+    @staticmethod
+    def model(theta: np.ndarray) -> np.ndarray:
+        return 20.0 * (theta[1] - theta[0] ** 2) * T_LONG + 0.018 * theta[0] * T_LONG ** 2
+
+    def data(self, z: np.ndarray) -> np.ndarray:
+        theta = self.lower + z * self.span
+        return self.model(theta) - (self.model(np.ones(2)) + NOISE_LONG)
+
+
+def test_the_walk_goes_down_a_curved_valley_the_profile_found() -> None:
+    """A fit one step from a point 40 % along a curved valley (a at 1.4 times its minimum, b
+    on the floor): the profile's lowest move (5 %, the other refitted by chord steps) is
+    still tens of noise variances above the minimum; the walk makes that move again while
+    the cost falls by more than ``PROFILE_CHI2`` and ends within it of the minimum, for at
+    most ``PROFILE_STEPS`` evaluations a move and one to start."""
+    toy = CurvedValley()
+    z0 = np.full(2, 0.5)
+
+    def res(z: np.ndarray) -> np.ndarray:
+        return np.concatenate([toy.data(z), PRIOR * (z - z0)])
+
+    def rise(z: np.ndarray) -> float:
+        return (float(res(z) @ res(z)) - float(res(best.x) @ res(best.x))) / move.s2
+
+    best = least_squares(res, z0, bounds=(0.0, 1.0), xtol=1e-12, ftol=1e-12, gtol=1e-12)
+    a, b = toy.lower + best.x * toy.span
+    theta_off = np.array([1.4 * a, (1.4 * a) ** 2 - a ** 2 + b])
+    short = least_squares(res, (theta_off - toy.lower) / toy.span, bounds=(0.0, 1.0),
+                          max_nfev=1)
+    _, better, move = profile(toy, short, z0, PRIOR, ['a', 'b'], skip=[])
+    assert better is not None and move is not None
+    end, used = walk(move, better)
+    assert rise(better) > 5 * PROFILE_CHI2
+    assert rise(end) < PROFILE_CHI2
+    assert used <= 1 + calibrate_profile.WALK_MOVES * calibrate_profile.PROFILE_STEPS
 
 
 def exponentials(theta: np.ndarray) -> np.ndarray:
@@ -142,9 +194,9 @@ def test_a_parameter_fixed_by_far_stops_early_with_the_same_verdict(
     toy = Toy(exponentials, np.array([2.0, 1.0, 0.5]), np.full(3, 0.1), np.full(3, 4.0))
     sol, z0 = fitted(toy)
     names = ['a', 'b', 'c']
-    early, _ = profile(toy, sol, z0, PRIOR, names, skip=[])
+    early, _, _ = profile(toy, sol, z0, PRIOR, names, skip=[])
     monkeypatch.setattr(calibrate_profile, 'PROFILE_FAR', np.inf)
-    full, _ = profile(toy, sol, z0, PRIOR, names, skip=[])
+    full, _, _ = profile(toy, sol, z0, PRIOR, names, skip=[])
     assert sum(p.evaluations for p in early.values()) < sum(
         p.evaluations for p in full.values())
     for n in names:
@@ -174,10 +226,10 @@ def test_a_second_profile_keeps_only_what_was_fixed_by_far(
 def test_a_kept_profile_is_not_moved_again() -> None:
     toy = Toy(exponentials, np.array([2.0, 1.0, 0.5]), np.full(3, 0.1), np.full(3, 4.0))
     sol, z0 = fitted(toy)
-    first, _ = profile(toy, sol, z0, PRIOR, ['a', 'b', 'c'], skip=[])
+    first, _, _ = profile(toy, sol, z0, PRIOR, ['a', 'b', 'c'], skip=[])
     theta = toy.lower + sol.x * toy.span
     kept = kept_profiles(first, theta, theta, ['a', 'b', 'c'])
     assert set(kept) == {'b', 'c'}                            # a is free (rises about 2)
-    again, _ = profile(toy, sol, z0, PRIOR, ['a', 'b', 'c'], skip=[], kept=kept)
+    again, _, _ = profile(toy, sol, z0, PRIOR, ['a', 'b', 'c'], skip=[], kept=kept)
     assert again['b'] == kept['b'] and again['c'] == kept['c']
     assert again['a'].evaluations == first['a'].evaluations
