@@ -22,8 +22,12 @@ how, and how the residuals are scaled); the fit starts from values read off the 
   flagged parameter reaches ``JOINT_CORRELATION``. Every parameter left fixed then has its
   profile taken (``fit.calibrate_profile``): moved 5 % either way with the others refitted, a
   rise of the cost within the noise flags it too, with the range tried; a move that found the
-  cost well below the fit's shows the fit stopped short, and it fits on from there (at most
-  ``PROFILE_REFITS`` times).
+  cost well below the fit's shows the fit stopped short, and it walks on the way that move
+  went (``calibrate_profile.walk``) and fits on from there (at most ``PROFILE_REFITS`` times).
+- A bag of more than ``COARSE_READINGS`` readings is first fitted on every k-th series
+  (``coarse``), and that fit is profiled and walked the same way before the fit on every
+  reading starts from it: a curved valley (a 10 mm muscle's g_m) is walked at the subset's
+  cost per evaluation instead of crawled by the whole bag's Jacobians.
 - Settling: when the Gauss-Newton step from the fit's end would still move a parameter by more
   than ``SETTLED_STEP`` of its value, the fit goes on for a few evaluations without the early
   stop, its Jacobian by central differences (``SETTLE_JAC``; ``_settled``). Jacobian steps are
@@ -642,6 +646,12 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
         sol = _local_fit(part, z0, z0, max_nfev, workers, stop_at=stop_at)
         evaluations += int(sol.nfev)
         z_first = sol.x
+        coarse_profiles, lower_z, move = profile(part, sol, z0, PRIOR_WEIGHT, names, [],
+                                                 workers)
+        evaluations += sum(p.evaluations for p in coarse_profiles.values())
+        if lower_z is not None and move is not None:
+            z_first, spent = walk(move, lower_z)
+            evaluations += spent
     sol = _local_fit(problem, z_first, z0, max_nfev, workers, stop_at=stop_at)
     evaluations += int(sol.nfev)
     best_of: tuple[int, int] = (0, 0)
