@@ -18,7 +18,8 @@ Per set: each parameter's recovery error, whether the fit fixed it, the verdict 
 protocol's RMS at the noise level), the fit's time and evaluations. Then issue 42's three
 tries: a far muscle on a part of the stroke with 004's identification steps, the full
 ``identification`` protocol of another far muscle, and 000's straight-fibre muscle calibrated
-as the bench's McKibben law (the verdict, and the law zoo's static fit to its readings).
+as the bench's McKibben law (the verdict, and the law zoo's static fit to its readings); and
+the full ``identification`` protocol of each of the other sizes (issue 55's 60 s a bag).
 The sets run as jobs of the execution layer, one per worker; the tries then run one at a time
 as ``pam-bench calibrate`` runs them, the finite-difference Jacobian's columns and the starts
 on the cluster (``connect``: a local one of two workers on this machine).
@@ -200,11 +201,14 @@ def measure(quick: bool, cluster: dict[str, Any] | None = None) -> dict[str, Any
                  for k in range(2 * len(FREE_BAGS))]
         jobs += [(_size_label(d, length), PROTOCOL, {'size': (d, length)}, seed)
                  for d, length, seed in SIZES]
-    tries = [('try 1: far muscle, part of the stroke, identification steps', 'far_try',
-              {'values': FAR_ONE}, 300)]
+    tries: list[tuple[str, str, dict[str, Any], int]] = [
+        ('try 1: far muscle, part of the stroke, identification steps', 'far_try',
+         {'values': FAR_ONE}, 300)]
     if not quick:
         tries.append(('try 2: far muscle, the identification protocol', 'identification',
                       {'values': FAR_TWO}, 301))
+        tries += [(f'{_size_label(d, length)}, the identification protocol', 'identification',
+                   {'size': (d, length)}, seed) for d, length, seed in SIZES]
     rows, refused = [], 0
     for r in run_jobs(one_set, jobs, label='calibrate across the bounds', **(cluster or {})):
         value = r.value if r.ok else {'set': r.item[0], 'refused': r.error}
@@ -285,7 +289,8 @@ def section(r: dict[str, Any]) -> list[str]:
 
 
 def results(r: dict[str, Any]) -> list[Row]:
-    """Drawn sets recovered within 5 %, converged; try 2's time."""
+    """Drawn sets recovered within 5 %, converged; the slowest full identification bag's
+    time, and how many of them recovered within 5 %."""
     c = r.get('calibrate_bounds')
     if not c:
         return []
@@ -296,11 +301,16 @@ def results(r: dict[str, Any]) -> list[Row]:
                        'drawn sets converged with every fixed parameter within 5 %',
                        f'>= 9 of {len(drawn)}', f'{ok} of {len(drawn)}',
                        commit_of(r, 'calibrate_bounds'))]
-    two = next((s for s in c['sets'] if s['set'].startswith('try 2')), None)
-    if two and 'refused' not in two:
-        out.append(('bag calibration of a full identification bag (2806 readings, 34 records)',
-                    '<= 120 s (goal 60 s)', f"{two['fit_s']:.0f} s, "
-                    + ('converged' if two['converged'] else 'NOT converged'),
+    full = [s for s in c['sets'] if s['set'].startswith('try 2')
+            or s['set'].endswith('the identification protocol')]
+    if full and not any('refused' in s for s in full):
+        slowest = max(full, key=lambda s: s['fit_s'])
+        good = sum(1 for s in full if s['converged'] and max(_fixed_errors(s), default=0.0)
+                   <= c['tolerance'])
+        out.append((f'bag calibration of a full identification bag (2806 readings, 34 records), '
+                    f'the slowest of {len(full)} muscles (far, three sizes)', '<= 60 s',
+                    f"{slowest['fit_s']:.0f} s ({slowest['set'].split(',')[0].split(':')[0]}); "
+                    f'{good} of {len(full)} converged with every fixed parameter within 5 %',
                     commit_of(r, 'calibrate_bounds')))
     return out
 
