@@ -27,7 +27,9 @@ how, and how the residuals are scaled); the fit starts from values read off the 
 - A bag of more than ``COARSE_READINGS`` readings is first fitted on every k-th series
   (``coarse``), and that fit is profiled and walked the same way before the fit on every
   reading starts from it: a curved valley (a 10 mm muscle's g_m) is walked at the subset's
-  cost per evaluation instead of crawled by the whole bag's Jacobians.
+  cost per evaluation instead of crawled by the whole bag's Jacobians. A parameter the
+  subset's profile fixes by far, and which the fit on every reading moves by less than 1 %,
+  keeps that profile (``calibrate_profile.kept_profiles``): more readings only raise its rises.
 - Settling: when the Gauss-Newton step from the fit's end would still move a parameter by more
   than ``SETTLED_STEP`` of its value, the fit goes on for a few evaluations without the early
   stop, its Jacobian by central differences (``SETTLE_JAC``; ``_settled``). Jacobian steps are
@@ -639,6 +641,8 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
                                                       noise).tolerance.items()}
     evaluations = 0
     z_first = z0
+    coarse_profiles: dict[str, Profile] = {}
+    theta_coarse = lower + z0 * span
     small = coarse(obs)
     if small is not obs:
         part = dataclasses.replace(problem, obs=small, left_out=tuple(
@@ -649,6 +653,7 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
         coarse_profiles, lower_z, move = profile(part, sol, z0, PRIOR_WEIGHT, names, [],
                                                  workers)
         evaluations += sum(p.evaluations for p in coarse_profiles.values())
+        theta_coarse = lower + sol.x * span
         if lower_z is not None and move is not None:
             z_first, spent = walk(move, lower_z)
             evaluations += spent
@@ -676,7 +681,8 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
     sol, more = _settled(problem, sol, z0, lower, span, max_nfev, workers)
     evaluations += more
     refits = 0
-    kept: dict[str, Profile] = {}
+    # what the subset fixes by far, the whole bag fixes too: not moved again (kept_profiles)
+    kept = kept_profiles(coarse_profiles, theta_coarse, lower + sol.x * span, names)
     while True:                         # the profile; a lower point it found: fit on from it
         theta = lower + sol.x * span
         summary = fit_summary(names, theta, sol, span, rel_flag=0.05)
