@@ -138,17 +138,14 @@ def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
 
 
 def lean_spin(node: Node, graceful: bool = False,
-              poll: Callable[[], None] | None = None, poll_period_s: float = 0.005) -> None:
+              poll: Callable[[], None] | None = None) -> None:
     """Spin a node that has only subscriptions, cheaper than rclpy's executor.
 
     One wait set over the node's subscriptions and the signal guard condition; at every wake-up
     every ready subscription is drained. rclpy's SingleThreadedExecutor rebuilds its wait set
     and schedules a task per callback, which dominates the cost of a lock-step exchange.
     A node may define ``lean_poll()``: it is called after every wake-up and at least every
-    50 ms (the place for what timers would do). ``poll`` (services: ``serve_services``) runs
-    after a wake-up at most every ``poll_period_s`` and at least every 50 ms: a poll of a
-    node's seven services costs about 40 us, and a recorder on the wall clock wakes over a
-    thousand times a second.
+    50 ms (the place for what timers would do), as is ``poll`` (services: ``serve_services``).
     A subscription whose callback has ``with_info`` set gets ``(message, info)``: the
     message info of the middleware (receive time, publication sequence number). A node that
     creates or destroys subscriptions while it spins bumps ``subscriptions_version``.
@@ -166,9 +163,7 @@ def lean_spin(node: Node, graceful: bool = False,
     by_ptr = {s.handle.pointer: s for s in subs}
     guard = SignalHandlerGuardCondition(context=ctx)
     wait_set = _rclpy.WaitSet(len(subs), 1, 0, 0, 0, 0, ctx.handle)
-    node_poll = getattr(node, 'lean_poll', None)
-    poll_period = round(poll_period_s * 1e9)
-    next_poll = 0
+    polls = [p for p in (getattr(node, 'lean_poll', None), poll) if p is not None]
     with_info = {s.handle.pointer for s in subs if getattr(s.callback, 'with_info', False)}
     version = getattr(node, 'subscriptions_version', 0)
     stop = []
@@ -202,13 +197,8 @@ def lean_spin(node: Node, graceful: bool = False,
                         sub.callback(taken[0], taken[1])
                     else:
                         sub.callback(taken[0])
-            if node_poll is not None:
-                node_poll()
-            if poll is not None:
-                now = time.monotonic_ns()
-                if now >= next_poll:
-                    next_poll = now + poll_period
-                    poll()
+            for p in polls:
+                p()
         if stop:
             _drain(subs, wait_set, with_info)
     finally:
