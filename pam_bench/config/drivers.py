@@ -33,8 +33,10 @@ class Expect:
         field: where the value is and its unit (for the table).
         low, high: plausible value range (unit of ``field``).
         min_rate_hz: slowest acceptable mean rate (Hz).
-        min_step: smallest plausible nonzero change between distinct values (a smaller one
-            means a unit 1000 times too large, e.g. kN for N); 0: no check.
+        min_step: smallest plausible nonzero change between distinct values; values that
+            change by less and whose whole spread is under 10 of it (a sensor's noise alone
+            spans more) mean a unit 1000 times too large, e.g. kN for N; 0: no check. A fine
+            converter alone (a 24-bit amplifier's 0.2 mN) does not fail it: its noise spreads.
         max_age_s: largest acceptable receive time - header stamp (s), median over messages.
         frame_id: the ``header.frame_id`` every message carries ('': any).
         joint: the joint whose position is the value (JointState topics).
@@ -197,7 +199,7 @@ def judge(e: Expect, s: Seen) -> Verdict:
     distinct = np.unique(v)
     if e.min_step > 0 and distinct.size > 1:
         step = float(np.min(np.diff(distinct)))
-        if step < e.min_step and float(np.ptp(v)) < 1000 * e.min_step * 10:
+        if step < e.min_step and float(np.ptp(v)) < 10 * e.min_step:
             return fail(seen, f'steps of {step:.2g} are below {e.min_step:g}: wrong unit '
                         '(kN for N?)')
     note = '' if all(s.reliable) else 'best effort: a recorder may lose messages'

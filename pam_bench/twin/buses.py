@@ -129,18 +129,20 @@ class EmulatedBench:
     # --- Modbus ---------------------------------------------------------------------------
     def _start_modbus(self) -> None:
         from pam_bench.twin.modbus_server import ModbusServer
-        self._server = ModbusServer(self.map, self.port, self._read_word,
+        self._server = ModbusServer(self.map, self.port, self._read_words,
                                     self._write_words).start()
 
-    def _read_word(self, kind: str, address: int) -> int:
-        """The word a master reads at ``address`` (in a unified space either kind; a register
-        of the device the map does not use reads 0)."""
+    def _read_words(self, kind: str, start: int, qty: int) -> list[int]:
+        """The words a master reads from ``start`` on, all of one tick (in a unified space
+        either kind; a register of the device the map does not use reads 0)."""
+        words = self.words
         with self._lock:
             if self.map.address_space == 'unified':
-                w = self.words.get(('input', address), self.words.get(('holding', address)))
+                got = [words.get(('input', a), words.get(('holding', a)))
+                       for a in range(start, start + qty)]
             else:
-                w = self.words.get((kind, address))
-        return 0 if w is None else w
+                got = [words.get((kind, a)) for a in range(start, start + qty)]
+        return [0 if w is None else w for w in got]
 
     def _write_words(self, address: int, words: list[int]) -> None:
         """Holding registers written by the master, kept for the next tick."""

@@ -17,6 +17,9 @@ Messaging on TCP/IP Implementation Guide V1.0b):
   above 254 bytes) ends the connection, as the stream cannot be read in frames after it; a
   frame left half sent is dropped after ``FRAME_TIMEOUT_S``. A later request on the same or a
   new connection is answered as usual: nothing stalls.
+* a read is answered from one snapshot of the registers: a 32-bit value is never torn between
+  two samples (a float whose words came from two samples would be a value the device never
+  measured).
 * the unit identifier is not checked: a Modbus TCP device (LabJack's T7 among them) answers
   whatever unit a master names; the map's ``device_id`` is what the driver sends.
 
@@ -47,8 +50,10 @@ FRAME_TIMEOUT_S = 2.0
 ILLEGAL_FUNCTION, ILLEGAL_ADDRESS, ILLEGAL_VALUE = 0x01, 0x02, 0x03
 """The exception codes the server answers with."""
 
-Read = Callable[[str, int], int]
-"""(register kind 'input' or 'holding', address) -> the 16-bit word there."""
+Read = Callable[[str, int, int], list[int]]
+"""(register kind 'input' or 'holding', first address, quantity) -> the 16-bit words there,
+taken at one instant (a device answers a request from one snapshot of its registers, so the
+two words of a 32-bit value never come from two different samples)."""
 Write = Callable[[int, list[int]], None]
 """(first address, words) written to holding registers."""
 
@@ -59,7 +64,7 @@ class ModbusServer:
     Args:
         register_map: the device's registers and what a master may do with them.
         port: TCP port (0: any free one; ``port`` holds it once started).
-        read: the word at a register.
+        read: the words of a request, from one snapshot.
         write: keep words written.
         host: the address to listen on.
     """
@@ -149,7 +154,7 @@ class ModbusServer:
             if start + qty > 65536 or not all(
                     'r' in self._access_of(kind, a) for a in range(start, start + qty)):
                 return self._exception(fc, ILLEGAL_ADDRESS)
-            words = [self.read(kind, a) & 0xFFFF for a in range(start, start + qty)]
+            words = [w & 0xFFFF for w in self.read(kind, start, qty)]
             return struct.pack(f'>BB{qty}H', fc, 2 * qty, *words)
         if fc == 6:
             if len(body) != 4:

@@ -4,6 +4,9 @@ drive's state machine, and each fault the drivers must detect."""
 from __future__ import annotations
 
 import math
+import struct
+import sys
+import threading
 import time
 from collections.abc import Callable, Iterator
 
@@ -21,6 +24,7 @@ from pam_bench.models.constants import ATMOSPHERE_PA
 from pam_bench.models.loading_servo import LoadMode
 from pam_bench.twin.bench import SingleMuscleBench
 from pam_bench.twin.buses import EmulatedBench
+from pam_bench.twin.modbus_server import ModbusServer
 
 
 class Rig:
@@ -142,3 +146,43 @@ def test_nothing_listens_one_error() -> None:
         assert backoff.delay_s == pytest.approx(expected)
         backoff.failed(0.0)
 
+
+
+def test_a_read_never_tears_a_value_between_two_ticks() -> None:
+    """The two words of a float32 come from one tick: a reader racing the ticks sees only
+    values the bench measured (a torn float is a value it never had, and check-drivers saw
+    one as a step of 0.00049 N)."""
+    rmap = load_register_map('daq_generic')
+    bench = SingleMuscleBench()
+    forces = (0.6103515625, -0.67138671875)              # 10 and -11 counts of 0.061 N
+    tick = [0]
+
+    def signals() -> dict[str, float]:
+        tick[0] += 1
+        return {'load_cell_1.force': forces[tick[0] % 2]}
+
+    bench.signals = signals                                  # type: ignore[method-assign]
+    emu = EmulatedBench(bench, rmap, 0, bus_config('socketcand', 'can0', free_port()))
+    server = ModbusServer(rmap, 0, emu._read_words, emu._write_words)
+    force = next(c for c in rmap.inputs if c.signal == 'load_cell_1.force')
+    request = struct.pack('>BHH', 4 if force.register == 'input' else 3, force.address,
+                          force.count)
+    stop = threading.Event()
+
+    def ticks() -> None:
+        while not stop.is_set():
+            emu._publish_inputs()
+
+    t = threading.Thread(target=ticks)
+    t.start()
+    seen: set[float] = set()
+    try:
+        sys.setswitchinterval(1e-6)                      # switch threads as often as it can
+        for _ in range(20000):
+            reply = server.answer(request)
+            seen.add(rmap.decode(force, list(struct.unpack(f'>{force.count}H', reply[2:]))))
+    finally:
+        sys.setswitchinterval(0.005)
+        stop.set()
+        t.join()
+    assert seen <= set(forces), sorted(seen)

@@ -34,7 +34,9 @@ def server(words: dict[tuple[str, int], int]) -> Iterator[ModbusServer]:
         for k, w in enumerate(ws):
             words[('holding', address + k)] = w
 
-    srv = ModbusServer(rmap, 0, lambda kind, a: words.get((kind, a), 0), write).start()
+    srv = ModbusServer(rmap, 0,
+                       lambda kind, a, n: [words.get((kind, b), 0) for b in range(a, a + n)],
+                       write).start()
     try:
         yield srv
     finally:

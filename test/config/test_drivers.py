@@ -29,6 +29,7 @@ def _expect(topic: str):
 
 rng = np.random.default_rng(0)
 FORCE = np.round((300.0 + rng.normal(0, 0.2, 5000)) / 0.061) * 0.061      # N, 16-bit quantum
+FINE = np.round(rng.normal(0, 0.2, 5000) / 2.4e-4) * 2.4e-4    # N at rest, 24-bit quantum
 PRESSURE = ATMOSPHERE_PA + 2e5 + rng.normal(0, 50, 5000)
 ANGLE = np.full(5000, 0.1)
 MOTOR = np.linspace(0.0, 40.0, 5000)                      # rad, motor side: gear ratio times
@@ -40,6 +41,7 @@ WRENCH, FLUID, JOINT = ('geometry_msgs/msg/WrenchStamped', 'sensor_msgs/msg/Flui
 
 @pytest.mark.parametrize('topic, seen', [
     ('/load_cell_1/force', _seen(1000, FORCE, WRENCH)),
+    ('/load_cell_1/force', _seen(1000, FINE, WRENCH)),          # fine steps, noise spreads
     ('/valve_1/pressure', _seen(1000, PRESSURE, FLUID)),
     ('/encoder/joint_state', _seen(1000, ANGLE, JOINT)),
     ('/loading_servo/state', _seen(1000, MOTOR, JOINT)),
@@ -56,6 +58,7 @@ def test_a_good_driver_passes(topic: str, seen: Seen) -> None:
     # a vented valve read as gauge pressure: about 0 Pa instead of one atmosphere
     ('/valve_1/pressure', _seen(1000, PRESSURE - ATMOSPHERE_PA - 2e5, FLUID), ['gauge']),
     ('/load_cell_1/force', _seen(1000, FORCE / 1000.0, WRENCH), ['kN']),
+    ('/load_cell_1/force', _seen(1000, FINE / 1000.0, WRENCH), ['kN']),
     ('/load_cell_1/force', _seen(1000, FORCE, WRENCH, age_s=2.0), ['stamp age']),
     ('/load_cell_1/force', Seen([], [], [], [], [], WINDOW_S), ['not published']),
     ('/load_cell_1/force', _seen(1000, WITH_NAN, WRENCH), ['20 of 2000 values not finite']),

@@ -38,6 +38,7 @@ def test_a_foreign_load_cell_runs_a_protocol(tmp_path: pathlib.Path, ros_domain:
     scene.write_text(SCENE)
     driver = tmp_path / 'my_load_cell.py'
     driver.write_text(driver_code())
+    log = tmp_path / 'my_load_cell.log'
     env = {**os.environ, 'ROS_DOMAIN_ID': str(ros_domain)}
     lock = subprocess.run([sys.executable, '-m', 'pam_bench.cli', 'run', str(scene), '--out',
                            str(tmp_path / 'lock')], env=env, capture_output=True, text=True,
@@ -56,14 +57,16 @@ def test_a_foreign_load_cell_runs_a_protocol(tmp_path: pathlib.Path, ros_domain:
             if line.startswith('waiting for load_cell_1'):
                 break
         assert 'topic not published' in lines[-1], ''.join(lines)
-        mine = subprocess.Popen([sys.executable, str(driver)], env=env,
-                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        with log.open('w') as sink:               # a file: a pipe nobody reads can fill
+            mine = subprocess.Popen([sys.executable, str(driver)], env=env, stdout=sink,
+                                    stderr=subprocess.STDOUT, text=True)
         out = ''.join(lines) + run.communicate(timeout=120)[0]
     finally:
         for p in (run, mine):
             if p is not None and p.poll() is None:
                 p.terminate()
                 p.wait(timeout=20)
+    assert mine is not None and mine.returncode == 0, log.read_text()   # SIGTERM: a clean exit
     assert run.returncode == 0, out
     assert 'external load_cell_1: meets the driver contract' in out, out
     wall = read_bags([tmp_path / 'wall']).points['isometric_quick']

@@ -22,7 +22,7 @@ from pam_bench.twin.modbus_server import ModbusServer
 def server(request: pytest.FixtureRequest) -> Iterator[ModbusServer]:
     words: dict[int, int] = {}
     srv = ModbusServer(load_register_map(request.param), 0,
-                       lambda kind, a: words.get(a, a & 0xFF),
+                       lambda kind, a, n: [words.get(b, b & 0xFF) for b in range(a, a + n)],
                        lambda a, ws: words.update({a + k: w for k, w in enumerate(ws)}))
     srv.start()
     try:
@@ -107,14 +107,14 @@ def test_the_access_the_device_gives_is_the_access_it_has() -> None:
     """The T7's TDAC is written only and its AIN read only, through either read function;
     the generic DAQ's input registers are not its holding registers."""
     words: dict[int, int] = {}
-    t7 = ModbusServer(load_register_map('labjack_t7'), 0, lambda k, a: 0,
+    t7 = ModbusServer(load_register_map('labjack_t7'), 0, lambda k, a, n: [0] * n,
                       lambda a, ws: words.update({a: ws[0]}))
     assert t7.answer(struct.pack('>BHH', 3, 0, 4))[0] == 3          # AIN0, AIN1 by FC 3
     assert t7.answer(struct.pack('>BHH', 4, 0, 4))[0] == 4          # and by FC 4
     assert t7.answer(struct.pack('>BHH', 3, 30008, 2)) == b'\x83\x02'   # TDAC4: no read
     assert t7.answer(struct.pack('>BHHB', 16, 0, 2, 4) + b'\0' * 4) == b'\x90\x02'  # AIN
     assert t7.answer(struct.pack('>BHHB', 16, 30008, 2, 4) + b'\0' * 4)[0] == 16
-    generic = ModbusServer(load_register_map('daq_generic'), 0, lambda k, a: 0,
+    generic = ModbusServer(load_register_map('daq_generic'), 0, lambda k, a, n: [0] * n,
                            lambda a, ws: None)
     assert generic.answer(struct.pack('>BHH', 4, 0, 8))[0] == 4
     assert generic.answer(struct.pack('>BHH', 3, 4, 2)) == b'\x83\x02'  # holding 4: none
