@@ -445,12 +445,21 @@ def _local_fit(problem: _Problem, z_start: np.ndarray, z_prior: np.ndarray, max_
                          **({'workers': workers} if workers is not None else {}))
 
 
+def _gauss_newton(sol: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The Gauss-Newton step from a ``least_squares`` solution on its Jacobian with columns
+    scaled to one (a huge column, a law's exponential at a trial, hides none): (column norms,
+    scaled Jacobian, step in scaled units), the step in z being step / norms."""
+    norms = np.max(np.abs(sol.jac), axis=0)
+    norms = np.where(norms > 0.0, norms, 1.0)
+    scaled = sol.jac / norms
+    return norms, scaled, np.linalg.lstsq(scaled, -sol.fun, rcond=None)[0]
+
+
 def gauss_newton_share(sol: Any, lower: np.ndarray, span: np.ndarray) -> np.ndarray:
     """The Gauss-Newton step from a ``least_squares`` solution in z, -(J^T J)^+ J^T r, as a
     share of each parameter's value (theta = lower + z span), shape (n,)."""
-    norms = np.max(np.abs(sol.jac), axis=0)          # columns scaled to one: a huge column
-    norms = np.where(norms > 0.0, norms, 1.0)          # (a law's exponential at a trial)
-    step = -np.linalg.lstsq(sol.jac / norms, sol.fun, rcond=None)[0] / norms   # hides none
+    norms, _, d = _gauss_newton(sol)
+    step = d / norms
     theta = lower + sol.x * span
     return np.where(theta != 0.0, step * span / np.where(theta != 0.0, np.abs(theta), 1.0),
                     0.0)
@@ -461,10 +470,7 @@ def gauss_newton_gain(sol: Any, n_data: int) -> float:
     chi-square by on the linearised model, |J d|^2 with d = -(J^T J)^+ J^T r, in units of the
     data's residual variance s^2 = |r_data|^2 / (n_data - n) (``n_data``: how many of the
     residuals are data, the rest being the prior's)."""
-    norms = np.max(np.abs(sol.jac), axis=0)
-    norms = np.where(norms > 0.0, norms, 1.0)
-    scaled = sol.jac / norms
-    d = np.linalg.lstsq(scaled, -sol.fun, rcond=None)[0]
+    _, scaled, d = _gauss_newton(sol)
     data = np.asarray(sol.fun)[:n_data]
     dof = max(n_data - len(sol.x), 1)
     s2 = float(data @ data) / dof

@@ -332,6 +332,28 @@ def test_the_gauss_newton_share_is_the_step_to_a_linear_optimum(z_end: float,
                                (z_best - z_end) * span / np.abs(theta), rtol=1e-12, atol=1e-15)
 
 
+@pytest.mark.parametrize('offset', [0.0, 0.01, 0.05])
+def test_the_gauss_newton_gain_is_the_chi_square_a_linear_step_buys(offset: float) -> None:
+    """Data residuals linear in z, r = J (z - z*) + e (e: noise of unit variance, orthogonal
+    to J's columns), and the prior's rows after them: the step to the optimum lowers the
+    chi-square by |J (z - z*)|^2, in units of the data's residual variance |r|^2 / (m - n)."""
+    from types import SimpleNamespace
+
+    from pam_bench.fit.calibrate_bags import gauss_newton_gain
+    rng = np.random.default_rng(7)
+    m, n = 400, 3
+    jac = rng.normal(size=(m, n)) * 20.0
+    e = rng.normal(size=m)
+    e -= jac @ np.linalg.lstsq(jac, e, rcond=None)[0]          # orthogonal to the columns
+    dz = np.full(n, offset)
+    data = jac @ dz + e
+    sol = SimpleNamespace(x=0.5 + dz, jac=np.vstack([jac, np.zeros((n, n))]),
+                          fun=np.concatenate([data, np.zeros(n)]))
+    s2 = float(data @ data) / (m - n)
+    np.testing.assert_allclose(gauss_newton_gain(sol, m), float(np.sum((jac @ dz) ** 2)) / s2,
+                               rtol=1e-9, atol=1e-9)
+
+
 def test_a_bag_is_replayed_on_the_muscle_it_declares(tmp_path: pathlib.Path,
                                                       ros_domain: int) -> None:
     """A bag made with a muscle of another size: calibrate holds what it does not fit at that
