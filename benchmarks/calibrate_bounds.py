@@ -326,8 +326,7 @@ def results(r: dict[str, Any]) -> list[Row]:
                     f"{slowest['fit_s']:.0f} s ({slowest['set'].split(',')[0].split(':')[0]}); "
                     f'{good} of {len(full)} converged with every fixed parameter within 5 %',
                     commit_of(r, 'calibrate_bounds')))
-        sized = [s for s in full if s['set'].endswith('the identification protocol')
-                 and 'held' in s]
+        sized = [s for s in full if 'McKibben' in s['set'] and 'held' in s]
         within = [s['set'].split(' McKibben')[0] for s in sized if s['converged']
                   and max(_fitted_errors(s), default=0.0) <= c['tolerance']]
         if sized:
