@@ -268,8 +268,7 @@ def compile_function(fn: Callable[..., Any], example: tuple[Any, ...]
             _use_cache(numba)
             _callees_jitable(fn, set())
             try:
-                compiled = numba.njit(cache=True)(fn)
-                compiled(*example)
+                compiled = _cached(numba, fn, example)
             except Exception:  # noqa: BLE001 - not cacheable (no file): compiled, uncached
                 compiled = numba.njit(fn)
                 compiled(*example)
@@ -278,6 +277,25 @@ def compile_function(fn: Callable[..., Any], example: tuple[Any, ...]
             out = (None, f'numba cannot compile it: {_reason(exc)}')
     _FUNCTIONS[fn] = out
     return out
+
+
+def _cached(numba: Any, fn: Callable[..., Any], example: tuple[Any, ...]) -> Any:
+    """``fn`` compiled with numba's cache and called once with ``example``. An entry of that
+    cache that no longer loads (numba keys it by the file and the function's name; the same
+    file imported under another module name, as a test may load a lab's file, leaves an
+    entry whose module this process cannot import) is written again rather than bypassed:
+    else every later run would compile the function anew (1.1-1.3 s for the example law)."""
+    from numba.core.errors import NumbaError
+    compiled = numba.njit(cache=True)(fn)
+    try:
+        compiled(*example)
+    except NumbaError:                   # numba's own verdict on fn: no cache makes it good
+        raise
+    except Exception:  # noqa: BLE001 - a stale entry: this function's index rewritten
+        compiled._cache.flush()
+        compiled = numba.njit(cache=True)(fn)
+        compiled(*example)
+    return compiled
 
 
 def _callees_jitable(fn: Callable[..., Any], seen: set[int]) -> None:

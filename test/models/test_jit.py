@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import pathlib
+from typing import Any
 
 import numpy as np
 import pytest
@@ -198,3 +200,52 @@ def test_the_kernels_interpreted_are_the_compiled_ones(name: str,
     for a, b, c in zip(py, nb, interpreted, strict=True):
         np.testing.assert_array_equal(np.asarray(a, dtype=object), np.asarray(c, dtype=object))
         np.testing.assert_array_equal(np.asarray(b, dtype=object), np.asarray(c, dtype=object))
+
+
+EXAMPLE_LAW = (pathlib.Path(__file__).parents[2] / 'examples' / 'pam_bench_example'
+               / 'pam_bench_example' / 'laws.py')
+
+
+def _import_as(name: str, path: object) -> object:
+    import importlib.util
+    import sys
+    spec = importlib.util.spec_from_file_location(name, path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_a_file_cached_under_another_module_name_is_cached_again(
+        tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A lab's law file compiled under one module name (a test importing it by path), then
+    under its package's name: the second finds numba's entry for the file unloadable (its
+    module cannot be imported), writes it again, and a third compile loads it from the cache.
+    Before, the entry was bypassed and every run compiled the law anew."""
+    import subprocess
+    import sys
+    monkeypatch.setenv('NUMBA_CACHE_DIR', str(tmp_path / 'cache'))
+    law = tmp_path / 'lab_law.py'                     # the example plug-in's law, as a lab's
+    law.write_text(EXAMPLE_LAW.read_text())
+    first = subprocess.run([sys.executable, '-c', (
+        'import importlib.util, sys, numpy as np\n'
+        'from pam_bench.models import jit\n'
+        f'spec = importlib.util.spec_from_file_location("lab_law_by_path", {str(law)!r})\n'
+        'm = importlib.util.module_from_spec(spec); sys.modules[spec.name] = m\n'
+        'spec.loader.exec_module(m)\n'
+        'ex = (np.array(m.LAW.start, dtype=float), np.linspace(0.0, 6.0e5, 4), np.zeros(4), '
+        '0.35)\n'
+        'print(jit.compile_function(m.force, ex)[0].stats.cache_path is not None)\n')],
+        capture_output=True, text=True, timeout=120)
+    assert first.stdout.strip() == 'True', first.stdout + first.stderr   # cached there
+    second: Any = _import_as('lab_package_law', law)
+    example = (np.array(second.LAW.start, dtype=float), np.linspace(0.0, 6.0e5, 4),
+               np.zeros(4), 0.35)
+    fast, why = jit.compile_function(second.force, example)
+    assert fast is not None and why == ''
+    assert fast.stats.cache_path is not None, 'compiled without the cache'
+    third: Any = _import_as('lab_package_law', law)     # a later run
+    again, _ = jit.compile_function(third.force, example)
+    assert again is not None and sum(again.stats.cache_hits.values()) == 1
+    np.testing.assert_allclose(again(*example), second.force(*example), rtol=1e-15)
