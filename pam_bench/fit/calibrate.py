@@ -36,7 +36,7 @@ from pam_bench.verify.figures_004 import figure_rows, measure_004
 from pam_bench.vocabulary.errors import ParameterError
 
 __all__ = ['fit_report', 'FREE', 'residuals_004', 'calibrate_004', 'fit_summary', 'covariance',
-           'FitSummary', 'Calibration004']
+           'FitSummary', 'Calibration004', 'residual_variance']
 
 
 class FitSummary(TypedDict):
@@ -117,6 +117,13 @@ def residuals_004(measured: dict[str, Any]) -> np.ndarray:
     ])
 
 
+def residual_variance(residuals: np.ndarray, n: int) -> float:
+    """s^2 = |r|^2 / (m - n) of m residuals left by a fit of n parameters (one degree of
+    freedom at least), in the residuals' units squared."""
+    r = np.asarray(residuals, dtype=float)
+    return float(r @ r) / max(len(r) - n, 1)
+
+
 def covariance(jac: np.ndarray, s2: float) -> tuple[np.ndarray, np.ndarray]:
     """Covariance and correlation of a least-squares estimate from its Jacobian.
 
@@ -153,9 +160,7 @@ def fit_summary(names: list[str], theta: np.ndarray, sol: Any, span: np.ndarray,
     where the Jacobian's columns share one scale (``covariance``), and scaled back by span; a
     parameter is flagged when its standard error exceeds ``rel_flag`` times its value, or it
     sits at a bound (z = 0 or 1)."""
-    dof = max(len(sol.fun) - len(names), 1)
-    s2 = float(sol.fun @ sol.fun) / dof
-    cov_z, corr = covariance(sol.jac, s2)
+    cov_z, corr = covariance(sol.jac, residual_variance(sol.fun, len(names)))
     stderr = np.sqrt(np.maximum(np.diag(cov_z), 0.0)) * span
     at_bound = (sol.x <= 1e-6) | (sol.x >= 1 - 1e-6)
     flags = [n for n, v, e, b in zip(names, theta, stderr, at_bound, strict=True)

@@ -54,7 +54,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares
 
-from pam_bench.fit.calibrate import FitSummary, fit_report, fit_summary
+from pam_bench.fit.calibrate import FitSummary, fit_report, fit_summary, residual_variance
 from pam_bench.fit.calibrate_init import initial_values, law_start
 from pam_bench.fit.calibrate_profile import (
     PROFILE_CHI2,
@@ -423,20 +423,20 @@ def _local_fit(problem: _Problem, z_start: np.ndarray, z_prior: np.ndarray, max_
             return np.full(n_res, REFUSED_RESIDUAL)
         return np.concatenate([data, PRIOR_WEIGHT * (z - z_prior)])
 
-    last = [math.inf]
+    last_cost = math.inf
 
     def callback(intermediate_result: Any) -> None:
+        nonlocal last_cost
         data = np.asarray(intermediate_result.fun)[:n_data]
         rms = _kind_rms(problem, data)
         if stop_at is not None and rms and all(v <= stop_at.get(k, 0.0) for k, v in
                                                rms.items()):
             raise StopIteration
         cost = float(intermediate_result.cost)
-        gained, last[0] = last[0] - cost, cost
-        if stop_at is not None and n_data > len(z_start):
-            s2 = float(data @ data) / (n_data - len(z_start))    # the residual variance
-            if 2.0 * gained < STOP_CHI2 * s2:
-                raise StopIteration
+        gained, last_cost = last_cost - cost, cost
+        if (stop_at is not None and n_data > len(z_start)
+                and 2.0 * gained < STOP_CHI2 * residual_variance(data, len(z_start))):
+            raise StopIteration
 
     steps = problem.steps if problem.steps is not None else DIFF_STEP
     return least_squares(res, z_start, bounds=(0.0, 1.0), diff_step=steps, max_nfev=max_nfev,
@@ -471,9 +471,7 @@ def gauss_newton_gain(sol: Any, n_data: int) -> float:
     data's residual variance s^2 = |r_data|^2 / (n_data - n) (``n_data``: how many of the
     residuals are data, the rest being the prior's)."""
     _, scaled, d = _gauss_newton(sol)
-    data = np.asarray(sol.fun)[:n_data]
-    dof = max(n_data - len(sol.x), 1)
-    s2 = float(data @ data) / dof
+    s2 = residual_variance(np.asarray(sol.fun)[:n_data], len(sol.x))
     return float(np.sum((scaled @ d) ** 2)) / s2 if s2 > 0.0 else math.inf
 
 
@@ -579,8 +577,7 @@ def _unfixed(names: list[str], data_jac: np.ndarray, flags: Sequence[str],
     corr = inv / np.outer(sd, sd)
     out = {i for i, n in enumerate(names) if n in flags or share[i] > UNFIXED_SHARE}
     if data_fun is not None and theta is not None and span is not None:
-        s2 = float(data_fun @ data_fun) / max(len(data_fun) - len(names), 1)
-        err = np.sqrt(share * s2) * span
+        err = np.sqrt(share * residual_variance(data_fun, len(names))) * span
         out |= {i for i in range(len(names)) if err[i] > UNFIXED_REL * abs(theta[i])}
     grew = True
     while grew:

@@ -54,6 +54,8 @@ from typing import Any
 import numpy as np
 from scipy.optimize import lsq_linear
 
+from pam_bench.fit.calibrate import residual_variance
+
 __all__ = ['PROFILE_MOVE', 'PROFILE_CHI2', 'PROFILE_STEPS', 'PROFILE_FAR', 'PROFILE_TAIL',
            'WALK_MOVES', 'Move', 'Profile', 'profile_moves', 'run_move', 'profile',
            'kept_profiles', 'walk']
@@ -190,7 +192,7 @@ def profile_moves(problem: Any, sol: Any, z_prior: np.ndarray, prior_weight: flo
     """Both sides of each parameter in ``indices`` (a side at a bound is left out)."""
     n = len(sol.x)
     data = np.asarray(sol.fun)[:-n]
-    s2 = max(float(data @ data) / max(len(data) - n, 1), 1e-300)
+    s2 = max(residual_variance(data, n), 1e-300)
     lower, span = problem.lower, problem.span
     out = []
     for i in indices:

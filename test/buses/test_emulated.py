@@ -147,7 +147,6 @@ def test_nothing_listens_one_error() -> None:
         backoff.failed(0.0)
 
 
-
 def test_a_read_never_tears_a_value_between_two_ticks() -> None:
     """The two words of a float32 come from one tick: a reader racing the ticks sees only
     values the bench measured (a torn float is a value it never had, and check-drivers saw
