@@ -225,7 +225,10 @@ def test_a_file_cached_under_another_module_name_is_cached_again(
     Before, the entry was bypassed and every run compiled the law anew."""
     import subprocess
     import sys
+
+    import numba
     monkeypatch.setenv('NUMBA_CACHE_DIR', str(tmp_path / 'cache'))
+    monkeypatch.setattr(numba.config, 'CACHE_DIR', numba.config.CACHE_DIR)  # restored after
     law = tmp_path / 'lab_law.py'                     # the example plug-in's law, as a lab's
     law.write_text(EXAMPLE_LAW.read_text())
     first = subprocess.run([sys.executable, '-c', (
