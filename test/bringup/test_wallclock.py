@@ -110,6 +110,23 @@ def _after_kill(bag: pathlib.Path, t_kill: int, out: str) -> str:
             f'after it {gap * 1e-6:.1f} ms over {len(after)} commands\n{out[-2000:]}')
 
 
+def _frozen_or_within(steps: list[tuple[int, bool]], t_kill: int, bound_s: float) -> bool:
+    """Whether a controller went safe within ``bound_s`` of the kill: it stepped after the
+    kill, and every step (stamp ns, safe) stamped later than ``bound_s`` after it is safe.
+
+    The first safe step is usually the first one past the bound; it comes later only when the
+    controller did not step at all in between. That happens: a process killed while it holds
+    the lock of its Fast DDS shared-memory port stops every publisher that writes to the port
+    for 1 s, the timeout Fast DDS builds its interprocess locks with (owner died without
+    unlocking), and rclpy holds the interpreter while it publishes (CI saw it once: the
+    servo's first stale step 1001 ms after the kill, no step in between; docs/faults.md). What
+    the controller decides is still bounded: it never steps on data older than the bound,
+    frozen or not.
+    """
+    late = [safe for ns, safe in steps if ns > t_kill + bound_s * 1e9]
+    return bool(late) and all(late)
+
+
 def _pid_of(parent: int, pattern: str, timeout_s: float = 20.0) -> int:
     """The child of ``parent`` whose command line matches ``pattern``."""
     end = time.monotonic() + timeout_s
@@ -155,8 +172,12 @@ def test_killed_device_process_aborts_vents_and_keeps_the_points(
     assert off, 'the drive was never turned off'
     latency_s = (min(off) - t_kill) * 1e-9
     print(f'kill-to-vent latency {latency_s * 1e3:.0f} ms')
-    # stale_timeout_s (0.5 s) counts from the last reading's stamp, up to a tick before the kill
-    assert 0.5 - 0.02 <= latency_s < 0.5 + 0.1, _after_kill(bag, t_kill, ''.join(out))
+    # stale_timeout_s (0.5 s) counts from the last reading's stamp, up to a tick before the
+    # kill: never off before it, and no command later than it and a few ticks drives on
+    # (``_frozen_or_within``: the one way the first off comes later)
+    assert latency_s >= 0.5 - 0.02, _after_kill(bag, t_kill, ''.join(out))
+    assert _frozen_or_within([(_ns(m), m.mode == 0) for m in load], t_kill, 0.5 + 0.1), \
+        _after_kill(bag, t_kill, ''.join(out))
     assert all(m.voltage == 0.0 for m in bag_messages(bag, '/valve_1/command')
                if _ns(m) >= min(off))
     assert 2 <= len(bag_messages(bag, '/protocol/point')) < 6
@@ -186,7 +207,10 @@ def test_killed_device_process_vents_both_servo_valves(tmp_path: pathlib.Path,
     assert stale, [s.status for s in states[-3:]]
     latency_s = (min(stale) - t_kill) * 1e-9
     print(f'servo kill-to-vent latency {latency_s * 1e3:.0f} ms')
-    assert latency_s < 0.05 + 0.02                 # stale_timeout_s of the servo and a tick
+    # stale_timeout_s of the servo and a tick (``_frozen_or_within``)
+    assert _frozen_or_within([(_ns(s), 'stale' in s.status) for s in states], t_kill,
+                             0.05 + 0.02), [(round((_ns(s) - t_kill) * 1e-6), s.status)
+                                            for s in states if _ns(s) > t_kill][:20]
     for ch in (1, 2):
         after = [m.voltage for m in bag_messages(bag, f'/valve_{ch}/command')
                  if _ns(m) >= min(stale)]
