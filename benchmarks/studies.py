@@ -17,6 +17,7 @@ from benchmarks import (
     limits,
     lockstep,
     models,
+    plugin_law,
     profile,
     record_exchange,
     scenes,
@@ -36,7 +37,7 @@ STUDIES: tuple[Study, ...] = (
     exchange_step.STUDY,
     settle.STUDY, record_exchange.STUDY, scenes.STUDY, models.STUDY, wallclock.STUDY,
     faults.STUDY, straight_fibre.STUDY, calibrate.STUDY, calibrate_bounds.STUDY,
-    calibrate_nodes.STUDY, calibrate_zoo.STUDY,
+    calibrate_nodes.STUDY, calibrate_zoo.STUDY, plugin_law.STUDY,
     servo_compare.STUDY, soak.STUDY, sweep_scaling.STUDY, dynamics.STUDY, fuzz.STUDY,
     buses.STUDY)
 """Every study; ``python -m benchmarks --only KEY`` runs some."""

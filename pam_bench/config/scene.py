@@ -193,6 +193,12 @@ class Scene:
                 out[name] = from_mapping(t.settings, values, f'{name}.')
             except ParameterError as exc:
                 raise ConfigError(f'scene {self.name}: {exc}') from None
+            muscle = getattr(out[name], 'muscle', None)
+            if muscle is not None and muscle.kind == 'law' and muscle.law_core == 'auto':
+                from pam_bench.models.law_muscle import law_core_for
+                core = law_core_for(self.exchange_step_s, self.sub_step_s)
+                out[name] = dataclasses.replace(out[name], muscle=dataclasses.replace(
+                    muscle, law_core=core))
         _check_inputs(self.name, out)
         return out
 
@@ -341,12 +347,14 @@ DEFAULT_LAW = 'bench_mckibben'
 
 
 def law_notes(settings: dict[str, Any]) -> list[str]:
-    """One line per force law a muscle of the run holds that runs interpreted, and why
-    (``models.laws.base.law_function``): said once at the start of a run."""
+    """One line per force law a muscle of the run holds that runs interpreted though it was
+    to run compiled, and why (``models.laws.base.law_function``): said once at the start of a
+    run. A law the scene runs interpreted (``muscle.law_core``) is not compiled to find out."""
     from pam_bench.models.laws.base import law_function
     from pam_bench.models.laws.zoo import force_law
     laws = sorted({st.muscle.law for name, st in settings.items()
-                   if name.startswith('muscle_') and st.muscle.kind == 'law'})
+                   if name.startswith('muscle_') and st.muscle.kind == 'law'
+                   and st.muscle.law_core != 'interpreted'})
     notes = []
     for name in laws:
         why = law_function(force_law(name))[1]
@@ -387,6 +395,11 @@ def _check_inputs(scene: str, settings: dict[str, Any]) -> None:
                     f'{name}.muscle.law {st.muscle.law!r} names a force law, but '
                     f'{name}.muscle.kind is {st.muscle.kind!r}: set {name}.muscle.kind=law '
                     'as well (or leave muscle.law out)')
+            elif st.muscle.law_core != 'auto':     # so is how a law runs
+                raise ParameterError(
+                    f'{name}.muscle.law_core {st.muscle.law_core!r} says how a force law runs, '
+                    f'but {name}.muscle.kind is {st.muscle.kind!r}: set {name}.muscle.kind=law '
+                    'as well (or leave muscle.law_core out)')
     except (ParameterError, InputError, ModelError) as exc:
         raise ConfigError(f'scene {scene}: {exc}') from None
 

@@ -646,8 +646,9 @@ def calibrate_bags(obs: Observations, valve: ValveParams | None = None,
         from pam_bench.config.settings import LawSettings
         from pam_bench.models.laws.zoo import force_law
         the_law = force_law(law)
-        base = Bench(base.valve, dataclasses.replace(base.muscle, kind='law', law=law), servo,
-                     LawSettings())
+        base = Bench(base.valve, dataclasses.replace(base.muscle, kind='law', law=law,
+                                                     law_core='compiled'), servo,
+                     LawSettings())     # a fit replays the bags many times: compiled
         wanted = free_of_law(the_law)
         initial = {n: 1.0 if n == 'friction_stiffness_scale' else
                    float(getattr(base.valve, n)) for m, n, _, _ in wanted if m != 'law'}

@@ -6,7 +6,9 @@ adds what every bench muscle shares (``models.muscle.FrictionMuscle``): the brai
 Maxwell-slip friction on s = x + c_t F_bb^+ (004 section 2.2, ``models.friction``) and the
 clamp F >= 0 (a muscle never pushes). The stiffness -dF_bb/dx is the law's central
 difference over +-``DX_M``. The law runs compiled by numba when it compiles and gives its
-own forces (``laws.base.law_function``), else as written (``interpreted_why`` says why); the
+own forces (``laws.base.law_function``), else as written (``interpreted_why`` says why);
+``muscle.law_core`` may ask for it as written (``law_core_for``: a scene of short exchanges,
+where numba's start-up costs more than the law's calls save). The
 chamber volume is the McKibben braid's (001 Eq. 1-2,
 ``MuscleModel.volume``) from the muscle's geometry, which the valve's loop asks for. The
 friction parameters and the geometry are the muscle's (``muscle.*``), the law's parameters
@@ -25,10 +27,27 @@ from pam_bench.models.friction import MaxwellSlip
 from pam_bench.models.laws.base import ForceLaw, law_function
 from pam_bench.models.muscle import FrictionMuscle, MuscleModel, MuscleParams
 
-__all__ = ['LawMuscle', 'DX_M']
+__all__ = ['LawMuscle', 'DX_M', 'law_core_for']
 
 DX_M = 1.0e-6
 """Half-step of the central difference of the stiffness, m."""
+
+
+def law_core_for(exchange_step_s: float, sub_step_s: float) -> str:
+    """How a scene's force law runs, decided before the run from the scene alone: 'compiled'
+    when one exchange holds ``jit.LOAD_AT`` sub-steps or more, else 'interpreted'.
+
+    The rule is the one by which the built-in muscle loads its compiled core
+    (``models.jit.wanted``): below it every exchange runs the interpreted loop, and numba's
+    import and the law's load from its cache (about 0.6 s) cost more than the compiled law's
+    calls save (the demo, 2 sub-steps an exchange: 1.75 s interpreted against 2.19 s compiled;
+    BENCHMARKS.md). The built-in muscle switches when its kernels have loaded, bit-equal; a
+    compiled law agrees with itself interpreted to ``laws.base.CHECK_RTOL`` only, so the
+    choice is made once, before the run, and every engine (nodes, twin) reads it from the
+    scene's settings: the same scene gives the same bag.
+    """
+    from pam_bench.models import jit
+    return 'compiled' if exchange_step_s >= jit.LOAD_AT * sub_step_s else 'interpreted'
 
 
 class LawMuscle(FrictionMuscle):
@@ -47,7 +66,10 @@ class LawMuscle(FrictionMuscle):
                                     self.p.friction_break_force_ratio)
         self._l0 = self.p.nominal_length_m
         self._offsets = np.array([0.0, -DX_M, DX_M])
-        self._law, self.interpreted_why = law_function(law)
+        if self.p.law_core == 'interpreted':
+            self._law, self.interpreted_why = law.law, 'muscle.law_core is interpreted'
+        else:
+            self._law, self.interpreted_why = law_function(law)
 
     def backbone_and_stiffness(self, pressure_pa: float, contraction_m: float
                                ) -> tuple[float, float]:
@@ -77,7 +99,9 @@ class LawMuscle(FrictionMuscle):
 
     def kernel(self) -> Any:
         """The compiled solve of this law's exchanges (``models.law_kernel``), or None: the
-        interpreted loop runs them."""
+        interpreted loop runs them (as it does for a law asked to run interpreted)."""
+        if self.p.law_core == 'interpreted':
+            return None
         from pam_bench.models.law_kernel import law_kernel
         return law_kernel(self.law, DX_M)[0]
 

@@ -172,6 +172,10 @@ class MuscleParams:
                       choices=('mckibben', 'straight_fibre', 'law'))
     law: str = field('bench_mckibben', '-', 'with kind law: the force law of the zoo, or of a '
                      'plug-in, the bench holds (pam-bench plugins lists them)')
+    law_core: str = field('auto', '-', 'with kind law: how the law runs: compiled (numba), '
+                          'interpreted (as written), or auto: a scene decides before its run '
+                          '(models.law_muscle.law_core_for), compiled elsewhere',
+                          choices=('auto', 'compiled', 'interpreted'))
     nominal_length_m: float = field(0.350, 'm', 'nominal length l_n (004)', 0.01, 10.0)
     nominal_diameter_m: float = field(0.020, 'm', 'nominal diameter d_n (004)', 0.001, 1.0)
     braid_angle_deg: float = field(20.0, 'deg', 'braid angle theta_0 at nominal length',

@@ -150,6 +150,32 @@ def test_a_law_named_without_kind_law_is_refused_in_one_line() -> None:
     assert scene.settings()['muscle_1'].muscle.law == 'tondu_lopez'
 
 
+@pytest.mark.parametrize('name, asked, core', [
+    ('demo', 'auto', 'interpreted'),              # 10 ms exchanges of 5 ms sub-steps
+    ('campaign_quick', 'auto', 'compiled'),       # 3 s exchanges
+    ('demo', 'compiled', 'compiled'),             # a choice is kept
+    ('campaign_quick', 'interpreted', 'interpreted'),
+])
+def test_a_scene_decides_how_its_law_runs_before_the_run(name: str, asked: str,
+                                                         core: str) -> None:
+    """Every engine reads the scene's settings: one decision, so one bag."""
+    scene = load_scene(name)
+    scene.set('muscle_1.muscle.kind', 'law')
+    scene.set('muscle_1.muscle.law', 'tondu_lopez')
+    scene.set('muscle_1.muscle.law_core', asked)
+    assert scene.settings()['muscle_1'].muscle.law_core == core
+    plain = load_scene(name).settings()['muscle_1'].muscle      # the McKibben: untouched
+    assert plain.kind == 'mckibben' and plain.law_core == 'auto'
+
+
+def test_how_a_law_runs_without_kind_law_is_refused_in_one_line() -> None:
+    scene = load_scene('demo')
+    with pytest.raises(ConfigError, match=r"muscle_1\.muscle\.law_core 'compiled' says how a "
+                       r"force law runs, but muscle_1\.muscle\.kind is 'mckibben'"):
+        scene.set('muscle_1.muscle.law_core', 'compiled')
+        scene.settings()
+
+
 def test_a_bag_recorded_beside_a_plug_in_law_is_read_where_it_is_missing() -> None:
     """A bag recorded where a plug-in law was installed carries that law's parameter section
     (every law's parameters are settings). Where the plug-in is missing the section is left

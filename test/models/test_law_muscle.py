@@ -52,3 +52,30 @@ def test_every_law_has_settings_with_its_start_and_bounds(law) -> None:
     assert [i.default for i in infos] == list(law.start)
     np.testing.assert_array_equal(law.theta(law.settings()), law.start)
     assert law in all_laws()
+
+
+@pytest.mark.parametrize('exchange_s, sub_s, core', [
+    (0.01, 0.005, 'interpreted'),      # the demo: 2 sub-steps an exchange
+    (0.001, 0.005, 'interpreted'),     # a servo scene: one
+    (0.155, 0.005, 'interpreted'),     # 31
+    (0.16, 0.005, 'compiled'),         # 32 (jit.LOAD_AT)
+    (3.0, 0.005, 'compiled'),          # a campaign's exchanges
+])
+def test_a_scene_runs_its_law_compiled_when_exchanges_are_long(exchange_s: float, sub_s: float,
+                                                                core: str) -> None:
+    from pam_bench.models.law_muscle import law_core_for
+    assert law_core_for(exchange_s, sub_s) == core
+
+
+def test_a_law_asked_to_run_interpreted_runs_as_written() -> None:
+    law = force_law('chou_hannaford')
+    plain = LawMuscle(law, law.settings(), dataclasses.replace(MuscleParams(), kind='law',
+                                                               law_core='interpreted'))
+    fast = LawMuscle(law, law.settings(), dataclasses.replace(MuscleParams(), kind='law',
+                                                              law_core='compiled'))
+    assert plain._law is law.law and plain.kernel() is None
+    assert plain.interpreted_why == 'muscle.law_core is interpreted'
+    assert fast.interpreted_why == '' and fast._law is not law.law
+    for p, x in [(1e5, 0.0), (3e5, 0.02), (5e5, 0.05)]:
+        np.testing.assert_allclose(plain.backbone_and_stiffness(p, x),
+                                   fast.backbone_and_stiffness(p, x), rtol=1e-9)
