@@ -38,7 +38,8 @@ def methods() -> dict[str, dict[str, str]]:
 def commit_of(r: dict[str, Any], key: str) -> str:
     """The commit the figures under ``key`` were measured at (``--only`` reruns some), in
     backticks."""
-    return f"`{r.get('measured', {}).get(key, {}).get('commit', r['commit'])}`"
+    measured = r.get('measured', {}).get(key, {})
+    return f"`{measured['commit'] if 'commit' in measured else r['commit']}`"
 
 
 def pct(x: float | None, digits: int = 3) -> str:
