@@ -83,7 +83,12 @@ def run_readings(name: str, readings: list[Reading], settle_s: float, exchange_s
     settings (limits, suspenders, pause action; default: the defaults with these steps).
     ``max_sim_s``: stop there (exit code ``TIMED_OUT``; a run a suspender holds for ever, or
     a job of a sweep, must end). ``settle``: when a settled muscle is held for the rest of an
-    exchange (None: the muscle node's default, ``models.coupling.SettleParams``)."""
+    exchange (None: the muscle node's default, ``models.coupling.SettleParams``). A force
+    law left to ``auto`` runs as a scene of these steps would run it
+    (``models.law_muscle.law_core_for``), so the twin's run is the nodes'."""
+    if muscle is not None and muscle.kind == 'law' and muscle.law_core == 'auto':
+        from pam_bench.models.law_muscle import law_core_for
+        muscle = dataclasses.replace(muscle, law_core=law_core_for(exchange_step_s, sub_step_s))
     bench = SingleMuscleBench(valve=valve, muscle=muscle, load_cell=load_cell, servo=servo,
                               seed=seed, sub_step_s=sub_step_s, straight_fibre=straight_fibre,
                               settle=settle)

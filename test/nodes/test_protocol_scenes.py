@@ -128,6 +128,40 @@ def test_nodes_match_the_numpy_twin(name: str, one_process: bool, tmp_path: path
         assert len(window) == 1000
 
 
+def test_a_law_on_the_demo_runs_as_the_twin_runs_it(tmp_path: pathlib.Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """A force law left to ``auto``: the scene runs it as written on the demo's 10 ms
+    exchanges, and the twin of the same steps decides the same (``law_core_for``), so the
+    nodes' readings are the twin's to the last bit."""
+    import dataclasses
+
+    from pam_bench.models.sensors import LoadCellParams
+    from pam_bench.twin import protocol_run
+    from pam_bench.twin.protocol_run import run_protocol
+    built = []
+    bench = protocol_run.SingleMuscleBench
+    monkeypatch.setattr(protocol_run, 'SingleMuscleBench',
+                        lambda **kw: built.append(kw['muscle'].law_core) or bench(**kw))
+    scene = load_scene('demo')
+    law = {'kind': 'law', 'law': 'bench_mckibben'}       # the bench's law, through the zoo
+    quiet = dataclasses.replace(scene, parameters={
+        'load_cell_1': {'load_cell': {'noise': False}}, 'muscle_1': {'muscle': law}})
+    assert quiet.settings()['muscle_1'].muscle.law_core == 'interpreted'
+    bag = tmp_path / 'bag'
+    res = run_scene(quiet, str(bag), RunOptions(layout=Layout.COMPOSED,
+                                                domain_id=next_domain(), quiet=True))
+    assert res.code == 0, res
+    twin = run_protocol(scene.protocol, scene.exchange_step_s,
+                        overrides=scene.protocol_overrides, sub_step_s=scene.sub_step_s,
+                        load_cell=LoadCellParams(noise=False),
+                        muscle=quiet.settings()['muscle_1'].muscle.__class__(**law))
+    assert built == ['interpreted']
+    pts = bag_messages(bag, '/protocol/point')
+    assert len(pts) == len(twin.points) == 24
+    assert [p.force for p in pts] == [q.measurement.force_n for q in twin.points]
+    assert [p.contraction for p in pts] == [q.measurement.contraction_m for q in twin.points]
+
+
 def test_resume_after_an_interrupted_run(tmp_path: pathlib.Path) -> None:
     """A run cut short (the clock stops at 60 s of a 129 s protocol) leaves a valid bag; the
     resumed run starts at the first reading the bag lacks and takes the rest: nothing twice,
