@@ -1,4 +1,4 @@
-"""The run's ETA rate (nodes.sim_clock.windowed_rate)."""
+"""The sim clock: its ETA rate (nodes.sim_clock.windowed_rate), a tick sent again, its start."""
 
 from __future__ import annotations
 
@@ -69,3 +69,45 @@ def test_an_unacknowledged_tick_is_published_again_and_again(make_harness: Any) 
         h.executor.spin_once(timeout_sec=0.02)
     assert rclpy.ok(context=h.context)
     assert ticks.count(10_000_000) >= 4, ticks      # once, then a nudge per 0.25 s timer
+
+
+def test_in_one_process_the_clock_starts_at_the_poll_that_finds_every_ack() -> None:
+    """Composed (lean, on the intra-process bus, no grace): t_0 goes out at the first poll,
+    and the poll after the participants' acknowledgements starts the run at once, with no
+    50 ms mark between (three such marks were 0.15 s of the demo's 1.5 s)."""
+    import rclpy
+    from pam_bench_interfaces.msg import StepAck
+    from rclpy.parameter import Parameter
+
+    from pam_bench.nodes.sim_clock import ClockState, SimClock
+    from pam_bench.runtime.base import RELIABLE
+    from pam_bench.runtime.intra import IntraProcessBus
+    from pam_bench.runtime.messages import clock_ns, time_of
+
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    try:
+        bus = IntraProcessBus()
+        clock = SimClock(context=context, lean=True, bus=bus, parameter_overrides=[
+            Parameter('participants', value=['/p']), Parameter('grace_s', value=0.0),
+            Parameter('exchange_step_s', value=0.01)])
+        peer = rclpy.create_node('p', context=context)
+        acks = bus.publisher(peer, StepAck, '/sim/ack', RELIABLE)
+        ticks: list[int] = []
+
+        def on_tick(msg: object) -> None:
+            ticks.append(clock_ns(msg))
+            ack = StepAck(node='/p')
+            ack.header.stamp = time_of(ticks[-1])
+            acks.publish(ack)
+
+        bus.subscribe(peer, '/clock', on_tick, None)
+        clock.lean_poll()                      # t_0 out at once
+        bus.drain(100)                         # the peer acknowledges it
+        assert ticks == [0] and clock.state == ClockState.WAITING
+        clock.lean_poll()                      # every ack in: running, t_1 out
+        assert clock.state == ClockState.RUNNING
+        bus.drain(100)
+        assert ticks[:2] == [0, 10_000_000]
+    finally:
+        rclpy.shutdown(context=context)
