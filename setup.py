@@ -42,6 +42,6 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [f'{name} = {module}:main' for name, module in NODES.items()]
-        + ['pam-bench = pam_bench.cli:main'],
+        + ['pam-bench = pam_bench.cli:command'],
     },
 )

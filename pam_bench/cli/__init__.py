@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pam_bench.cli.main import main
+from pam_bench.cli.main import command, main
 
-__all__ = ['main', 'bags', 'bench', 'design', 'errors', 'fit', 'json_out', 'numbers', 'plugins',
-           'run']
+__all__ = ['main', 'command', 'bags', 'bench', 'design', 'errors', 'fit', 'json_out', 'numbers',
+           'plugins', 'run']

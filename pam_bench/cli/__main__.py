@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-import sys
-
-from pam_bench.cli.main import main
+from pam_bench.cli.main import command
 
 __all__: list[str] = []
 
-sys.exit(main())
+command()

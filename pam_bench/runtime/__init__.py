@@ -3,5 +3,5 @@
 from __future__ import annotations
 
 __all__ = ['base', 'cdr', 'core', 'diagnostics', 'faults', 'intra', 'lifecycle', 'lockstep',
-           'messages', 'params', 'process', 'profiling', 'qos', 'scheduling', 'stamped',
+           'leaving', 'messages', 'params', 'process', 'profiling', 'qos', 'scheduling', 'stamped',
            'stats', 'stepping', 'tuning', 'wallclock']

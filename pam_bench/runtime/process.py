@@ -9,7 +9,6 @@ shutdown, and cleaned up.
 
 from __future__ import annotations
 
-import contextlib
 import gc
 import os
 import signal
@@ -22,6 +21,7 @@ from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
+from pam_bench.runtime.leaving import leave
 from pam_bench.runtime.params import wildcard_only_keys
 from pam_bench.runtime.profiling import profiled
 from pam_bench.runtime.scheduling import set_realtime_priority
@@ -418,15 +418,9 @@ def run_node(cls: type[Node], args: list[str] | None = None) -> None:
 
 
 def _leave(code: int) -> NoReturn:
-    """End the node's process with ``code`` once the node is destroyed and rclpy shut down,
-    skipping the interpreter's finalisation: after a peer process was killed (SIGKILL), the
-    DDS library's destructors at exit were seen to corrupt the heap and abort the survivor
-    ('malloc_consolidate(): unaligned fastbin chunk detected', exit -6; 3 of 10 runs beside
-    two busy loops), though its work was done. Output is flushed first."""
-    import logging
-    import sys
-    logging.shutdown()
-    for stream in (sys.stdout, sys.stderr):
-        with contextlib.suppress(Exception):
-            stream.flush()
-    os._exit(code)
+    """End the node's process with ``code`` once the node is destroyed and rclpy shut down
+    (``runtime.leaving.leave``: after a peer process was killed (SIGKILL), the DDS library's
+    destructors at exit were seen to corrupt the heap and abort the survivor,
+    'malloc_consolidate(): unaligned fastbin chunk detected', exit -6, 3 of 10 runs beside two
+    busy loops, though its work was done)."""
+    leave(code)
