@@ -194,11 +194,10 @@ class Scene:
             except ParameterError as exc:
                 raise ConfigError(f'scene {self.name}: {exc}') from None
             muscle = getattr(out[name], 'muscle', None)
-            if muscle is not None and muscle.kind == 'law' and muscle.law_core == 'auto':
-                from pam_bench.models.law_muscle import law_core_for
-                core = law_core_for(self.exchange_step_s, self.sub_step_s)
-                out[name] = dataclasses.replace(out[name], muscle=dataclasses.replace(
-                    muscle, law_core=core))
+            if muscle is not None:         # a law left to auto: decided for this scene's steps
+                from pam_bench.models.law_muscle import with_law_core
+                out[name] = dataclasses.replace(out[name], muscle=with_law_core(
+                    muscle, self.exchange_step_s, self.sub_step_s))
         _check_inputs(self.name, out)
         return out
 

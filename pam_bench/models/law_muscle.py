@@ -17,6 +17,7 @@ its own (``laws.LAW.*``).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any
 
@@ -27,7 +28,7 @@ from pam_bench.models.friction import MaxwellSlip
 from pam_bench.models.laws.base import ForceLaw, law_function
 from pam_bench.models.muscle import FrictionMuscle, MuscleModel, MuscleParams
 
-__all__ = ['LawMuscle', 'DX_M', 'law_core_for']
+__all__ = ['LawMuscle', 'DX_M', 'law_core_for', 'with_law_core']
 
 DX_M = 1.0e-6
 """Half-step of the central difference of the stiffness, m."""
@@ -48,6 +49,15 @@ def law_core_for(exchange_step_s: float, sub_step_s: float) -> str:
     """
     from pam_bench.models import jit
     return 'compiled' if exchange_step_s >= jit.LOAD_AT * sub_step_s else 'interpreted'
+
+
+def with_law_core(muscle: MuscleParams, exchange_step_s: float,
+                  sub_step_s: float) -> MuscleParams:
+    """``muscle`` with a force law left to 'auto' decided for these steps (``law_core_for``);
+    any other muscle as it is. The scene's settings and the twin's protocol run both call it."""
+    if muscle.kind != 'law' or muscle.law_core != 'auto':
+        return muscle
+    return dataclasses.replace(muscle, law_core=law_core_for(exchange_step_s, sub_step_s))
 
 
 class LawMuscle(FrictionMuscle):

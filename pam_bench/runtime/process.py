@@ -14,7 +14,7 @@ import os
 import signal
 import time
 from collections.abc import Callable
-from typing import Any, NoReturn
+from typing import Any
 
 import rclpy
 from rclpy.exceptions import ParameterException
@@ -414,13 +414,5 @@ def run_node(cls: type[Node], args: list[str] | None = None) -> None:
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
-        _leave(code)
+        leave(code)       # skips the DDS library's destructors (runtime.leaving)
 
-
-def _leave(code: int) -> NoReturn:
-    """End the node's process with ``code`` once the node is destroyed and rclpy shut down
-    (``runtime.leaving.leave``: after a peer process was killed (SIGKILL), the DDS library's
-    destructors at exit were seen to corrupt the heap and abort the survivor,
-    'malloc_consolidate(): unaligned fastbin chunk detected', exit -6, 3 of 10 runs beside two
-    busy loops, though its work was done)."""
-    leave(code)

@@ -86,9 +86,9 @@ def run_readings(name: str, readings: list[Reading], settle_s: float, exchange_s
     exchange (None: the muscle node's default, ``models.coupling.SettleParams``). A force
     law left to ``auto`` runs as a scene of these steps would run it
     (``models.law_muscle.law_core_for``), so the twin's run is the nodes'."""
-    if muscle is not None and muscle.kind == 'law' and muscle.law_core == 'auto':
-        from pam_bench.models.law_muscle import law_core_for
-        muscle = dataclasses.replace(muscle, law_core=law_core_for(exchange_step_s, sub_step_s))
+    if muscle is not None:
+        from pam_bench.models.law_muscle import with_law_core
+        muscle = with_law_core(muscle, exchange_step_s, sub_step_s)
     bench = SingleMuscleBench(valve=valve, muscle=muscle, load_cell=load_cell, servo=servo,
                               seed=seed, sub_step_s=sub_step_s, straight_fibre=straight_fibre,
                               settle=settle)
