@@ -71,7 +71,8 @@ def test_an_unacknowledged_tick_is_published_again_and_again(make_harness: Any) 
     assert ticks.count(10_000_000) >= 4, ticks      # once, then a nudge per 0.25 s timer
 
 
-def test_in_one_process_the_clock_starts_at_the_poll_that_finds_every_ack() -> None:
+def test_in_one_process_the_clock_starts_at_the_poll_that_finds_every_ack(
+        ros_domain: int) -> None:
     """Composed (lean, on the intra-process bus, no grace): t_0 goes out at the first poll,
     and the poll after the participants' acknowledgements starts the run at once, with no
     50 ms mark between (three such marks were 0.15 s of the demo's 1.5 s)."""
