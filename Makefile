@@ -22,13 +22,13 @@ test:
 	$(PY) -m ruff check pam_bench benchmarks test
 	$(PY) -m mypy
 	$(PY) -m vulture pam_bench benchmarks test tools/vulture_allow.py --min-confidence 60
-	$(PY) -m pytest -q -n 2 -m 'not wallclock' --durations=10 test
+	$(PY) -m pytest -q -n 2 --dist worksteal -m 'not wallclock' --durations=10 test
 	PAM_BENCH_TEST_DOMAIN_START=80 $(PY) -m pytest -q -p no:xdist -m wallclock --durations=10 test
 
 # the quick tier: every test that needs neither ROS nor a clock nor a fit (under a minute)
 check: setup
 	$(PY) -m ruff check pam_bench benchmarks test
-	$(PY) -m pytest -q -n 2 -m 'not ros and not wallclock and not slow' test
+	$(PY) -m pytest -q -n 2 --dist worksteal -m 'not ros and not wallclock and not slow' test
 
 lint: setup
 	$(PY) -m ruff check pam_bench benchmarks test
