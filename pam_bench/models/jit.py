@@ -24,6 +24,17 @@ run with few sub-steps per exchange (the demo, a servo scene) never wins back. T
 cache goes to ``NUMBA_CACHE_DIR`` when set, else to ``$XDG_CACHE_HOME/pam_bench/numba``
 (``~/.cache``): a wheel or a colcon ``install/`` is read-only, and numba's default
 (``__pycache__`` beside the module) is not writable there.
+
+numba is imported through ``import_numba``, which leaves out two imports numba makes for
+features no kernel uses (docs/long_runs.md, "numba's load without SciPy's BLAS and coverage"):
+
+- numba's array functions (``numba.np.arraymath``) ask once whether SciPy's BLAS is there, to
+  compile ``np.dot`` and ``np.vdot`` of 1-D float arrays with it; asking imports
+  ``scipy.linalg``. ``import_numba`` imports that module with the answer no: both then compile
+  as numba's own loop. Every other use of BLAS or LAPACK (``np.linalg``) still asks for itself.
+- numba imports ``coverage``, when it is installed (colcon-core, a test requirement, needs
+  it), to report the lines of compiled functions to a running coverage. Where none runs
+  (``coverage`` not imported yet), ``import_numba`` imports numba without it.
 """
 
 from __future__ import annotations
@@ -52,7 +63,7 @@ else:
 
 __all__ = ['available', 'enabled', 'core', 'wanted', 'LOAD_AT', 'use', 'start_loading',
            'cache_dir', 'helper', 'kernel', 'warm_up', 'Array', 'Values', 'Slots',
-           'KERNEL_MODULES', 'compile_function', 'sources_key']
+           'KERNEL_MODULES', 'compile_function', 'sources_key', 'import_numba']
 
 F = TypeVar('F', bound=Callable[..., Any])
 
@@ -190,7 +201,7 @@ def _load() -> None:
         if _READY.is_set() or _FAILED:
             return
         try:
-            import numba
+            numba = import_numba()
             from numba.extending import register_jitable
             for module in KERNEL_MODULES:            # every kernel and helper registered
                 importlib.import_module(module)
@@ -205,6 +216,41 @@ def _load() -> None:
             return
         _COMPILED.update(compiled)
         _READY.set()
+
+
+def import_numba() -> Any:
+    """numba, for the kernels (module docstring): imported without ``coverage`` unless a
+    coverage is running, and ``numba.np.arraymath`` imported with its BLAS probe answered no.
+    Both stand-ins are taken back at once (numba's ``ensure_blas`` under numba's compiler lock,
+    so no compile in another thread meets it).
+
+    Raises:
+        ImportError: numba is not installed.
+    """
+    import sys
+    if 'numba' not in sys.modules and 'coverage' not in sys.modules:
+        sys.modules['coverage'] = None  # type: ignore[assignment]
+        try:
+            import numba
+        finally:
+            if 'coverage' in sys.modules and sys.modules['coverage'] is None:
+                del sys.modules['coverage']
+    import numba
+    if 'numba.np.arraymath' not in sys.modules:
+        from numba.core.compiler_lock import global_compiler_lock
+        from numba.np import linalg
+
+        def no_blas() -> None:
+            raise ImportError('the compiled core compiles np.dot without BLAS')
+
+        with global_compiler_lock:
+            probe = linalg.ensure_blas
+            linalg.ensure_blas = no_blas
+            try:
+                importlib.import_module('numba.np.arraymath')
+            finally:
+                linalg.ensure_blas = probe
+    return numba
 
 
 def sources_key() -> str:
@@ -264,7 +310,7 @@ def compile_function(fn: Callable[..., Any], example: tuple[Any, ...]
                                                      '(PAM_BENCH_CORE=python)')
     else:
         try:
-            import numba
+            numba = import_numba()
             _use_cache(numba)
             _callees_jitable(fn, set())
             try:

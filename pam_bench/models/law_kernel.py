@@ -91,7 +91,7 @@ def _build(law: ForceLaw, dx_m: float) -> tuple[Callable[..., Any] | None, str]:
             getattr(sys.modules.get(module), name, None) is not fn:
         return None, 'its function is not importable by module and name'
     try:
-        import numba
+        numba = jit.import_numba()
         from numba.extending import register_jitable
         source = inspect.getsourcefile(fn) or ''
         digest = hashlib.sha1(usedforsecurity=False)

@@ -252,3 +252,25 @@ def test_a_file_cached_under_another_module_name_is_cached_again(
     again, _ = jit.compile_function(third.force, example)
     assert again is not None and sum(again.stats.cache_hits.values()) == 1
     np.testing.assert_allclose(again(*example), second.force(*example), rtol=1e-15)
+
+
+def test_the_core_loads_without_scipy_linalg_and_coverage() -> None:
+    """numba's BLAS probe answered no while the core loads, and numba imported without
+    ``coverage`` (``models.jit`` docstring): neither module imported; a function of ``np.dot``
+    of 1-D arrays compiles as numba's loop, and ``np.linalg`` still finds LAPACK through
+    SciPy."""
+    import subprocess
+    import sys
+    code = ('import sys, numpy as np\n'
+            'from pam_bench.models import jit\n'
+            'jit.use("compiled")\n'
+            'print("scipy.linalg" in sys.modules, "coverage" in sys.modules)\n'
+            'import numba\n'
+            'print(numba.njit(lambda a, b: np.dot(a, b))(np.arange(3.0), np.arange(3.0)))\n'
+            'print(numba.njit(lambda a: np.linalg.det(a))(np.array([[2.0, 1.0], [1.0, 3.0]])))\n')
+    res = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                         timeout=120)
+    assert res.returncode == 0, res.stderr
+    linalg, coverage, dot, det = res.stdout.split()
+    assert (linalg, coverage) == ('False', 'False')
+    np.testing.assert_allclose([float(dot), float(det)], [5.0, 5.0], rtol=1e-12)
