@@ -23,6 +23,7 @@ from benchmarks import (
     scenes,
     servo_compare,
     settle,
+    side_by_side,
     soak,
     straight_fibre,
     sweep_scaling,
@@ -37,7 +38,7 @@ STUDIES: tuple[Study, ...] = (
     exchange_step.STUDY,
     settle.STUDY, record_exchange.STUDY, scenes.STUDY, models.STUDY, wallclock.STUDY,
     faults.STUDY, straight_fibre.STUDY, calibrate.STUDY, calibrate_bounds.STUDY,
-    calibrate_nodes.STUDY, calibrate_zoo.STUDY, plugin_law.STUDY,
+    calibrate_nodes.STUDY, calibrate_zoo.STUDY, plugin_law.STUDY, side_by_side.STUDY,
     servo_compare.STUDY, soak.STUDY, sweep_scaling.STUDY, dynamics.STUDY, fuzz.STUDY,
     buses.STUDY)
 """Every study; ``python -m benchmarks --only KEY`` runs some."""
