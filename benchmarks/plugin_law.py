@@ -46,6 +46,7 @@ def _run(site: pathlib.Path, scene: str, law: bool, out: pathlib.Path) -> float:
         args += ['--set', 'muscle_1.muscle.kind=law', '--set', f'muscle_1.muscle.law={LAW}']
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(site), str(ROOT)]),
                ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')     # the study's ROS_DOMAIN_ID
+    env.pop('PYTHONDONTWRITEBYTECODE', None)                   # run from bytecode, as installed
     t0 = time.perf_counter()
     done = subprocess.run(args, env=env, capture_output=True, text=True, timeout=600)
     took = time.perf_counter() - t0

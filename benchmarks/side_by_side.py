@@ -5,9 +5,11 @@ A worktree of ``BASE`` (``git worktree add --detach``) beside this checkout; bot
 same venv, each with its own sources first on the path. Each scene of ``SCENES`` runs as a lab
 runs it, ``python -m pam_bench.cli run SCENE`` (start-up and end included), alternated
 ``BASE`` then this checkout, after one warm-up run of each (numba's cache filled for each
-tree's sources). The wall time of each command, its median per scene and tree, the speed-up
-(``BASE``'s median over this checkout's) against the issue's goal, and whether the last two
-bags hold the same readings (``pam-bench diff``). The worktree is removed at the end.
+tree's sources, and each tree's bytecode written: ``PYTHONDONTWRITEBYTECODE`` is not passed
+on, so neither tree compiles its sources on every run as a fresh worktree would). The wall
+time of each command, its median per scene and tree, the speed-up (``BASE``'s median over this
+checkout's) against the issue's goal, and whether the last two bags hold the same readings
+(``pam-bench diff``). The worktree is removed at the end.
 """
 
 from __future__ import annotations
@@ -43,6 +45,7 @@ def _run(tree: pathlib.Path, scene: str, out: pathlib.Path) -> float:
         RuntimeError: the run failed (its last output).
     """
     env = dict(os.environ, PYTHONPATH=str(tree), ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
+    env.pop('PYTHONDONTWRITEBYTECODE', None)      # both trees run from their bytecode
     t0 = time.perf_counter()
     done = subprocess.run([sys.executable, '-m', 'pam_bench.cli', 'run', scene, '--out',
                            str(out), '--overwrite'], cwd=tree, env=env, capture_output=True,
