@@ -9,7 +9,7 @@ tree's sources, and each tree's bytecode written: ``PYTHONDONTWRITEBYTECODE`` is
 on, so neither tree compiles its sources on every run as a fresh worktree would). The wall
 time of each command, its median per scene and tree, the speed-up (``BASE``'s median over this
 checkout's) against the issue's goal, and whether the last two bags hold the same readings
-(``pam-bench diff``). The worktree is removed at the end.
+(``pam-bench diff``: ``READINGS``). The worktree is removed at the end.
 """
 
 from __future__ import annotations
@@ -57,12 +57,17 @@ def _run(tree: pathlib.Path, scene: str, out: pathlib.Path) -> float:
     return took
 
 
-def _same_readings(a: pathlib.Path, b: pathlib.Path) -> bool:
-    """Whether two bags hold the same readings (``pam-bench diff`` exits 0)."""
+READINGS = {0: 'identical', 1: 'differ', 2: 'none to compare'}
+"""``pam-bench diff``'s exit status -> what the table says (2: a bag without readings, as a
+servo scene's)."""
+
+
+def _readings(a: pathlib.Path, b: pathlib.Path) -> str:
+    """Whether two bags hold the same readings (``READINGS`` of ``pam-bench diff``)."""
     done = subprocess.run([sys.executable, '-m', 'pam_bench.cli', 'diff', str(a), str(b)],
                           cwd=ROOT, capture_output=True, text=True, timeout=300,
                           env=dict(os.environ, PYTHONPATH=str(ROOT)))
-    return done.returncode == 0
+    return READINGS.get(done.returncode, f'diff failed ({done.returncode})')
 
 
 def measure(quick: bool) -> dict[str, Any]:
@@ -92,7 +97,7 @@ def measure(quick: bool) -> dict[str, Any]:
                         if i:                                 # the first: the warm-up
                             times[kind].append(took)
                 out['scenes'][scene] = {'times': times, 'goal': goal,
-                                        'same_readings': _same_readings(*bags.values())}
+                                        'readings': _readings(*bags.values())}
         finally:
             subprocess.run(['git', '-C', str(ROOT), 'worktree', 'remove', '--force',
                             str(base)], capture_output=True, timeout=120)
@@ -114,7 +119,7 @@ def section(r: dict[str, Any]) -> list[str]:
             t = s['times'][kind]
             cells.append(f'{min(t):.2f}-{max(t):.2f} s (median {statistics.median(t):.2f} s)')
         rows.append((scene, len(s['times']['now']), *cells, f'{_speed_up(s):.2f}x',
-                     f"{s['goal']}x", 'identical' if s['same_readings'] else 'differ'))
+                     f"{s['goal']}x", s['readings']))
     return table(['scene', 'runs', f"`{c['base']}`", 'now', 'speed-up (medians)', 'goal',
                   'readings of the last two bags'], rows)
 

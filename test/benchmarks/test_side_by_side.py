@@ -6,9 +6,9 @@ from benchmarks.side_by_side import results, section
 
 TIMES = {'base': '7e50f37', 'scenes': {
     'demo': {'times': {'base': [1.5, 1.6, 1.4], 'now': [1.0, 0.9, 1.1]}, 'goal': 1.5,
-             'same_readings': True},
+             'readings': 'identical'},
     'campaign': {'times': {'base': [25.0, 24.0, 26.0], 'now': [22.0, 21.0, 23.0]},
-                 'goal': 2.0, 'same_readings': False}}}
+                 'goal': 2.0, 'readings': 'differ'}}}
 REPORT = {'side_by_side': TIMES, 'measured': {'side_by_side': {'commit': 'abc1234'}}}
 
 
