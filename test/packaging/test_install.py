@@ -35,7 +35,9 @@ def _venv_site(venv: pathlib.Path) -> pathlib.Path:
 def test_pip_install_runs_the_demo_from_anywhere(tmp_path: pathlib.Path,
                                                  ros_domain: int) -> None:
     venv = tmp_path / 'venv'
-    subprocess.run([sys.executable, '-m', 'venv', str(venv)], check=True)
+    # no pip of its own (ensurepip: 3 s): the .pth below lends it this venv's, which installs
+    # into the running interpreter's prefix, the fresh venv
+    subprocess.run([sys.executable, '-m', 'venv', '--without-pip', str(venv)], check=True)
     (_venv_site(venv) / 'zz_pam_bench_deps.pth').write_text(
         f'import site; site.addsitedir({str(SITE)!r})\n')
     py = venv / 'bin' / 'python'
