@@ -14,17 +14,16 @@ campaign_quick's 3 s exchanges compiled.
 
 from __future__ import annotations
 
-import os
 import pathlib
 import statistics
 import subprocess
 import sys
 import tempfile
-import time
 from typing import Any
 
+from benchmarks.runs import command_run
 from benchmarks.study import Study
-from benchmarks.tables import Row, commit_of, table
+from benchmarks.tables import Row, commit_of, spread, table
 
 __all__ = ['STUDY', 'SCENES', 'RUNS', 'LAW', 'measure', 'section', 'results']
 
@@ -36,23 +35,11 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
 def _run(site: pathlib.Path, scene: str, law: bool, out: pathlib.Path) -> float:
-    """One ``pam-bench run`` (s of wall time).
-
-    Raises:
-        RuntimeError: the run failed (its last output).
-    """
-    args = [sys.executable, '-m', 'pam_bench.cli', 'run', scene, '--out', str(out)]
+    """One ``pam-bench run`` (s of wall time; ``runs.command_run``)."""
+    args = ['run', scene, '--out', str(out)]
     if law:
         args += ['--set', 'muscle_1.muscle.kind=law', '--set', f'muscle_1.muscle.law={LAW}']
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(site), str(ROOT)]),
-               ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')     # the study's ROS_DOMAIN_ID
-    env.pop('PYTHONDONTWRITEBYTECODE', None)                   # run from bytecode, as installed
-    t0 = time.perf_counter()
-    done = subprocess.run(args, env=env, capture_output=True, text=True, timeout=600)
-    took = time.perf_counter() - t0
-    if done.returncode != 0:
-        raise RuntimeError(f'{scene}: exit {done.returncode}: {done.stderr[-300:]}')
-    return took
+    return command_run(args, (site, ROOT), scene, timeout_s=600.0)
 
 
 def measure(quick: bool) -> dict[str, Any]:
@@ -88,10 +75,7 @@ def section(r: dict[str, Any]) -> list[str]:
     rows: list[Row] = []
     for scene, t in c['scenes'].items():
         b, law = _medians(c, scene)
-        rows.append((scene, f"{min(t['built_in']):.2f}-{max(t['built_in']):.2f} s "
-                            f'(median {b:.2f} s)',
-                     f"{min(t['law']):.2f}-{max(t['law']):.2f} s (median {law:.2f} s)",
-                     f'{law / b:.2f}x'))
+        rows.append((scene, spread(t['built_in']), spread(t['law']), f'{law / b:.2f}x'))
     return table(['scene', "the bench's McKibben muscle", f"the example law ({c['law']})",
                   'ratio of the medians'], rows) + [
         '', f"{c['runs']} runs each, alternated, after one warm-up run of each."]

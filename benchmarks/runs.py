@@ -1,16 +1,21 @@
-"""One scene run as the studies time it: wall time with start-up, lock-step rate, deliveries."""
+"""One scene run as the studies time it: in this process (wall time with start-up, lock-step
+rate, deliveries), or as a lab runs a command (``command_run``)."""
 
 from __future__ import annotations
 
+import os
 import pathlib
+import subprocess
+import sys
 import time
+from collections.abc import Sequence
 from typing import Any
 
 from pam_bench.bringup.runner import run_scene
 from pam_bench.config.scene import load_scene
 from pam_bench.vocabulary.run import Layout, RunOptions
 
-__all__ = ['scene_run', 'scene_bag']
+__all__ = ['scene_run', 'scene_bag', 'command_run']
 
 
 def scene_bag(name: str, out: pathlib.Path, layout: Layout) -> pathlib.Path:
@@ -35,3 +40,27 @@ def scene_run(name: str, out: pathlib.Path, layout: Layout = Layout.PROCESSES
         # processes, where each is a DDS delivery (clock ticks and acknowledgements included)
         row['deliveries_per_exchange'] = res.stats['deliveries'] / res.steps
     return row
+
+
+def command_run(args: Sequence[str], path: Sequence[pathlib.Path], label: str,
+                cwd: pathlib.Path | None = None, timeout_s: float = 900.0) -> float:
+    """``python -m pam_bench.cli ARGS`` in a child process, as a lab runs a command: its wall
+    time, s, start-up and end included. ``path`` goes first on its ``PYTHONPATH`` (the sources
+    it runs); it stays on loopback in the study's ``ROS_DOMAIN_ID``, and writes and uses its
+    bytecode (``PYTHONDONTWRITEBYTECODE`` is not passed on: a fresh tree would compile every
+    module on every run).
+
+    Raises:
+        RuntimeError: the command failed (``label``, its exit status, its last output).
+    """
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(str(p) for p in path),
+               ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
+    env.pop('PYTHONDONTWRITEBYTECODE', None)
+    t0 = time.perf_counter()
+    done = subprocess.run([sys.executable, '-m', 'pam_bench.cli', *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=timeout_s)
+    took = time.perf_counter() - t0
+    if done.returncode != 0:
+        raise RuntimeError(f'{label}: exit {done.returncode}: '
+                           f'{(done.stdout + done.stderr)[-300:]}')
+    return took

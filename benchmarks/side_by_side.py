@@ -20,12 +20,12 @@ import statistics
 import subprocess
 import sys
 import tempfile
-import time
 from typing import Any
 
 from benchmarks.errors import UsageError
+from benchmarks.runs import command_run
 from benchmarks.study import Study
-from benchmarks.tables import Row, commit_of, table
+from benchmarks.tables import Row, commit_of, spread, table
 
 __all__ = ['STUDY', 'BASE', 'SCENES', 'measure', 'section', 'results']
 
@@ -39,22 +39,9 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
 def _run(tree: pathlib.Path, scene: str, out: pathlib.Path) -> float:
-    """One ``pam-bench run`` of ``tree``'s sources (s of wall time).
-
-    Raises:
-        RuntimeError: the run failed (its last output).
-    """
-    env = dict(os.environ, PYTHONPATH=str(tree), ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
-    env.pop('PYTHONDONTWRITEBYTECODE', None)      # both trees run from their bytecode
-    t0 = time.perf_counter()
-    done = subprocess.run([sys.executable, '-m', 'pam_bench.cli', 'run', scene, '--out',
-                           str(out), '--overwrite'], cwd=tree, env=env, capture_output=True,
-                          text=True, timeout=900)
-    took = time.perf_counter() - t0
-    if done.returncode != 0:
-        raise RuntimeError(f'{scene} ({tree.name}): exit {done.returncode}: '
-                           f'{(done.stdout + done.stderr)[-300:]}')
-    return took
+    """One ``pam-bench run`` of ``tree``'s sources (s of wall time; ``runs.command_run``)."""
+    return command_run(['run', scene, '--out', str(out), '--overwrite'], (tree,),
+                       f'{scene} ({tree.name})', cwd=tree)
 
 
 READINGS = {0: 'identical', 1: 'differ', 2: 'none to compare'}
@@ -114,11 +101,8 @@ def section(r: dict[str, Any]) -> list[str]:
     c = r['side_by_side']
     rows: list[Row] = []
     for scene, s in c['scenes'].items():
-        cells = []
-        for kind in ('base', 'now'):
-            t = s['times'][kind]
-            cells.append(f'{min(t):.2f}-{max(t):.2f} s (median {statistics.median(t):.2f} s)')
-        rows.append((scene, len(s['times']['now']), *cells, f'{_speed_up(s):.2f}x',
+        rows.append((scene, len(s['times']['now']), spread(s['times']['base']),
+                     spread(s['times']['now']), f'{_speed_up(s):.2f}x',
                      f"{s['goal']}x", s['readings']))
     return table(['scene', 'runs', f"`{c['base']}`", 'now', 'speed-up (medians)', 'goal',
                   'readings of the last two bags'], rows)

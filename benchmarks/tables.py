@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import functools
 import pathlib
+import statistics
 from collections.abc import Iterable, Sequence
 from typing import Any
 
 import yaml
 
-__all__ = ['Row', 'table', 'methods', 'commit_of', 'pct', 'LONG_RUNS', 'RESULTS', 'REPOSITORY']
+__all__ = ['Row', 'table', 'methods', 'commit_of', 'pct', 'spread', 'LONG_RUNS', 'RESULTS',
+           'REPOSITORY']
 
 Row = Sequence[Any]
 REPOSITORY = pathlib.Path(__file__).resolve().parents[1]
@@ -45,3 +47,9 @@ def commit_of(r: dict[str, Any], key: str) -> str:
 def pct(x: float | None, digits: int = 3) -> str:
     """A number, or '' for None."""
     return '' if x is None else f'{x:.{digits}f}'
+
+
+def spread(seconds: Sequence[float]) -> str:
+    """Run times as 'least-most s (median m s)'."""
+    return (f'{min(seconds):.2f}-{max(seconds):.2f} s '
+            f'(median {statistics.median(seconds):.2f} s)')

@@ -228,14 +228,14 @@ def import_numba() -> Any:
         ImportError: numba is not installed.
     """
     import sys
-    if 'numba' not in sys.modules and 'coverage' not in sys.modules:
+    hold = 'numba' not in sys.modules and 'coverage' not in sys.modules
+    if hold:
         sys.modules['coverage'] = None  # type: ignore[assignment]
-        try:
-            import numba
-        finally:
-            if 'coverage' in sys.modules and sys.modules['coverage'] is None:
-                del sys.modules['coverage']
-    import numba
+    try:
+        import numba
+    finally:
+        if hold and sys.modules.get('coverage', 0) is None:
+            del sys.modules['coverage']
     if 'numba.np.arraymath' not in sys.modules:
         from numba.core.compiler_lock import global_compiler_lock
         from numba.np import linalg
