@@ -134,12 +134,39 @@ def test_the_guides_controller_builds_and_steps() -> None:
     assert (ff, fb) == pytest.approx((2.5, 0.5))
 
 
-def test_the_example_package_follows_the_guide() -> None:
-    """Its law compiles, as the guide says a law written so does."""
+def _example_laws() -> types.ModuleType:
+    """The example package's ``laws.py``, loaded by its path."""
     path = ROOT / 'examples' / 'pam_bench_example' / 'pam_bench_example' / 'laws.py'
     spec = importlib.util.spec_from_file_location('pam_bench_example_laws', path)
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     sys.modules['pam_bench_example_laws'] = module
     spec.loader.exec_module(module)
+    return module
+
+
+def test_the_example_package_follows_the_guide() -> None:
+    """Its law compiles, as the guide says a law written so does."""
+    module = _example_laws()
     assert law_function(module.LAW)[1] == ''
+
+
+@pytest.mark.parametrize('pressure_pa', [0.0, 2.0e5, 6.0e5])
+def test_the_example_law_is_continuous_and_solves_its_equation(pressure_pa: float) -> None:
+    """The force the guide asks for ('What makes a law compile'): P(F, x / l0) = p where the
+    muscle pulls, the stretched muscle on the branch that rises from F = 0 (tens of newtons of
+    its own at p = 0, not the far root's kilonewtons) plus the braid's lock-up, and no jump as
+    x moves by micrometres."""
+    laws = _example_laws()
+    th = np.array(laws.LAW.start, dtype=float)
+    l0 = 0.35
+    x = np.linspace(-0.02, 0.005, 4001)                     # 6.25 um apart
+    f = laws.force(th, np.full(x.shape, pressure_pa), x, l0)
+    assert np.abs(np.diff(f)).max() < 5.0     # N per 6.25 um (the lock-up alone: 0.68 N)
+    own = f - th[7] * np.maximum(-x, 0.0)                   # the law's term, lock-up taken off
+    pulls = own > 0.0
+    solved = [laws._pressure(th, fi, xi / l0) for fi, xi in
+              zip(own[pulls], x[pulls], strict=True)]
+    np.testing.assert_allclose(solved, pressure_pa, atol=1e-3)
+    if pressure_pa == 0.0:
+        assert own[x < 0.0].max() < 100.0
