@@ -48,9 +48,10 @@ def _value(msg: Any, joint: str) -> float:
 def probe_drivers(controllers: list[str], duration_s: float, settle_s: float = 5.0,
                   namespace: str = '', joint_name: str = 'pulley',
                   only: list[str] | None = None) -> list[Verdict]:
-    """Listen ``duration_s`` (after up to ``settle_s`` of discovery) and judge every topic
-    of the bench in ``namespace`` ('': the root), the encoder's joint ``joint_name``; with
-    ``only`` (absolute topic names of the contract), those topics alone.
+    """Listen ``duration_s`` (after up to ``settle_s`` of discovery and of waiting for a first
+    message on every topic) and judge every topic of the bench in ``namespace`` ('': the
+    root), the encoder's joint ``joint_name``; with ``only`` (absolute topic names of the
+    contract), those topics alone.
 
     Returns one ``Verdict`` per measured topic, then (without ``only``) one per command topic
     (a subscriber present or not)."""
@@ -60,6 +61,7 @@ def probe_drivers(controllers: list[str], duration_s: float, settle_s: float = 5
                for e in contract(controllers) if only is None or e.topic in only]
 
     seen: dict[str, Seen] = {}
+    flowing: list[Seen] = []              # the topics subscribed to
     try:
         end = time.monotonic() + settle_s        # discovery: wait until every topic is seen
         while time.monotonic() < end:
@@ -78,6 +80,16 @@ def probe_drivers(controllers: list[str], duration_s: float, settle_s: float = 5
                 joint = joint_name if e.joint == ENCODER.joint else e.joint
                 node.create_subscription(_CLASSES[e.msgtype], e.topic,
                                          functools.partial(_take, s, joint), SENSOR)
+                flowing.append(s)
+        # the window opens once every subscribed topic has delivered (a loaded machine may
+        # take a while to match), within what is left of ``settle_s``; nothing before counts
+        deadline_spin([node], lambda: None, 0.05, should_stop=lambda: time.monotonic() > end
+                      or all(s.recv_ns for s in flowing))
+        for s in seen.values():
+            s.recv_ns.clear()
+            s.stamp_ns.clear()
+            s.values.clear()
+            s.frame_ids.clear()
         end = time.monotonic() + duration_s      # one wait set: keeps up with 1 kHz topics
         deadline_spin([node], lambda: None, 0.05, should_stop=lambda: time.monotonic() > end)
         verdicts = [judge(e, seen[e.topic]) for e in expects]
