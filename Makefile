@@ -22,7 +22,8 @@ test:
 	$(PY) -m ruff check pam_bench benchmarks test
 	$(PY) -m mypy
 	$(PY) -m vulture pam_bench benchmarks test tools/vulture_allow.py --min-confidence 60
-	@bash tools/test_tiers.sh $(PY)
+	$(PY) -m pytest -q -n 2 --dist worksteal -m 'not wallclock' --durations=10 test
+	PAM_BENCH_TEST_DOMAIN_START=80 $(PY) -m pytest -q -p no:xdist -m wallclock --durations=10 test
 
 # the quick tier: every test that needs neither ROS nor a clock nor a fit (under a minute)
 check: setup

@@ -20,8 +20,8 @@ os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')
 # moment) can never be in the domain of a later test. Only past 119 domains does it wrap.
 # Under pytest-xdist each worker takes every n-th of them (worker k of n: k, k + n, ...), so
 # two workers never share a domain either. PAM_BENCH_TEST_DOMAIN_START moves the start: `make
-# test` runs the wall-clock tests in a second session beside the first (tools/test_tiers.sh),
-# starting at the 70th, past the domains the first session takes in the time they overlap.
+# test` runs the wall-clock tests in a second session that starts where the first one's
+# domains end (a default run uses about 70 domains in all).
 _SAFE = [*range(1, 102), *range(215, 233)]
 _WORKER = int(os.environ.get('PYTEST_XDIST_WORKER', 'gw0')[2:] or 0)
 _WORKERS = int(os.environ.get('PYTEST_XDIST_WORKER_COUNT', '1'))
@@ -37,8 +37,7 @@ def next_domain() -> int:
 def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line(
         'markers', 'wallclock: runs on the wall clock against deadlines (stale timeouts, '
-        'rates, kill-to-vent latency); `make test` runs these one at a time, the others beside '
-        'them at a lower priority')
+        'rates, kill-to-vent latency); `make test` runs these alone, after the others')
     config.addinivalue_line(
         'markers', 'ros: starts ROS 2 nodes or processes (marked by where it lies and what it '
         'uses: ``ROS_FOLDERS``, ``ROS_FIXTURES``, ``ROS_WORDS``); `make check` leaves it out')
