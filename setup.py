@@ -25,6 +25,7 @@ setup(
         (f'share/{PACKAGE}/config/scenes', glob('config/scenes/*.yaml')),
         (f'share/{PACKAGE}/config/sweeps', glob('config/sweeps/*.yaml')),
         (f'share/{PACKAGE}/config/foxglove', glob('config/foxglove/*.json')),
+        (f'share/{PACKAGE}/config/fastdds', glob('config/fastdds/*.xml')),
         (f'share/{PACKAGE}/config/buses',
          glob('config/buses/*.yaml') + glob('config/buses/*.eds')),
         (f'share/{PACKAGE}/msg_defs/msg', glob('msg_defs/msg/*.msg')),
