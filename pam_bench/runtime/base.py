@@ -29,6 +29,7 @@ from pam_bench.runtime.faults import FaultInjection
 from pam_bench.runtime.intra import IntraProcessBus, bus_publisher
 from pam_bench.runtime.lifecycle import Lifecycle
 from pam_bench.runtime.lockstep import LockstepStepping
+from pam_bench.runtime.messages import import_rosidl_lean
 from pam_bench.runtime.params import declare_settings
 from pam_bench.runtime.qos import DRIVER, LOCKSTEP, RELIABLE, SENSOR
 from pam_bench.runtime.stats import Stats
@@ -60,6 +61,7 @@ class BenchNode(WallClock, FaultInjection, Stats, Tuning, Lifecycle):
         # executor wake-up waits on far fewer entities (about 2x faster lock-step).
         kwargs.setdefault('start_parameter_services', False)
         self._bus = bus
+        import_rosidl_lean()                      # before the first type support is loaded
         super().__init__(name, **kwargs)
         self.settings = declare_settings(self, self.SETTINGS)
         self.lockstep = bool(getattr(self.settings, 'lockstep', False))

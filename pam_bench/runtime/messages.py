@@ -16,8 +16,37 @@ from std_msgs.msg import Header
 
 from pam_bench.sim.lockstep import Ack, StopRequest
 
-__all__ = ['floats', 'ns_of', 'clock_ns', 'stamp_of_cdr', 'stamp_of_msg', 'message_class',
-           'time_of', 'ack_message', 'ack_of', 'force_reading']
+__all__ = ['import_rosidl_lean', 'floats', 'ns_of', 'clock_ns', 'stamp_of_cdr', 'stamp_of_msg',
+           'message_class', 'time_of', 'ack_message', 'ack_of', 'force_reading']
+
+
+GENERATOR = 'rosidl_generator_py.generate_py_impl'
+"""The module of ROS's message code generator, which ``rosidl_generator_py`` imports."""
+
+
+def import_rosidl_lean() -> None:
+    """Import ``rosidl_generator_py`` without its code generator.
+
+    Every message class loads its type support through ``rosidl_generator_py``, whose package
+    also imports the generator (``generate_py_impl``: empy, lark and rosidl_parser, about 60 ms
+    of every node process's start) only to offer ``generate_py``, which a running node never
+    calls; where that import fails, the package carries on without it (its own fallback). Here
+    it fails: the generator's module is held out while the package is imported, and put back at
+    once, so an explicit import of the generator still works. Nothing when the package is
+    already imported or not installed (docs/long_runs.md, "ROS's message generator at every
+    start").
+    """
+    import sys
+    if 'rosidl_generator_py' in sys.modules or GENERATOR in sys.modules:
+        return
+    sys.modules[GENERATOR] = None  # type: ignore[assignment]
+    try:
+        importlib.import_module('rosidl_generator_py')
+    except ImportError:
+        pass
+    finally:
+        if GENERATOR in sys.modules and sys.modules[GENERATOR] is None:
+            del sys.modules[GENERATOR]
 
 
 def floats(values: Any) -> array.array:
