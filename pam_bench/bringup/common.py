@@ -19,10 +19,11 @@ from typing import Any
 
 import yaml
 
+from pam_bench.config.dds import discovery_profile_env
 from pam_bench.config.nodes import NODES
 from pam_bench.sim.lockstep import RunSummary
 
-__all__ = ['RunResult', 'RUN_ENV', 'PROFILE_VARS', 'discovery_profile_env', 'ros_env',
+__all__ = ['RunResult', 'RUN_ENV', 'ros_env',
            'clean_shared_memory', 'die_with_parent', 'batch_child', 'result_of', 'node_error',
            'write_params_file', 'ros_params', 'node_cmd', 'ns_args', 'write_end_state',
            'copy_lines', 'stop_processes']
@@ -45,28 +46,6 @@ class RunResult:
 RUN_ENV = 'PAM_BENCH_RUN'
 """Set in every process a run starts: the process id of the run (its identity, whatever
 domain it leased; tools and tests find a run's processes by it)."""
-
-
-PROFILE_VARS = ('FASTRTPS_DEFAULT_PROFILES_FILE', 'FASTDDS_DEFAULT_PROFILES_FILE')
-"""The variables that name a Fast DDS XML profile (Fast DDS 2, Fast DDS 3)."""
-
-
-def discovery_profile_env(env: dict[str, str] | os._Environ[str]) -> None:
-    """Name the bench's Fast DDS profile (``config/fastdds/discovery.xml``: participants
-    announce themselves every 0.5 s) in ``env`` when it names no profile of its own and uses
-    Fast DDS (the default RMW); otherwise leave it as it is. Best effort: nothing when the
-    file is not installed."""
-    if any(env.get(v) for v in PROFILE_VARS):
-        return
-    if env.get('RMW_IMPLEMENTATION', 'rmw_fastrtps_cpp') != 'rmw_fastrtps_cpp':
-        return
-    from pam_bench.config.paths import config_dir
-    try:
-        path = config_dir() / 'fastdds' / 'discovery.xml'
-    except FileNotFoundError:
-        return
-    if path.is_file():
-        env[PROFILE_VARS[0]] = str(path)
 
 
 def ros_env(domain_id: int | None = None, discovery: str = 'LOCALHOST') -> dict[str, str]:

@@ -119,8 +119,17 @@ def command() -> NoReturn:
     """The ``pam-bench`` executable: ``main`` on the process's arguments, then the process
     ends as a node's does, Python's exit handlers run (``runtime.leaving.leave``: Fast DDS's
     destructors and the interpreter's teardown added 0.2 s to the demo's 1.2 s). ``main``
-    itself returns, for callers in a process that goes on."""
+    itself returns, for callers in a process that goes on. The process is the command's own,
+    so the bench's discovery profile goes into its environment (``config.dds``, unless it
+    names one): its own participants (the recorder of
+    ``record``, the probe of ``check-drivers``, the lifecycle manager of a wall-clock run)
+    announce themselves every 0.5 s too, which a lab's driver started without it answers at
+    once."""
+    import os
+
+    from pam_bench.config.dds import discovery_profile_env
     from pam_bench.runtime.leaving import leave
+    discovery_profile_env(os.environ)
     leave(main(), exit_handlers=True)
 
 

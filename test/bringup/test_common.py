@@ -7,7 +7,8 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
-from pam_bench.bringup.common import PROFILE_VARS, ros_env
+from pam_bench.bringup.common import ros_env
+from pam_bench.config.dds import PROFILE_VARS
 from pam_bench.config.paths import config_dir
 
 NS = {'f': 'http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles'}
@@ -48,3 +49,20 @@ def test_a_run_names_its_profile_unless_the_lab_has_one(
     else:
         assert got == expected
     assert env['ROS_DOMAIN_ID'] == '7'
+
+
+def test_the_command_s_own_process_names_it_too() -> None:
+    """``pam-bench`` puts the profile in its own environment before any verb runs (a
+    ``record`` or ``check-drivers`` beside a lab's driver announces often too)."""
+    import os
+    import subprocess
+    import sys
+    env = {k: v for k, v in os.environ.items() if k not in (*PROFILE_VARS, 'RMW_IMPLEMENTATION')}
+    probe = ('import importlib, os\n'
+             "m = importlib.import_module('pam_bench.cli.main')\n"
+             "m.main = lambda: print(os.environ.get('FASTRTPS_DEFAULT_PROFILES_FILE')) or 0\n"
+             'm.command()\n')
+    out = subprocess.run([sys.executable, '-c', probe], env=env, capture_output=True,
+                         text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert pathlib.Path(out.stdout.strip()) == config_dir() / 'fastdds' / 'discovery.xml'
