@@ -121,10 +121,9 @@ def command() -> NoReturn:
     destructors and the interpreter's teardown added 0.2 s to the demo's 1.2 s). ``main``
     itself returns, for callers in a process that goes on. The process is the command's own,
     so the bench's discovery profile goes into its environment (``config.dds``, unless it
-    names one): its own participants (the recorder of
-    ``record``, the probe of ``check-drivers``, the lifecycle manager of a wall-clock run)
-    announce themselves every 0.5 s too, which a lab's driver started without it answers at
-    once."""
+    names one): its own participants (the recorder of ``record``, the probe of
+    ``check-drivers``, the lifecycle manager of a wall-clock run) announce themselves every
+    0.5 s too, which a lab's driver started without it answers at once."""
     import os
 
     from pam_bench.config.dds import discovery_profile_env

@@ -228,14 +228,9 @@ def import_numba() -> Any:
         ImportError: numba is not installed.
     """
     import sys
-    hold = 'numba' not in sys.modules and 'coverage' not in sys.modules
-    if hold:
-        sys.modules['coverage'] = None  # type: ignore[assignment]
-    try:
-        import numba
-    finally:
-        if hold and sys.modules.get('coverage', 0) is None:
-            del sys.modules['coverage']
+
+    from pam_bench.vocabulary.imports import import_without
+    numba = import_without('numba', 'coverage')
     if 'numba.np.arraymath' not in sys.modules:
         from numba.core.compiler_lock import global_compiler_lock
         from numba.np import linalg

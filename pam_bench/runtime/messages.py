@@ -4,6 +4,7 @@ acknowledgements between their plain form (``sim.lockstep.Ack``) and StepAck."""
 from __future__ import annotations
 
 import array
+import contextlib
 import functools
 import importlib
 import struct
@@ -15,6 +16,7 @@ from pam_bench_interfaces.msg import StepAck
 from std_msgs.msg import Header
 
 from pam_bench.sim.lockstep import Ack, StopRequest
+from pam_bench.vocabulary.imports import import_without
 
 __all__ = ['import_rosidl_lean', 'floats', 'ns_of', 'clock_ns', 'stamp_of_cdr', 'stamp_of_msg',
            'message_class', 'time_of', 'ack_message', 'ack_of', 'force_reading']
@@ -36,17 +38,8 @@ def import_rosidl_lean() -> None:
     already imported or not installed (docs/long_runs.md, "ROS's message generator at every
     start").
     """
-    import sys
-    if 'rosidl_generator_py' in sys.modules or GENERATOR in sys.modules:
-        return
-    sys.modules[GENERATOR] = None  # type: ignore[assignment]
-    try:
-        importlib.import_module('rosidl_generator_py')
-    except ImportError:
-        pass
-    finally:
-        if GENERATOR in sys.modules and sys.modules[GENERATOR] is None:
-            del sys.modules[GENERATOR]
+    with contextlib.suppress(ImportError):
+        import_without('rosidl_generator_py', GENERATOR)
 
 
 def floats(values: Any) -> array.array:

@@ -2,4 +2,4 @@
 
 from __future__ import annotations
 
-__all__ = ['errors', 'outputs', 'params', 'run', 'yaml_io']
+__all__ = ['errors', 'imports', 'outputs', 'params', 'run', 'yaml_io']

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import os
 import pathlib
+import subprocess
+import sys
 import xml.etree.ElementTree as ET
 
 import pytest
@@ -54,9 +57,6 @@ def test_a_run_names_its_profile_unless_the_lab_has_one(
 def test_the_command_s_own_process_names_it_too() -> None:
     """``pam-bench`` puts the profile in its own environment before any verb runs (a
     ``record`` or ``check-drivers`` beside a lab's driver announces often too)."""
-    import os
-    import subprocess
-    import sys
     env = {k: v for k, v in os.environ.items() if k not in (*PROFILE_VARS, 'RMW_IMPLEMENTATION')}
     probe = ('import importlib, os\n'
              "m = importlib.import_module('pam_bench.cli.main')\n"
