@@ -20,7 +20,7 @@ from pam_bench.config import topics
 from pam_bench.config.settings import LoadCellSettings
 from pam_bench.models.sensors import LoadCellModel
 from pam_bench.runtime.base import BenchNode
-from pam_bench.runtime.messages import force_reading
+from pam_bench.runtime.messages import ForceSamples, force_reading
 from pam_bench.runtime.process import run_node
 
 __all__ = ['LoadCellSim', 'main']
@@ -51,7 +51,11 @@ class LoadCellSim(BenchNode):
         return inputs
 
     def on_step(self, t_ns: int, dt_s: float, inputs: dict[str, Any]) -> None:
-        """Measure the true tension at the end of the exchange (every sample during a record)."""
+        """Measure the true tension at the end of the exchange (every sample during a record).
+
+        In a composed run, where the topic's readers all take them, the samples before the
+        exchange's last go as one ``ForceSamples`` block (the same readings; the last stays a
+        message on the grid)."""
         m: MuscleSamples = inputs[self.topic]
         samples = [(t_ns, m.force[-1])]
         if m.record:
@@ -63,21 +67,36 @@ class LoadCellSim(BenchNode):
                 samples.append((t0 + round(elapsed * 1e9), f))
             samples[-1] = (t_ns, samples[-1][1])
         measured, saturated = self.model.measure_many([f for _, f in samples])
+        blocks = getattr(self.pub, 'blocks_taken', None)
+        if len(samples) > 1 and not self.faults and self.lockstep and blocks and blocks():
+            forces = measured.tolist()
+            if self._was_saturated or saturated.any():
+                for (_, force), sat in zip(samples, saturated.tolist(), strict=True):
+                    self._saturation(sat, force)
+            self.force_n = samples[-1][1]
+            stamps = [t for t, _ in samples]
+            self.pub.publish_many([ForceSamples(stamps[:-1], forces[:-1], self.frame_id),
+                                   force_reading(stamps[-1], self.frame_id, forces[-1])])
+            return
         out = []
         for (stamp, force), f, sat in zip(samples, measured.tolist(), saturated.tolist(),
                                           strict=True):
             self.force_n = force
-            if sat != self._was_saturated:
-                self._was_saturated = sat
-                level = DiagnosticStatus.WARN if sat else DiagnosticStatus.OK
-                state = 'saturated' if sat else 'in range'
-                self.diagnose(level, f'load cell {state}', force_n=force)
+            self._saturation(sat, force)
             reported = self.faulty(f)             # injected faults (wall clock)
             if reported is None:
                 continue
             out.append(force_reading(stamp, self.frame_id, reported))
         self.publish_each(self.pub, out)
 
+    def _saturation(self, saturated: bool, force_n: float) -> None:
+        """A diagnostic when the reading enters or leaves saturation (``force_n``: the true
+        tension, N)."""
+        if saturated != self._was_saturated:
+            self._was_saturated = saturated
+            level = DiagnosticStatus.WARN if saturated else DiagnosticStatus.OK
+            state = 'saturated' if saturated else 'in range'
+            self.diagnose(level, f'load cell {state}', force_n=force_n)
 
 def main(args: list[str] | None = None) -> None:
     """Run the node."""

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import datetime
 import functools
+import itertools
 import json
 import pathlib
 import sys
@@ -44,7 +45,12 @@ from pam_bench.config.topics import in_namespace
 from pam_bench.runtime import cdr
 from pam_bench.runtime.base import BenchNode
 from pam_bench.runtime.intra import bus_subscription
-from pam_bench.runtime.messages import message_class, stamp_of_cdr, stamp_of_msg
+from pam_bench.runtime.messages import (
+    ForceSamples,
+    message_class,
+    stamp_of_cdr,
+    stamp_of_msg,
+)
 from pam_bench.runtime.process import run_node
 from pam_bench.runtime.qos import bag_qos, lockstep_offer
 from pam_bench.sim.lockstep import StopRequest
@@ -118,7 +124,8 @@ class Recorder(BenchNode):
             if topic == '/clock':
                 continue
             self.step_order.append(topic)
-            self.sync_input(message_class(msgtype), topic, raw=True, samples=True, stamped=True)
+            self.sync_input(message_class(msgtype), topic, raw=True, samples=True, stamped=True,
+                            blocks=True)
         for entry in event_topics:
             topic, msgtype = self._split(entry)
             bus_subscription(self, message_class(msgtype), topic,
@@ -288,12 +295,15 @@ class Recorder(BenchNode):
             if not pairs:
                 continue
             encode = encoders.get(topic)
-            if encode is None:
-                cls = pairs[0][1].__class__
-                encode = encoders[topic] = (
-                    bytes if cls in (bytes, bytearray, memoryview)
-                    else cdr.encoder(cls) or functools.partial(self._cdr, topic))
             for t, msg in pairs:
+                cls = msg.__class__
+                if cls is ForceSamples:              # a block of readings: each its message
+                    items += zip(itertools.repeat(topic), msg.stamps_ns, msg.cdr())
+                    continue
+                if encode is None:
+                    encode = encoders[topic] = (
+                        bytes if cls in (bytes, bytearray, memoryview)
+                        else cdr.encoder(cls) or functools.partial(self._cdr, topic))
                 items.append((topic, t, encode(msg)))
         if not items:
             return

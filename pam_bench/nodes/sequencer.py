@@ -58,7 +58,7 @@ from pam_bench.protocol.schedules import with_approach
 from pam_bench.protocol.sequencer import Phase, Sequencer
 from pam_bench.runtime.base import RELIABLE, SENSOR, BenchNode, Spin
 from pam_bench.runtime.intra import bus_publisher
-from pam_bench.runtime.messages import ns_of, time_of
+from pam_bench.runtime.messages import ForceSamples, ns_of, time_of
 from pam_bench.runtime.process import run_node
 from pam_bench.runtime.qos import LATCHED
 from pam_bench.runtime.stamped import joint_effort, joint_position, stamped
@@ -123,7 +123,8 @@ class SequencerNode(BenchNode):
                                        goal_callback=self._on_goal,
                                        cancel_callback=lambda _: CancelResponse.ACCEPT)
         if self.lockstep:
-            self.sync_input(WrenchStamped, self.cell_topic, samples=True, same_step=True)
+            self.sync_input(WrenchStamped, self.cell_topic, samples=True, same_step=True,
+                            blocks=True)
             self.sync_input(JointState, self.enc_topic, same_step=True)
             self.sync_input(FluidPressure, self.p_topic, same_step=True)
             self.start_lockstep()
@@ -167,8 +168,13 @@ class SequencerNode(BenchNode):
     def _update(self, topic: str, msg: Any) -> None:
         if isinstance(msg, list):                   # load-cell samples of one exchange
             if topic == self.cell_topic and msg:
-                self.runner.samples_in([(ns_of(m.header.stamp) * 1e-9, m.wrench.force.x)
-                                        for m in msg[:-1]])
+                points: list[tuple[float, float]] = []
+                for m in msg[:-1]:
+                    if m.__class__ is ForceSamples:        # in process (runtime.intra)
+                        points += m.points()
+                    else:
+                        points.append((ns_of(m.header.stamp) * 1e-9, m.wrench.force.x))
+                self.runner.samples_in(points)
             for m in msg[-1:]:
                 self._update(topic, m)
             return

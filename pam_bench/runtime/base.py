@@ -89,13 +89,14 @@ class BenchNode(WallClock, FaultInjection, Stats, Tuning, Lifecycle):
     # --- the stepping (runtime.stepping) -------------------------------------------------
     def sync_input(self, msg_type: type, topic: str, raw: bool = False,
                    same_step: bool = False, samples: bool = False,
-                   from_start: bool = False, stamped: bool = False) -> None:
+                   from_start: bool = False, stamped: bool = False,
+                   blocks: bool = False) -> None:
         """Subscribe to a synchronous input: in lock-step buffered by stamp and required at
-        every step (``same_step``, ``samples``, ``from_start``, ``stamped``:
+        every step (``same_step``, ``samples``, ``from_start``, ``stamped``, ``blocks``:
         ``runtime.lockstep``, ``sim.lockstep``; ``raw``: kept as CDR bytes until a step uses
         it); on a wall clock the latest message."""
         self.stepping.input(msg_type, topic, raw,
-                            InputSpec(same_step, samples, from_start, stamped))
+                            InputSpec(same_step, samples, from_start, stamped, blocks))
 
     def create_step_publisher(self, msg_type: type, topic: str) -> Any:
         """A publisher of a step output (lock-step: sent again when the clock repeats a

@@ -29,7 +29,7 @@ from collections.abc import Callable
 from typing import Any
 
 __all__ = ['fields_of', 'element_of', 'ARRAY_CODES', 'encoder', 'ends_padded', 'clock_cdr',
-           'trim_rule', 'TRIM_NEVER', 'TRIM_ALWAYS']
+           'force_readings_cdr', 'trim_rule', 'TRIM_NEVER', 'TRIM_ALWAYS']
 
 Encoder = Callable[[Any], bytes]
 
@@ -218,6 +218,47 @@ TRIM_NEVER, TRIM_ALWAYS = '', '*'
 _WIDE_SEQUENCES = ('sequence<double>', 'sequence<int64>', 'sequence<uint64>')
 _NARROW = ('boolean', 'byte', 'char', 'octet', 'float', 'double', 'string', 'int8', 'uint8',
            'int16', 'uint16', 'int32', 'uint32', 'int64', 'uint64')
+
+
+def force_readings_cdr(stamps_ns: list[int], forces_n: list[float], frame_id: str
+                       ) -> list[bytes]:
+    """CDR of load cell readings (geometry_msgs/WrenchStamped, as ``messages.force_reading``
+    makes them: force.x, no torque), one per (stamp, force), without building the messages.
+
+    The layout is fixed once the frame id is: the encapsulation header, the stamp's int32 sec
+    and uint32 nanosec, the frame id (uint32 length with its NUL, the bytes, zeros up to the
+    next multiple of 8 after the header), then six doubles. The rows are filled as columns of
+    one array and cut, about a tenth of ``encoder``'s cost per message (a 1 kHz record of the
+    campaign puts 700 thousand into the bag); ``test_cdr`` holds the bytes equal to it.
+
+    Args:
+        stamps_ns: the readings' stamps, ns (n).
+        forces_n: their forces, N (n).
+        frame_id: the load cell's frame.
+
+    Returns:
+        n CDR messages.
+    """
+    import numpy as np
+    name = frame_id.encode('utf-8') + b'\x00'
+    head = 12 + len(name)                        # sec, nanosec, length, then the name
+    at = head + (-head % 8)                      # the doubles, counted after the header
+    size = 4 + at + 48
+    n = len(stamps_ns)
+    rows = np.zeros((n, size), np.uint8)
+    rows[:, :4] = np.frombuffer(b'\x00\x01\x00\x00', np.uint8)
+    rows[:, 12:16] = np.frombuffer(_U32_LE.pack(len(name)), np.uint8)
+    rows[:, 16:16 + len(name)] = np.frombuffer(name, np.uint8)
+    stamps = np.asarray(stamps_ns, np.int64)
+    sec, nanosec = np.divmod(stamps, 1_000_000_000)
+    rows[:, 4:8] = sec.astype('<i4').view(np.uint8).reshape(n, 4)
+    rows[:, 8:12] = nanosec.astype('<u4').view(np.uint8).reshape(n, 4)
+    rows[:, 4 + at:12 + at] = np.asarray(forces_n, '<f8').view(np.uint8).reshape(n, 8)
+    flat = rows.tobytes()
+    return [flat[i:i + size] for i in range(0, n * size, size)]
+
+
+_U32_LE = struct.Struct('<I')
 
 
 def trim_rule(cls: type) -> str:

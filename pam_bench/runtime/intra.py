@@ -11,7 +11,10 @@ through it (``bus_publisher``, ``bus_subscription``):
   a message to its subscriptions;
 * a publisher may hand over a list of messages at once (``publish_many``, a load cell's
   1 kHz record samples of one exchange): a subscription that takes lists gets the list as one
-  delivery, the others one delivery per message, in order;
+  delivery, the others one delivery per message, in order. Where every subscription of the
+  topic takes blocks (``blocks_taken``: lock-step inputs that declare it) the list may hold a
+  block of samples as one object (``runtime.messages.ForceSamples``); outside the process
+  (DDS) it goes as its messages;
 * ``spin_composed`` drains that queue in one loop for the whole process: no wait set, no
   task per message. Deliveries are queued, not called in place, so a tick that triggers the
   next tick never recurses;
@@ -36,6 +39,8 @@ from typing import Any
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 
+from pam_bench.runtime.messages import ForceSamples
+
 __all__ = ['IntraProcessBus', 'BusPublisher', 'spin_composed', 'bus_publisher',
            'bus_subscription']
 
@@ -50,6 +55,7 @@ class BusPublisher:
         self.external = False
         self._subs = bus.subscribers(topic)
         self._many = bus.list_takers(topic)
+        self._blocks = bus.block_takers(topic)
 
     def publish(self, msg: Any, to_msg: Callable[[Any], Any] | None = None) -> None:
         """Queue ``msg`` for every in-process subscription; publish it on DDS when someone
@@ -78,7 +84,18 @@ class BusPublisher:
         self.bus.deliveries += len(self._subs) * len(msgs)
         if self.external:
             for m in msgs:
-                self.dds.publish(m if to_msg is None else to_msg(m))
+                if isinstance(m, ForceSamples):
+                    for x in m.messages():
+                        self.dds.publish(x)
+                else:
+                    self.dds.publish(m if to_msg is None else to_msg(m))
+
+    def blocks_taken(self) -> bool:
+        """Whether a ``publish_many`` may hold a block of samples (``ForceSamples``): every
+        in-process subscription takes blocks, and none outside the process listens."""
+        blocks = self._blocks
+        return (bool(blocks) and len(blocks) == len(self._subs) and all(blocks)
+                and not self.external)
 
     def get_subscription_count(self) -> int:
         """In-process and DDS subscriptions together."""
@@ -91,6 +108,7 @@ class IntraProcessBus:
     def __init__(self) -> None:
         self._subs: dict[str, list[Callback]] = collections.defaultdict(list)
         self._many: dict[str, list[Callback | None]] = collections.defaultdict(list)
+        self._blocks: dict[str, list[bool]] = collections.defaultdict(list)
         self._publishers: list[BusPublisher] = []
         self.queue: collections.deque[tuple[Callback, Any]] = collections.deque()
         self.deliveries = 0         # messages handed to in-process subscriptions so far
@@ -104,6 +122,11 @@ class IntraProcessBus:
         messages (None: it takes one message at a time)."""
         return self._many[topic]
 
+    def block_takers(self, topic: str) -> list[bool]:
+        """The live list, beside ``subscribers``, of whether each subscription takes blocks of
+        samples (``BusPublisher.blocks_taken``)."""
+        return self._blocks[topic]
+
     def publisher(self, node: Node, msg_type: type, topic: str, qos: Any) -> BusPublisher:
         """A bus publisher of ``topic`` for ``node`` (with its DDS publisher for outsiders)."""
         name = node.resolve_topic_name(topic)
@@ -112,12 +135,14 @@ class IntraProcessBus:
         return pub
 
     def subscribe(self, node: Node, topic: str, callback: Callback,
-                  many: Callback | None = None) -> None:
+                  many: Callback | None = None, blocks: bool = False) -> None:
         """Deliver every message published in process on ``topic`` to ``callback``; with
-        ``many``, a list published at once to ``many`` in one call."""
+        ``many``, a list published at once to ``many`` in one call (with ``blocks``, a list
+        that may hold blocks of samples)."""
         name = node.resolve_topic_name(topic)
         self._subs[name].append(callback)
         self._many[name].append(many)
+        self._blocks[name].append(blocks and many is not None)
 
     def has_publisher(self, node: Node, topic: str) -> bool:
         """Whether some node of this process publishes ``topic``."""
@@ -180,12 +205,13 @@ def bus_publisher(node: Node, msg_type: type, topic: str, qos: QoSProfile) -> An
 
 def bus_subscription(node: Node, msg_type: type, topic: str, callback: Callable[[Any], None],
                      qos: QoSProfile, raw: bool = False,
-                     many: Callable[[list[Any]], None] | None = None) -> None:
+                     many: Callable[[list[Any]], None] | None = None,
+                     blocks: bool = False) -> None:
     """A subscription served by the intra-process bus the node was given (the callback then
     gets message objects, also where ``raw`` asks for bytes, and ``many`` the lists published
-    at once), else by DDS."""
+    at once, with ``blocks`` blocks of samples among them), else by DDS."""
     bus: IntraProcessBus | None = getattr(node, '_bus', None)
     if bus is None:
         node.create_subscription(msg_type, topic, callback, qos, raw=raw)
     else:
-        bus.subscribe(node, topic, callback, many)
+        bus.subscribe(node, topic, callback, many, blocks)

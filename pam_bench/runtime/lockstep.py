@@ -123,7 +123,9 @@ class LockstepStepping:
                     buf[stamp_of_msg(m)] = m
                 self.step()
 
-            bus_subscription(node, msg_type, topic, on_object, LOCKSTEP, many=on_objects)
+            spec = self._specs[topic]     # an input on the grid only never reads a block
+            bus_subscription(node, msg_type, topic, on_object, LOCKSTEP, many=on_objects,
+                             blocks=spec.blocks or not spec.samples)
             return
         if not raw:
             self._decode[topic] = msg_type

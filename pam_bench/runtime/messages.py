@@ -19,7 +19,7 @@ from pam_bench.sim.lockstep import Ack, StopRequest
 from pam_bench.vocabulary.imports import import_without
 
 __all__ = ['import_rosidl_lean', 'floats', 'ns_of', 'clock_ns', 'stamp_of_cdr', 'stamp_of_msg',
-           'message_class', 'time_of', 'ack_message', 'ack_of', 'force_reading']
+           'message_class', 'time_of', 'ack_message', 'ack_of', 'force_reading', 'ForceSamples']
 
 
 GENERATOR = 'rosidl_generator_py.generate_py_impl'
@@ -159,3 +159,40 @@ def force_reading(t_ns: int, frame_id: str, force_n: float) -> WrenchStamped:
     t._check_fields = h._check_fields = f._check_fields = w._check_fields = False
     msg._check_fields = False
     return msg
+
+
+class ForceSamples:
+    """Consecutive load cell readings of one exchange, carried in process as one object.
+
+    In a composed run's 1 kHz record a load cell publishes every sample of the exchange, a
+    thousand WrenchStamped objects that only the sequencer and the recorder read. Where every
+    in-process subscription of its topic takes them (``runtime.intra``, ``InputSpec.blocks``)
+    it publishes the samples before the exchange's last one as one ``ForceSamples``, stamped
+    (``header``) with its own last sample so that the lock-step buffers it among the messages
+    of that exchange; the exchange's last sample, on the grid, stays a message. A reader takes
+    the floats (``points``) or the CDR of every reading (``cdr``, what the recorder writes);
+    ``messages`` rebuilds the WrenchStamped objects (for a subscriber outside the process).
+    """
+
+    __slots__ = ('header', 'stamps_ns', 'forces_n')
+
+    def __init__(self, stamps_ns: list[int], forces_n: list[float], frame_id: str) -> None:
+        """``stamps_ns`` (ns, increasing) and ``forces_n`` (N) of n >= 1 readings of the
+        load cell ``frame_id``."""
+        self.stamps_ns, self.forces_n = stamps_ns, forces_n
+        self.header = Header(stamp=time_of(stamps_ns[-1]), frame_id=frame_id)
+
+    def points(self) -> list[tuple[float, float]]:
+        """(time s, force N) of each reading, as a reader of the messages computes them."""
+        return [(t * 1e-9, f) for t, f in zip(self.stamps_ns, self.forces_n, strict=True)]
+
+    def cdr(self) -> list[bytes]:
+        """The CDR of each reading's WrenchStamped (``cdr.force_readings_cdr``)."""
+        from pam_bench.runtime.cdr import force_readings_cdr
+        return force_readings_cdr(self.stamps_ns, self.forces_n, self.header.frame_id)
+
+    def messages(self) -> list[WrenchStamped]:
+        """Each reading as the WrenchStamped a load cell publishes (``force_reading``)."""
+        fid = self.header.frame_id
+        return [force_reading(t, fid, f) for t, f in zip(self.stamps_ns, self.forces_n,
+                                                          strict=True)]

@@ -16,6 +16,9 @@ Input windows. A participant that last stepped to ``prev`` = t_(k-1) (and before
 
 With *stamped* (and *samples*) the list holds (stamp ns, message) pairs, for a consumer that
 needs the stamps (the recorder) and would otherwise read them again from every message.
+With *blocks* (and *samples*) the consumer also takes, in process, a block of consecutive
+samples carried as one object stamped with its last one (``runtime.messages.ForceSamples``); a
+producer sends blocks only to consumers that all take them, and never on the grid.
 
 The step waits until the message stamped at the window's upper end is there; sub-step samples
 are stamped at their own times, the last on the grid. After the step, messages no later input
@@ -62,6 +65,7 @@ class InputSpec:
     samples: bool = False
     from_start: bool = False
     stamped: bool = False
+    blocks: bool = False
 
 
 def input_window(spec: InputSpec, prev_prev_ns: int | None, prev_ns: int, t_ns: int,

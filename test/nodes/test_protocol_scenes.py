@@ -228,3 +228,37 @@ def test_campaign_quick_resumes_at_every_tenth_reading(tmp_path: pathlib.Path, s
     worst_m = max(abs(p.contraction - ref[(p.protocol, p.series, p.step)].contraction)
                   for p in rest)
     assert worst_n < 4.0 and worst_m < 0.32e-3, (worst_n, worst_m)
+
+
+def test_composed_record_samples_in_blocks_write_the_bag_of_the_messages(
+        tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Composed, a load cell sends a 1 kHz record's samples as one block per exchange
+    (``ForceSamples``); the bag holds the same bytes as when it sends them as messages (the
+    plain path, forced by saying no subscription takes blocks)."""
+    from rosbags.rosbag2 import Reader
+
+    from pam_bench.runtime import intra
+
+    def every_message(bag: pathlib.Path) -> list[tuple[str, int, bytes]]:
+        with Reader(bag) as reader:
+            return [(c.topic, t, bytes(raw)) for c, t, raw in reader.messages()]
+
+    scene = load_scene(str(HERE / 'config_step.yaml'))
+    blocks = []
+    taken = intra.BusPublisher.blocks_taken
+
+    def counted(self: intra.BusPublisher) -> bool:
+        ok = taken(self)
+        blocks.append(ok)
+        return ok
+
+    monkeypatch.setattr(intra.BusPublisher, 'blocks_taken', counted)
+    for name in ('blocks', 'messages'):
+        res = run_scene(scene, str(tmp_path / name),
+                        RunOptions(layout=Layout.COMPOSED, domain_id=next_domain(), quiet=True))
+        assert res.code == 0, res
+        monkeypatch.setattr(intra.BusPublisher, 'blocks_taken', lambda self: False)
+    assert blocks and all(blocks)                       # the first run sent every record so
+    with_blocks, plain = every_message(tmp_path / 'blocks'), every_message(tmp_path / 'messages')
+    assert sum(t == '/load_cell_1/force' for t, _, _ in plain) > 2000
+    assert with_blocks == plain

@@ -16,8 +16,14 @@ from std_msgs.msg import Header, String
 
 from pam_bench.bags.types import bench_typestore
 from pam_bench.config import topics
-from pam_bench.runtime.cdr import encoder, ends_padded
-from pam_bench.runtime.messages import force_reading, message_class, time_of
+from pam_bench.runtime.cdr import encoder, ends_padded, force_readings_cdr
+from pam_bench.runtime.messages import (
+    ForceSamples,
+    force_reading,
+    message_class,
+    stamp_of_msg,
+    time_of,
+)
 
 STORE = bench_typestore()
 RECORDED = sorted({spec.partition(':')[2] for spec in
@@ -140,3 +146,33 @@ def test_clock_cdr_is_rclpys_bytes(t_ns: int) -> None:
     """The recorder's Clock bytes without a message: rclpy's serialisation of the same Clock."""
     from pam_bench.runtime.cdr import clock_cdr
     assert clock_cdr(t_ns) == serialize_message(Clock(clock=time_of(t_ns)))
+
+
+@pytest.mark.parametrize('frame_id', ['load_cell_1', 'load_cell_12', 'x', '', 'abcdefg',
+                                      'ceLL-\u00e9'])
+def test_force_readings_in_bulk_are_the_encoders_bytes(frame_id: str) -> None:
+    """The bulk CDR of readings (every length of frame id modulo 8, a non-ASCII one) is, reading
+    for reading, the generated encoder's bytes of ``force_reading``'s message."""
+    rng = random.Random(len(frame_id))
+    stamps = [0, 1, 999_999_999, 1_000_000_000, 2**31 * 10**9 - 1] + sorted(
+        rng.randrange(0, 22_000 * 10**9) for _ in range(40))
+    forces = [0.0, -0.0, float('nan'), 1999.9, -3.25] + [rng.uniform(-2e3, 2e3)
+                                                            for _ in range(40)]
+    enc = encoder(WrenchStamped)
+    assert enc is not None
+    expected = [enc(force_reading(t, frame_id, f)) for t, f in zip(stamps, forces, strict=True)]
+    assert force_readings_cdr(stamps, forces, frame_id) == expected
+
+
+def test_a_block_of_samples_reads_as_its_messages() -> None:
+    """A ``ForceSamples`` block: stamped with its last reading, its points and messages those
+    of the readings it stands for, its CDR theirs."""
+    stamps, forces = [5_000_000, 6_000_000, 1_007_000_000], [1.5, -2.0, 3.25]
+    block = ForceSamples(stamps, forces, 'load_cell_2')
+    assert stamp_of_msg(block) == 1_007_000_000
+    msgs = [force_reading(t, 'load_cell_2', f) for t, f in zip(stamps, forces, strict=True)]
+    assert block.messages() == msgs
+    assert block.points() == [((m.header.stamp.sec * 10**9 + m.header.stamp.nanosec) * 1e-9,
+                               m.wrench.force.x) for m in msgs]
+    enc = encoder(WrenchStamped)
+    assert enc is not None and block.cdr() == [enc(m) for m in msgs]

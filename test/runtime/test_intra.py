@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from pam_bench.runtime.intra import BusPublisher, IntraProcessBus
+from pam_bench.runtime.messages import ForceSamples, force_reading
 
 
 class FakeDds:
@@ -94,3 +95,39 @@ def test_a_list_goes_in_one_delivery_to_a_list_taker_and_one_by_one_to_others() 
                    ('many?', 4)]
     assert bus.deliveries == 8                         # as if published one by one
     assert dds.sent == [1, 2, 3, 4]
+
+
+def test_blocks_only_where_every_subscription_takes_them_and_none_outside() -> None:
+    """A publisher may send a block of samples where every in-process subscription declared it
+    takes blocks and nobody outside the process listens; outside, a block goes as its
+    messages."""
+    bus = IntraProcessBus()
+    node: Any = FakeNode()
+    got: list[Any] = []
+    dds = FakeDds(outside=0)
+    pub = BusPublisher(bus, '/f', dds)
+    bus._publishers.append(pub)
+    assert not pub.blocks_taken()                       # nobody to take them
+    bus.subscribe(node, '/f', got.append, many=got.extend, blocks=True)
+    assert pub.blocks_taken()
+    bus.subscribe(node, '/f', got.append, blocks=True)  # one at a time: it cannot take blocks
+    assert not pub.blocks_taken()
+
+    bus2 = IntraProcessBus()
+    pub2 = BusPublisher(bus2, '/f', dds)
+    bus2._publishers.append(pub2)
+    bus2.subscribe(node, '/f', got.append, many=got.extend, blocks=True)
+    bus2.subscribe(node, '/f', got.append, many=got.extend)     # a list taker, not blocks
+    assert not pub2.blocks_taken()
+
+    bus3 = IntraProcessBus()
+    pub3 = BusPublisher(bus3, '/f', dds)
+    bus3._publishers.append(pub3)
+    bus3.subscribe(node, '/f', got.append, many=got.extend, blocks=True)
+    dds.outside = 1
+    bus3.refresh()
+    assert not pub3.blocks_taken()                      # someone outside listens
+    block = ForceSamples([1_000_000, 2_000_000], [1.0, 2.0], 'load_cell_1')
+    last = force_reading(3_000_000, 'load_cell_1', 3.0)
+    pub3.publish_many([block, last])                    # sent before the flag was read
+    assert dds.sent == [*block.messages(), last]
