@@ -283,9 +283,11 @@ class Recorder(BenchNode):
                         inputs: dict[str, Any]) -> None:
         """/clock at ``clock_ns`` (None: not recorded), then every step topic's (stamp,
         message) pairs of one exchange in topic order, each topic's in stamp order: CDR bytes
-        from DDS or message objects from the intra-process bus. Through one
-        ``SplitWriter.reserve_many`` where it allows (the same bytes; a dozen messages per
-        servo exchange, a thousand in a 1 kHz record), else one ``write`` per message."""
+        from DDS or message objects from the intra-process bus (where a load cell's record
+        comes as a ``ForceSamples`` block, each of its readings as its own message, encoded at
+        once). Through one ``SplitWriter.reserve_many`` where it allows (the same bytes; a dozen
+        messages per servo exchange, a thousand in a 1 kHz record), else one ``write`` per
+        message."""
         items: list[tuple[str, int, bytes]] = []
         if clock_ns is not None:
             items.append(('/clock', clock_ns, cdr.clock_cdr(clock_ns)))
