@@ -20,7 +20,7 @@ import tempfile
 from typing import Any
 
 from benchmarks.study import Study
-from benchmarks.tables import table
+from benchmarks.tables import commit_of, table
 from pam_bench.bringup.runner import run_scene
 from pam_bench.config.scene import load_scene
 from pam_bench.runtime.profiling import ENV
@@ -120,12 +120,22 @@ def measure(quick: bool, out: pathlib.Path, scenes: list[str] | None) -> dict[st
 
 
 def section(r: dict[str, Any], root: pathlib.Path) -> list[str]:
-    """Microseconds per exchange by cause, per profiled run."""
-    head = ['scene', 'layout', 'wall us / exchange (profiled)'] + list(CAUSES)
-    return table(head, [(p['scene'], Layout.parse(p['layout']).value,
+    """Microseconds per exchange by cause, per profiled run; with ``profile_before`` in the
+    results (the rows of an earlier measurement and its commit), those rows first, each scene
+    and layout's earlier row above its row now (issue 54 item 3)."""
+    head = ['commit', 'scene', 'layout', 'wall us / exchange (profiled)'] + list(CAUSES)
+    now = [(commit_of(r, 'profile'), p) for p in r['profile']]
+    before = r.get('profile_before')
+    if before:
+        earlier = {(p['scene'], p['layout']): (f"`{before['commit']}`", p)
+                   for p in before['rows']}
+        now = [row for c, p in now
+               for row in ([earlier[p['scene'], p['layout']]]
+                           if (p['scene'], p['layout']) in earlier else []) + [(c, p)]]
+    return table(head, [(c, p['scene'], Layout.parse(p['layout']).value,
                          f"{p['wall_us_per_exchange']:.0f}")
-                        + tuple(f"{p['us_per_exchange'][c]:.0f}" for c in CAUSES)
-                        for p in r['profile']])
+                        + tuple(f"{p['us_per_exchange'][c2]:.0f}" for c2 in CAUSES)
+                        for c, p in now])
 
 
 STUDY = Study('profile', 'where the wall time of an exchange goes, by cause', measure,
