@@ -130,11 +130,12 @@ def section(r: dict[str, Any], root: pathlib.Path) -> list[str]:
     now = [(commit_of(r, 'profile'), p) for p in r['profile']]
     before = r.get('profile_before')
     if before:
-        earlier = {(p['scene'], p['layout']): (f"`{before['commit']}`", p)
-                   for p in before['rows']}
+        def key(p: dict[str, Any]) -> tuple[str, str]:
+            return p['scene'], Layout.parse(p['layout']).value     # an older name, as now
+
+        earlier = {key(p): (f"`{before['commit']}`", p) for p in before['rows']}
         now = [row for c, p in now
-               for row in ([earlier[p['scene'], p['layout']]]
-                           if (p['scene'], p['layout']) in earlier else []) + [(c, p)]]
+               for row in ([earlier[key(p)]] if key(p) in earlier else []) + [(c, p)]]
     return table(head, [(c, p['scene'], Layout.parse(p['layout']).value,
                          f"{p['wall_us_per_exchange']:.0f}")
                         + tuple(f"{p['us_per_exchange'][c2]:.0f}" for c2 in CAUSES)

@@ -40,8 +40,8 @@ def test_an_earlier_row_stands_above_its_row_now() -> None:
     r = {'commit': 'bbbbbbb', 'measured': {'profile': {'commit': 'ccccccc'}},
          'profile': [_row('servo_sin_t', 'composed', 800.0), _row('campaign_quick', 'composed',
                                                                   900.0)],
-         'profile_before': {'commit': 'aaaaaaa',
-                            'rows': [_row('servo_sin_t', 'composed', 1000.0)]}}
+         'profile_before': {'commit': 'aaaaaaa',                 # the layout's older name
+                            'rows': [_row('servo_sin_t', 'one process', 1000.0)]}}
     lines = [line for line in section(r, pathlib.Path('.')) if line.startswith('| `')]
     assert [line.split(' | ')[:4] for line in lines] == [
         ['| `aaaaaaa`', 'servo_sin_t', 'composed', '1000'],
