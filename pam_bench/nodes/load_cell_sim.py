@@ -98,6 +98,7 @@ class LoadCellSim(BenchNode):
             state = 'saturated' if saturated else 'in range'
             self.diagnose(level, f'load cell {state}', force_n=force_n)
 
+
 def main(args: list[str] | None = None) -> None:
     """Run the node."""
     run_node(LoadCellSim, args)
