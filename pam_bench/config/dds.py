@@ -1,10 +1,12 @@
-"""The bench's Fast DDS participant profile, and when a process's environment names it.
+"""The bench's Fast DDS profile, and when a process's environment names it.
 
 ``config/fastdds/discovery.xml`` makes each participant announce itself every 0.5 s (Fast
 DDS's default is 3 s; docs/design.md, docs/long_runs.md "A wall-clock run's three seconds of
-discovery"). Every process a run starts gets it (``bringup.common.ros_env``), and so does the
-``pam-bench`` command's own process, unless the environment already names a profile of its own
-or chooses another RMW.
+discovery") and each reliable writer send its heartbeat every 0.1 s while a sample is not
+acknowledged (3 s; docs/long_runs.md, "The recorder missing the commands after a device's
+process is killed"). Every process a run starts gets it (``bringup.common.ros_env``), and so
+does the ``pam-bench`` command's own process, unless the environment already names a profile
+of its own or chooses another RMW.
 """
 
 from __future__ import annotations

@@ -32,6 +32,22 @@ def test_the_discovery_profile_announces_every_half_second() -> None:
         'rtps', 'builtin', 'discovery_config', 'leaseAnnouncement', 'sec', 'nanosec']
 
 
+def test_the_writers_heartbeat_every_tenth_of_a_second() -> None:
+    """Every writer's default profile: a heartbeat every 0.1 s while a sample is not
+    acknowledged, and nothing else of a writer changed (QoS stays what each node asks)."""
+    root = ET.parse(config_dir() / 'fastdds' / 'discovery.xml').getroot()
+    (writer,) = root.findall('f:data_writer', NS)
+    assert writer.get('is_default_profile') == 'true'
+    beat = writer.find('f:times/f:heartbeatPeriod', NS)
+    assert beat is not None
+    period = int(beat.findtext('f:sec', '0', NS)) + int(beat.findtext('f:nanosec', '0', NS)) \
+        * 1e-9
+    assert period == pytest.approx(0.1)
+    assert [e.tag.split('}')[1] for e in writer.iter()][1:] == [
+        'times', 'heartbeatPeriod', 'sec', 'nanosec']
+    assert [e.tag.split('}')[1] for e in root] == ['data_writer', 'participant']
+
+
 @pytest.mark.parametrize('preset, expected', [
     ({}, 'bench'),
     ({'FASTRTPS_DEFAULT_PROFILES_FILE': '/lab/profile.xml'}, '/lab/profile.xml'),
@@ -66,3 +82,28 @@ def test_the_command_s_own_process_names_it_too() -> None:
                          text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     assert pathlib.Path(out.stdout.strip()) == config_dir() / 'fastdds' / 'discovery.xml'
+
+
+def test_fast_dds_loads_the_profile_without_an_error(tmp_path: pathlib.Path,
+                                                     ros_domain: int) -> None:
+    """A node with a reliable publisher under the profile: Fast DDS parses it without a
+    word (a profile it cannot parse is reported in its log and ignored; the control shows the
+    check sees that)."""
+    code = ('import rclpy\nfrom std_msgs.msg import Int64\n'
+            'from rclpy.qos import QoSProfile, ReliabilityPolicy\n'
+            'rclpy.init()\nn = rclpy.create_node("profile_probe")\n'
+            'p = n.create_publisher(Int64, "probe", QoSProfile(depth=10, '
+            'reliability=ReliabilityPolicy.RELIABLE))\np.publish(Int64())\nprint("ok")\n')
+    good = config_dir() / 'fastdds' / 'discovery.xml'
+    bad = tmp_path / 'bad.xml'
+    bad.write_text(good.read_text().replace('<nanosec>100000000</nanosec>',
+                                            '<nanosecs>100000000</nanosecs>'))
+    errors = {}
+    for name, path in (('good', good), ('bad', bad)):
+        env = {k: v for k, v in os.environ.items() if k not in PROFILE_VARS}
+        env[PROFILE_VARS[0]] = str(path)
+        out = subprocess.run([sys.executable, '-c', code], env=env, capture_output=True,
+                             text=True, timeout=30, check=False)
+        assert out.returncode == 0 and 'ok' in out.stdout, out.stderr
+        errors[name] = 'XMLPARSER' in out.stdout + out.stderr
+    assert errors == {'good': False, 'bad': True}
