@@ -126,20 +126,20 @@ def section(r: dict[str, Any], root: pathlib.Path) -> list[str]:
     """Microseconds per exchange by cause, per profiled run; with ``profile_before`` in the
     results (the rows of an earlier measurement and its commit), those rows first, each scene
     and layout's earlier row above its row now (issue 54 item 3)."""
-    head = ['commit', 'scene', 'layout', 'wall us / exchange (profiled)'] + list(CAUSES)
-    now = [(commit_of(r, 'profile'), p) for p in r['profile']]
-    before = r.get('profile_before')
-    if before:
-        def key(p: dict[str, Any]) -> tuple[str, str]:
-            return p['scene'], Layout.parse(p['layout']).value     # an older name, as now
+    def key(p: dict[str, Any]) -> tuple[str, str]:
+        return p['scene'], Layout.parse(p['layout']).value     # an older name, as now
 
-        earlier = {key(p): (f"`{before['commit']}`", p) for p in before['rows']}
-        now = [row for c, p in now
-               for row in ([earlier[key(p)]] if key(p) in earlier else []) + [(c, p)]]
-    return table(head, [(c, p['scene'], Layout.parse(p['layout']).value,
-                         f"{p['wall_us_per_exchange']:.0f}")
-                        + tuple(f"{p['us_per_exchange'][c2]:.0f}" for c2 in CAUSES)
-                        for c, p in now])
+    before = r.get('profile_before') or {'commit': '', 'rows': []}
+    earlier = {key(p): p for p in before['rows']}
+    rows: list[tuple[str, dict[str, Any]]] = []
+    for p in r['profile']:
+        if key(p) in earlier:
+            rows.append((f"`{before['commit']}`", earlier[key(p)]))
+        rows.append((commit_of(r, 'profile'), p))
+    head = ['commit', 'scene', 'layout', 'wall us / exchange (profiled)'] + list(CAUSES)
+    return table(head, [(commit, *key(p), f"{p['wall_us_per_exchange']:.0f}")
+                        + tuple(f"{p['us_per_exchange'][c]:.0f}" for c in CAUSES)
+                        for commit, p in rows])
 
 
 STUDY = Study('profile', 'where the wall time of an exchange goes, by cause', measure,

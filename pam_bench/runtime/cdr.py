@@ -247,7 +247,7 @@ def force_readings_cdr(stamps_ns: list[int], forces_n: list[float], frame_id: st
     n = len(stamps_ns)
     rows = np.zeros((n, size), np.uint8)
     rows[:, :4] = np.frombuffer(b'\x00\x01\x00\x00', np.uint8)
-    rows[:, 12:16] = np.frombuffer(_U32_LE.pack(len(name)), np.uint8)
+    rows[:, 12:16] = np.frombuffer(_U32(len(name)), np.uint8)
     rows[:, 16:16 + len(name)] = np.frombuffer(name, np.uint8)
     stamps = np.asarray(stamps_ns, np.int64)
     sec, nanosec = np.divmod(stamps, 1_000_000_000)
@@ -257,8 +257,6 @@ def force_readings_cdr(stamps_ns: list[int], forces_n: list[float], frame_id: st
     flat = rows.tobytes()
     return [flat[i:i + size] for i in range(0, n * size, size)]
 
-
-_U32_LE = struct.Struct('<I')
 
 
 def trim_rule(cls: type) -> str:

@@ -101,7 +101,7 @@ class LockstepStepping:
         node = self.node
         buf: dict[int, Any] = {}
         self._sync[topic] = buf
-        self._specs[topic] = spec or InputSpec()
+        spec = self._specs[topic] = spec or InputSpec()
         if node._bus is not None:            # message objects, in process
 
             def on_object(msg: Any) -> None:
@@ -123,9 +123,8 @@ class LockstepStepping:
                     buf[stamp_of_msg(m)] = m
                 self.step()
 
-            spec = self._specs[topic]     # an input on the grid only never reads a block
             bus_subscription(node, msg_type, topic, on_object, LOCKSTEP, many=on_objects,
-                             blocks=spec.blocks or not spec.samples)
+                             blocks=spec.blocks or not spec.samples)   # the grid: no block
             return
         if not raw:
             self._decode[topic] = msg_type

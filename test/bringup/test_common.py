@@ -17,16 +17,20 @@ from pam_bench.config.paths import config_dir
 NS = {'f': 'http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles'}
 
 
+def _seconds(duration: ET.Element | None) -> float:
+    """A Fast DDS duration element (sec, nanosec) in seconds."""
+    assert duration is not None
+    return int(duration.findtext('f:sec', '0', NS)) + int(duration.findtext('f:nanosec', '0',
+                                                                              NS)) * 1e-9
+
+
 def test_the_discovery_profile_announces_every_half_second() -> None:
     path = config_dir() / 'fastdds' / 'discovery.xml'
     root = ET.parse(path).getroot()
     (participant,) = root.findall('f:participant', NS)
     assert participant.get('is_default_profile') == 'true'
     lease = participant.find('f:rtps/f:builtin/f:discovery_config/f:leaseAnnouncement', NS)
-    assert lease is not None
-    period = int(lease.findtext('f:sec', '0', NS)) + int(lease.findtext('f:nanosec', '0', NS)) \
-        * 1e-9
-    assert period == pytest.approx(0.5)
+    assert _seconds(lease) == pytest.approx(0.5)
     # nothing else: the lease duration and the transports stay Fast DDS's and rmw's
     assert [e.tag.split('}')[1] for e in participant.iter()][1:] == [
         'rtps', 'builtin', 'discovery_config', 'leaseAnnouncement', 'sec', 'nanosec']
@@ -38,11 +42,7 @@ def test_the_writers_heartbeat_every_tenth_of_a_second() -> None:
     root = ET.parse(config_dir() / 'fastdds' / 'discovery.xml').getroot()
     (writer,) = root.findall('f:data_writer', NS)
     assert writer.get('is_default_profile') == 'true'
-    beat = writer.find('f:times/f:heartbeatPeriod', NS)
-    assert beat is not None
-    period = int(beat.findtext('f:sec', '0', NS)) + int(beat.findtext('f:nanosec', '0', NS)) \
-        * 1e-9
-    assert period == pytest.approx(0.1)
+    assert _seconds(writer.find('f:times/f:heartbeatPeriod', NS)) == pytest.approx(0.1)
     assert [e.tag.split('}')[1] for e in writer.iter()][1:] == [
         'times', 'heartbeatPeriod', 'sec', 'nanosec']
     assert [e.tag.split('}')[1] for e in root] == ['data_writer', 'participant']
