@@ -3,8 +3,11 @@ process is started and stopped, and how the recorder learns how the run ended.
 
 Every run sets ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and its own ``ROS_DOMAIN_ID`` (the
 caller's when set, else one derived from the process id), so DDS stays on loopback and two
-runs never see each other. Node processes are stopped with SIGINT (then SIGTERM, SIGKILL after
-a timeout), devices first and the recorder last, so the bag is always closed.
+runs never see each other. Node processes are stopped with SIGTERM (SIGKILL after a timeout),
+devices first and the recorder last, so the bag is always closed. A started node takes SIGTERM
+as it takes Ctrl-C (``runtime.process.run_node``); one still importing its modules (a run that
+ends in its first second: another clock in the domain) dies of it at once and quietly, where
+SIGINT would print a KeyboardInterrupt traceback into the run's output.
 """
 
 from __future__ import annotations
@@ -186,15 +189,16 @@ def copy_lines(src: Any, dst: Any) -> None:
 
 
 def stop_processes(procs: dict[str, subprocess.Popen]) -> None:
-    """SIGINT the clock and the devices, then the recorder; escalate after timeouts."""
+    """SIGTERM the clock and the devices, then the recorder; SIGKILL after a timeout (module
+    docstring)."""
     devices = [n for n in procs if n != 'recorder']
     groups = [devices] + ([['recorder']] if 'recorder' in procs else [])
     for group in groups:
         for n in group:
             if procs[n].poll() is None:
-                procs[n].send_signal(signal.SIGINT)
+                procs[n].send_signal(signal.SIGTERM)
         for n in group:
-            for sig, wait in ((None, 10.0), (signal.SIGTERM, 5.0), (signal.SIGKILL, 5.0)):
+            for sig, wait in ((None, 15.0), (signal.SIGKILL, 5.0)):
                 if sig is not None and procs[n].poll() is None:
                     procs[n].send_signal(sig)
                 try:

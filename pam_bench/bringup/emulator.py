@@ -67,6 +67,7 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
     from pam_bench.runtime.process import (
         deadline_spin,
         fail_line,
+        ignore_interrupts,
         install_interrupt_handlers,
         reject_undeclared,
         serve_services,
@@ -77,10 +78,10 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
     from pam_bench.vocabulary.errors import PamBenchError
 
     install_interrupt_handlers()
-    rclpy.init()
     nodes: list[Any] = []
     bus = intra.IntraProcessBus()
     try:
+        rclpy.init()
         try:
             by_node = {node_of_key(k): v for k, v in params.items()}
             settings = settings_of_params_file({n: by_node.get(n, {}) for n in names})
@@ -143,6 +144,7 @@ def run_emulator(names: list[str], params: dict[str, Any], priority: int = DEVIC
     except KeyboardInterrupt:
         pass
     finally:
+        ignore_interrupts()
         until = time.monotonic() + ACK_WAIT_S      # one wait for acknowledgments for all
         for node in nodes:
             node.ack_until_s = until

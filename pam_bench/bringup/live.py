@@ -68,7 +68,7 @@ def live_view(live: LiveViewSettings | None, domain_id: int | None = None,
             yield proc
         finally:
             if proc.poll() is None:
-                proc.send_signal(signal.SIGINT)
+                proc.send_signal(signal.SIGTERM)     # as ``common.stop_processes``
                 try:
                     proc.wait(timeout=10.0)
                 except subprocess.TimeoutExpired:

@@ -46,7 +46,7 @@ def _watch(procs: dict[str, subprocess.Popen], clock: subprocess.Popen,
             if p.poll() is not None and p.returncode == 2:
                 failed.append(name)
                 if clock.poll() is None:
-                    clock.send_signal(signal.SIGINT)
+                    clock.send_signal(signal.SIGTERM)
                 return
         time.sleep(0.05)
 
@@ -92,9 +92,10 @@ def run_processes(scene: Scene, settings: dict[str, Any], domain_id: int | None,
             lines = []
             assert clock.stdout is not None
             for line in clock.stdout:
-                lines.append(line)
                 if not quiet and (line.startswith('[sim') or line.startswith('lock-step:')):
-                    print(line, end='', flush=True)
+                    print(line, end='', flush=True)     # shown once: not again below
+                else:
+                    lines.append(line)
             code = clock.wait()
             dead = [n for n, p in procs.items() if n != 'sim_clock' and p.poll() is not None]
         finally:

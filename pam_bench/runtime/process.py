@@ -29,7 +29,29 @@ from pam_bench.vocabulary.errors import PamBenchError
 from pam_bench.vocabulary.params import check_known
 
 __all__ = ['lean_spin', 'deadline_spin', 'spin', 'serve_services', 'reject_undeclared',
-           'install_interrupt_handlers', 'fail_line', 'start_node', 'run_node']
+           'install_interrupt_handlers', 'ignore_interrupts', 'interrupt_guard', 'fail_line',
+           'start_node', 'run_node']
+
+
+_GUARDS: dict[int, tuple[Any, Any]] = {}
+
+
+def interrupt_guard(context: Any) -> Any:
+    """The guard condition that wakes a wait set of ``context`` on SIGINT or SIGTERM: one per
+    context, kept as long as the process lives.
+
+    rclpy triggers its signal guard conditions from a thread of its own, woken by the signal,
+    that walks their list without a lock; the main thread meanwhile gets the signal's
+    KeyboardInterrupt at once. A guard destroyed on the way out (a spin's ``finally``) was
+    then triggered after it was freed: a node interrupted while it waited for /clock ended by
+    SIGSEGV in about half of the tries (``test_process``). Kept for the process's life, the
+    guard is never freed while that thread may hold it.
+    """
+    from rclpy.signals import SignalHandlerGuardCondition
+    kept = _GUARDS.get(id(context))
+    if kept is None or kept[0] is not context:
+        kept = _GUARDS[id(context)] = (context, SignalHandlerGuardCondition(context=context))
+    return kept[1]
 
 
 def serve_services(node: Node) -> Callable[[], None]:
@@ -73,12 +95,11 @@ def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
     this loop: ``BENCHMARKS.md``, "The bench on a wall clock".
     """
     from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
-    from rclpy.signals import SignalHandlerGuardCondition
 
     ctx = nodes[0].context
     subs = [s for n in nodes for s in n.subscriptions]
     by_ptr = {s.handle.pointer: s for s in subs}
-    guard = SignalHandlerGuardCondition(context=ctx)
+    guard = interrupt_guard(ctx)
     wait_set = _rclpy.WaitSet(len(subs), 1, 0, 0, 0, 0, ctx.handle)
     period = max(round(period_s * 1e9), 1)
     poll_period = round(poll_period_s * 1e9)
@@ -132,7 +153,6 @@ def deadline_spin(nodes: list[Node], tick: Callable[[], None], period_s: float,
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
-        guard.destroy()
     if stop or not ctx.ok() or should_stop is None or not should_stop():
         raise KeyboardInterrupt
 
@@ -156,12 +176,11 @@ def lean_spin(node: Node, graceful: bool = False,
     import signal as _signal
 
     from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
-    from rclpy.signals import SignalHandlerGuardCondition
 
     ctx = node.context
     subs = list(node.subscriptions)
     by_ptr = {s.handle.pointer: s for s in subs}
-    guard = SignalHandlerGuardCondition(context=ctx)
+    guard = interrupt_guard(ctx)
     wait_set = _rclpy.WaitSet(len(subs), 1, 0, 0, 0, 0, ctx.handle)
     polls = [p for p in (getattr(node, 'lean_poll', None), poll) if p is not None]
     with_info = {s.handle.pointer for s in subs if getattr(s.callback, 'with_info', False)}
@@ -170,39 +189,36 @@ def lean_spin(node: Node, graceful: bool = False,
     if graceful:
         for sig in (_signal.SIGINT, _signal.SIGTERM):
             _signal.signal(sig, lambda *_: stop.append(True))
-    try:
-        while ctx.ok() and not stop:
-            if getattr(node, 'subscriptions_version', 0) != version:   # came or went
-                version = getattr(node, 'subscriptions_version', 0)
-                subs = list(node.subscriptions)
-                by_ptr = {s.handle.pointer: s for s in subs}
-                with_info = {s.handle.pointer for s in subs
-                             if getattr(s.callback, 'with_info', False)}
-                wait_set = _rclpy.WaitSet(len(subs), 1, 0, 0, 0, 0, ctx.handle)
-            wait_set.clear_entities()
-            for sub in subs:
-                wait_set.add_subscription(sub.handle)
-            wait_set.add_guard_condition(guard.handle)
-            wait_set.wait(50_000_000)
-            if guard.handle.pointer in wait_set.get_ready_entities('guard_condition'):
-                raise KeyboardInterrupt
-            for ptr in wait_set.get_ready_entities('subscription'):
-                sub = by_ptr[ptr]
-                info = ptr in with_info
-                while not stop:
-                    taken = sub.handle.take_message(sub.msg_type, sub.raw)
-                    if taken is None:
-                        break
-                    if info:
-                        sub.callback(taken[0], taken[1])
-                    else:
-                        sub.callback(taken[0])
-            for p in polls:
-                p()
-        if stop:
-            _drain(subs, wait_set, with_info)
-    finally:
-        guard.destroy()
+    while ctx.ok() and not stop:
+        if getattr(node, 'subscriptions_version', 0) != version:   # came or went
+            version = getattr(node, 'subscriptions_version', 0)
+            subs = list(node.subscriptions)
+            by_ptr = {s.handle.pointer: s for s in subs}
+            with_info = {s.handle.pointer for s in subs
+                         if getattr(s.callback, 'with_info', False)}
+            wait_set = _rclpy.WaitSet(len(subs), 1, 0, 0, 0, 0, ctx.handle)
+        wait_set.clear_entities()
+        for sub in subs:
+            wait_set.add_subscription(sub.handle)
+        wait_set.add_guard_condition(guard.handle)
+        wait_set.wait(50_000_000)
+        if guard.handle.pointer in wait_set.get_ready_entities('guard_condition'):
+            raise KeyboardInterrupt
+        for ptr in wait_set.get_ready_entities('subscription'):
+            sub = by_ptr[ptr]
+            info = ptr in with_info
+            while not stop:
+                taken = sub.handle.take_message(sub.msg_type, sub.raw)
+                if taken is None:
+                    break
+                if info:
+                    sub.callback(taken[0], taken[1])
+                else:
+                    sub.callback(taken[0])
+        for p in polls:
+            p()
+    if stop:
+        _drain(subs, wait_set, with_info)
 
 
 def _drain(subs: list[Any], wait_set: Any, with_info: set[int], quiet_s: float = 0.05,
@@ -269,6 +285,13 @@ def install_interrupt_handlers() -> None:
     then installs no handler of its own."""
     signal.signal(signal.SIGINT, signal.default_int_handler)
     signal.signal(signal.SIGTERM, signal.default_int_handler)
+
+
+def ignore_interrupts() -> None:
+    """From now on SIGINT and SIGTERM do nothing: a process whose stop is under way cleans up
+    (bounded) and leaves; a second Ctrl-C would cut the clean-up with a traceback."""
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, signal.SIG_IGN)
 
 
 def fail_line(name: str, exc: BaseException) -> str:
@@ -378,7 +401,8 @@ def run_node(cls: type[Node], args: list[str] | None = None) -> None:
     A node that cannot start (a bad, misspelt or out-of-range parameter) prints one line naming
     the key and exits with code 2, no traceback. The node says how it spins (``spin``). A
     callback may end the process with ``SystemExit`` (the sim clock at the end of a run);
-    Ctrl-C or SIGTERM end it with the node's ``INTERRUPTED_CODE``.
+    Ctrl-C or SIGTERM end it with the node's ``INTERRUPTED_CODE``, also while rclpy starts,
+    and a second one during the clean-up is ignored (the clean-up is bounded: ``ACK_WAIT_S``).
     """
     import faulthandler
     import sys
@@ -387,7 +411,10 @@ def run_node(cls: type[Node], args: list[str] | None = None) -> None:
         sys.exit(_answer(cls, own))
     faulthandler.enable()       # a crash in native code (DDS, numba) prints every thread's stack
     install_interrupt_handlers()
-    rclpy.init(args=args)
+    try:
+        rclpy.init(args=args)
+    except KeyboardInterrupt:
+        leave(getattr(cls, 'INTERRUPTED_CODE', 0))
     node: Any = None
     code = 0
     try:
@@ -411,6 +438,7 @@ def run_node(cls: type[Node], args: list[str] | None = None) -> None:
         else:           # the run stopped this process while it started: a stop, not a fault
             code = getattr(cls, 'INTERRUPTED_CODE', 0)
     finally:
+        ignore_interrupts()
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()

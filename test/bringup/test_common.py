@@ -1,4 +1,5 @@
-"""What every run's processes get in their environment (``bringup.common.ros_env``)."""
+"""What every run's processes get in their environment and how they are stopped
+(``bringup.common``)."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import pathlib
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
+from typing import Any
 
 import pytest
 
@@ -107,3 +109,33 @@ def test_fast_dds_loads_the_profile_without_an_error(tmp_path: pathlib.Path,
         assert out.returncode == 0 and 'ok' in out.stdout, out.stderr
         errors[name] = 'XMLPARSER' in out.stdout + out.stderr
     assert errors == {'good': False, 'bad': True}
+
+
+class _Proc:
+    """A node process as ``stop_processes`` sees it: it ends on the first signal it gets."""
+
+    def __init__(self, name: str, log: list[tuple[str, int]]) -> None:
+        self.name, self.log, self.returncode = name, log, None
+
+    def poll(self) -> int | None:
+        return self.returncode
+
+    def send_signal(self, sig: int) -> None:
+        self.log.append((self.name, sig))
+        self.returncode = -sig
+
+    def wait(self, timeout: float | None = None) -> int | None:
+        return self.returncode
+
+
+def test_nodes_are_stopped_by_sigterm_devices_first_recorder_last() -> None:
+    """SIGTERM, not SIGINT (``bringup.common``'s docstring: a node still importing its modules
+    would print a KeyboardInterrupt traceback), one each, the recorder after the others."""
+    import signal
+
+    from pam_bench.bringup.common import stop_processes
+    log: list[tuple[str, int]] = []
+    procs: dict[str, Any] = {n: _Proc(n, log) for n in ('recorder', 'sim_clock', 'valve_1')}
+    stop_processes(procs)
+    assert log == [('sim_clock', signal.SIGTERM), ('valve_1', signal.SIGTERM),
+                   ('recorder', signal.SIGTERM)]

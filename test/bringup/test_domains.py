@@ -161,4 +161,4 @@ def test_a_foreign_clock_in_the_domain_stops_the_run_naming_it(tmp_path: pathlib
         other.wait()
     assert run.returncode == 4, out
     assert 'another node publishes /clock in ROS_DOMAIN_ID' in out and '/lab_clock' in out, out
-    assert 'Traceback' not in out
+    assert 'Traceback' not in out, out
