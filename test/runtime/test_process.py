@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import subprocess
 import sys
 import threading
 import time
+from collections.abc import Iterator
 from typing import Any
 
 import pytest
@@ -95,12 +97,20 @@ def test_a_loop_that_stalled_while_it_waited_serves_the_messages_before_its_tick
     assert at - newest < 0.05, (at - newest)        # not the 0.2 s of the stall
 
 
-def _lockstep_node(ros_domain: int) -> subprocess.Popen:
-    """A device node in a process of its own, waiting for a /clock that never comes."""
+@contextlib.contextmanager
+def _lockstep_node(ros_domain: int) -> Iterator[subprocess.Popen]:
+    """A device node in a process of its own, waiting for a /clock that never comes (killed
+    on the way out if it is still there)."""
     env = {**os.environ, 'ROS_DOMAIN_ID': str(ros_domain)}
-    return subprocess.Popen([sys.executable, '-m', 'pam_bench.nodes.valve_sim', '--ros-args',
+    proc = subprocess.Popen([sys.executable, '-m', 'pam_bench.nodes.valve_sim', '--ros-args',
                              '-r', '__node:=valve_1'], env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True)
+    try:
+        yield proc
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
 
 
 @pytest.mark.parametrize('delay_s', [0.0, 0.1, 0.25, 0.4, 0.6])
@@ -109,8 +119,7 @@ def test_a_node_interrupted_while_it_waits_ends_cleanly(ros_domain: int,
     """Ctrl-C to a node spinning in its lean loop: exit 0, no crash. The loop's signal guard
     condition was destroyed as the loop left, while rclpy's signal thread could still trigger
     it: SIGSEGV in about half of the tries (``runtime.process.interrupt_guard``)."""
-    proc = _lockstep_node(ros_domain)
-    try:
+    with _lockstep_node(ros_domain) as proc:
         assert proc.stdout is not None
         for line in proc.stdout:
             if 'waiting for /clock' in line:
@@ -118,10 +127,6 @@ def test_a_node_interrupted_while_it_waits_ends_cleanly(ros_domain: int,
         time.sleep(delay_s)
         proc.send_signal(signal.SIGINT)
         out = proc.communicate(timeout=20)[0]
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
     assert proc.returncode == 0, out[-3000:]
     assert 'Fatal Python error' not in out and 'Traceback' not in out, out[-3000:]
 
@@ -132,14 +137,9 @@ def test_a_node_stopped_by_sigterm_while_it_starts_says_nothing(ros_domain: int,
     """How a run stops its nodes (``bringup.common.stop_processes``), at any moment of their
     start: importing (SIGTERM's default action), in rclpy's start or spinning; never a
     traceback."""
-    proc = _lockstep_node(ros_domain)
-    try:
+    with _lockstep_node(ros_domain) as proc:
         time.sleep(delay_s)
         proc.send_signal(signal.SIGTERM)
         out = proc.communicate(timeout=20)[0]
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
     assert proc.returncode in (0, -signal.SIGTERM), out[-3000:]
     assert 'Traceback' not in out and 'Fatal Python error' not in out, out[-3000:]
