@@ -39,7 +39,7 @@ from rclpy.serialization import serialize_message
 
 from pam_bench.bags.baginfo import END_KEY, RUN_KEY
 from pam_bench.bags.splitwriter import DiskFull, SplitWriter
-from pam_bench.bags.types import bench_typestore
+from pam_bench.bags.types import bench_typestore, typestore_of
 from pam_bench.config.settings import RecorderSettings
 from pam_bench.config.topics import in_namespace
 from pam_bench.runtime import cdr
@@ -78,7 +78,11 @@ class Recorder(BenchNode):
         self.end_file = s.end_file
         self.topic_names = [t for t in s.topic_names if t]
         self.discovery_period_s = s.discovery_period_s
-        self.store = bench_typestore()
+        # lock-step: the topics are known now, and their types alone are read (a wall-clock
+        # recorder may meet any type later: the whole store)
+        self.store = (typestore_of(tuple(sorted({e.partition(':')[2]
+                                                 for e in (*step_topics, *event_topics) if e})))
+                      if self.lockstep else bench_typestore())
         path = pathlib.Path(out)
         path.parent.mkdir(parents=True, exist_ok=True)
         writer = SplitWriter(path, compress=s.compress, max_bytes=int(s.max_bag_size_bytes),
