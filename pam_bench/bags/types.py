@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import functools
+import importlib.util
 import os
 import pathlib
 import sys
@@ -33,10 +34,24 @@ def bench_typestore() -> Typestore:
     return store
 
 
+def _prefix_of(package: str) -> list[str]:
+    """The install prefix of the Python package ``package`` that this process imports
+    (``PREFIX/lib/pythonX.Y/site-packages/package``), as a list of none or one."""
+    try:
+        spec = importlib.util.find_spec(package)
+    except (ImportError, ValueError):
+        return []
+    if spec is None or not spec.origin:
+        return []
+    parents = pathlib.Path(spec.origin).parents
+    return [str(parents[4])] if len(parents) > 4 else []
+
+
 def _msg_file(msgtype: str) -> pathlib.Path | None:
     """The .msg file of ``msgtype`` ('pkg/msg/Name'): msg_defs/ for the bench's own, else the
-    share folder of its package under a ROS prefix (``AMENT_PREFIX_PATH``, then the Python
-    environment's own prefix, where the ROS wheels put it); None when there is none."""
+    share folder of its package under a ROS prefix: first the one of the Python package this
+    process imports (whose messages it publishes), then ``AMENT_PREFIX_PATH``'s, then the
+    Python environment's (where the ROS wheels put it); None when there is none."""
     pkg, kind, name = (msgtype.split('/') + ['', ''])[:3]
     if kind != 'msg' or not name:
         return None
@@ -44,7 +59,7 @@ def _msg_file(msgtype: str) -> pathlib.Path | None:
         path = msg_defs_dir() / f'{name}.msg'
         return path if path.is_file() else None
     prefixes = [p for p in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep) if p]
-    for prefix in [*prefixes, sys.prefix]:
+    for prefix in [*_prefix_of(pkg), *prefixes, sys.prefix]:
         path = pathlib.Path(prefix) / 'share' / pkg / 'msg' / f'{name}.msg'
         if path.is_file():
             return path

@@ -46,3 +46,20 @@ def test_a_lab_package_on_the_ament_prefix_path_is_read(tmp_path: pathlib.Path,
     assert store is not bench_typestore()
     text = store.generate_msgdef('lab_msgs/msg/Grip', ros_version=2)[0]
     assert 'float64[3] force_n' in text and 'builtin_interfaces/Time stamp' in text
+
+
+def test_a_ros_type_is_read_beside_the_python_package_this_process_imports(
+        tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Another ROS install on ``AMENT_PREFIX_PATH`` (a workspace of another distro sourced)
+    does not change the definition of the messages this process publishes."""
+    folder = tmp_path / 'share' / 'sensor_msgs' / 'msg'
+    folder.mkdir(parents=True)
+    (folder / 'FluidPressure.msg').write_text('float32 fluid_pressure\n', encoding='utf-8')
+    monkeypatch.setenv('AMENT_PREFIX_PATH', str(tmp_path))
+    typestore_of.cache_clear()
+    try:
+        store = typestore_of(('sensor_msgs/msg/FluidPressure',))
+        assert store.generate_msgdef('sensor_msgs/msg/FluidPressure', ros_version=2) == \
+            bench_typestore().generate_msgdef('sensor_msgs/msg/FluidPressure', ros_version=2)
+    finally:
+        typestore_of.cache_clear()
