@@ -3,18 +3,21 @@
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import signal
 import sys
 from typing import NoReturn
 
-from pam_bench.cli import bags, bench, design, fit, plugins, run
 from pam_bench.cli.errors import Terminated, check_limits, exit_code
 
-__all__ = ['main', 'parser', 'GROUPS']
+__all__ = ['main', 'parser', 'GROUP_MODULES']
 
-GROUPS = (run, bags, fit, design, bench, plugins)
-"""The verb groups, each registering its own parsers (``register``)."""
+GROUP_MODULES = ('run', 'bags', 'fit', 'design', 'bench', 'plugins')
+"""The verb groups (modules of ``pam_bench.cli``), each registering its own parsers
+(``register``). Imported when the parser is built, after ``main`` has put its signal handlers
+in place: a Ctrl-C while they import (numpy among them, a tenth of a second) is an interrupt
+like any other, not a traceback."""
 
 
 _received: list[int] = []
@@ -30,6 +33,11 @@ before the process exits anyway; a second signal exits at once."""
 def _raise_interrupt(signum: int, frame: object) -> None:
     _received.append(signum)
     raise Terminated
+
+
+def _raise_keyboard(signum: int, frame: object) -> None:
+    _received.append(signum)
+    raise KeyboardInterrupt
 
 
 def _watch_stops() -> None:
@@ -85,8 +93,8 @@ def parser() -> argparse.ArgumentParser:
     ap = _Parser(prog='pam-bench', description='pam_bench: a pneumatic-muscle '
                                  'test bench as ROS 2 nodes, and its offline analysis.')
     sub = ap.add_subparsers(dest='cmd', required=True)
-    for group in GROUPS:
-        group.register(sub)
+    for name in GROUP_MODULES:
+        importlib.import_module(f'pam_bench.cli.{name}').register(sub)
     return ap
 
 
@@ -98,16 +106,20 @@ def main(argv: list[str] | None = None) -> int:
         os.environ.setdefault(var, '1')
     # Ctrl-C and SIGTERM end a run: nodes stopped, bag closed, no orphans. Installed whatever
     # was inherited: a background job of a non-interactive shell starts with SIGINT ignored.
-    signal.signal(signal.SIGINT, signal.default_int_handler)
+    _received.clear()
+    signal.signal(signal.SIGINT, _raise_keyboard)
     signal.signal(signal.SIGTERM, _raise_interrupt)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})  # and the
     _watch_stops()                                          # mask a parent may have left
-    args = parser().parse_args(argv)
     try:
+        args = parser().parse_args(argv)
         check_limits()
         code = int(args.func(args))
     except (KeyboardInterrupt, BrokenPipeError, Exception) as exc:  # noqa: BLE001 - mapped
-        code = exit_code(exc)
+        # after a stop signal, whatever it broke is the stop (numpy's import, cut by Ctrl-C,
+        # raises an ImportError)
+        code = exit_code(exc if not _received or isinstance(exc, (KeyboardInterrupt, Terminated))
+                         else KeyboardInterrupt())
     if code == 130:
         # a cluster stopped while it started: Dask's exit hook then fails on its half-made
         # workers and prints a traceback after the one line (the processes still go)
