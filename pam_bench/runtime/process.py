@@ -33,7 +33,8 @@ __all__ = ['lean_spin', 'deadline_spin', 'spin', 'serve_services', 'reject_undec
            'start_node', 'run_node']
 
 
-_GUARDS: dict[int, tuple[Any, Any]] = {}
+_GUARDS: dict[Any, Any] = {}
+"""Context -> its signal guard condition (``interrupt_guard``)."""
 
 
 def interrupt_guard(context: Any) -> Any:
@@ -48,10 +49,9 @@ def interrupt_guard(context: Any) -> Any:
     guard is never freed while that thread may hold it.
     """
     from rclpy.signals import SignalHandlerGuardCondition
-    kept = _GUARDS.get(id(context))
-    if kept is None or kept[0] is not context:
-        kept = _GUARDS[id(context)] = (context, SignalHandlerGuardCondition(context=context))
-    return kept[1]
+    if context not in _GUARDS:
+        _GUARDS[context] = SignalHandlerGuardCondition(context=context)
+    return _GUARDS[context]
 
 
 def serve_services(node: Node) -> Callable[[], None]:

@@ -53,13 +53,13 @@ def demo_bag(tmp_path_factory: pytest.TempPathFactory) -> pathlib.Path:
     that a tear in the file keeps some of its readings and loses others whatever the machine's
     load: with the default second, the run of about 0.4 s was one or two chunks, and a loaded
     machine once laid the file out so that no tear kept some but not all."""
-    import os
-
     from test.cli.helpers import cli
     from test.conftest import next_domain
-    os.environ['ROS_DOMAIN_ID'] = str(next_domain())
     bag = tmp_path_factory.mktemp('chunked') / 'demo_bag'
-    code, out, err = cli('run', 'demo', '--out', bag, '--set', 'recorder.flush_period_s=0.02')
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv('ROS_DOMAIN_ID', str(next_domain()))
+        code, out, err = cli('run', 'demo', '--out', bag, '--set',
+                             'recorder.flush_period_s=0.02')
     assert code == 0, out + err
     return bag
 

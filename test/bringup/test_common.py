@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import pathlib
+import signal
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
@@ -131,8 +132,6 @@ class _Proc:
 def test_nodes_are_stopped_by_sigterm_devices_first_recorder_last() -> None:
     """SIGTERM, not SIGINT (``bringup.common``'s docstring: a node still importing its modules
     would print a KeyboardInterrupt traceback), one each, the recorder after the others."""
-    import signal
-
     from pam_bench.bringup.common import stop_processes
     log: list[tuple[str, int]] = []
     procs: dict[str, Any] = {n: _Proc(n, log) for n in ('recorder', 'sim_clock', 'valve_1')}
